@@ -1,0 +1,38 @@
+"""Exceptions of ngs-geomech.
+
+Every error a user can cause names the offending item (scene key, region, boundary, value).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One problem found in a scene: ``item`` is a dotted path such as ``materials.granite.rho_c``."""
+
+    item: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.item}: {self.message}"
+
+
+class GeomechError(Exception):
+    """Base class of the package's errors."""
+
+
+class SceneError(GeomechError):
+    """A scene is invalid; ``problems`` lists every problem found, each naming its item."""
+
+    def __init__(self, problems: list[Problem], source: str = "scene"):
+        self.problems = list(problems)
+        self.source = source
+        lines = [f"{source}: {len(self.problems)} problem(s)"]
+        lines += [f"  - {p}" for p in self.problems]
+        super().__init__("\n".join(lines))
+
+
+class SolverError(GeomechError):
+    """A solve failed (divergence, stagnation, NaN); the message says which solve, where and what to change."""

@@ -1,0 +1,206 @@
+"""Assemble the blocks of a scene into one netgen.occ geometry.
+
+Rules:
+- painter's order: every block is cut by the blocks declared after it, so inclusions follow their host;
+- blocks that touch must have a declared interface; ``glued`` ones share their mesh nodes (netgen ``Glue``),
+  ``contact`` ones get independent copies of the common side (non-matching meshes allowed), named
+  ``<interface>__<block>`` on each side;
+- sides without a name are called ``default`` by netgen; they are insulated / traction free.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from netgen import occ
+
+from ..errors import Problem, SceneError
+from ..scene.model import Scene
+from .shapes import cells, make_block, sides
+
+DEFAULT = "default"
+
+
+@dataclass
+class ContactSide:
+    """The two sides of a contact interface: boundary names and blocks."""
+
+    name: str
+    master_block: str
+    minion_block: str
+
+    @property
+    def master(self) -> str:
+        return f"{self.name}__{self.master_block}"
+
+    @property
+    def minion(self) -> str:
+        return f"{self.name}__{self.minion_block}"
+
+
+@dataclass
+class GeometryModel:
+    """The assembled geometry with what the scene can refer to."""
+
+    shape: object
+    dim: int
+    regions: list[str]
+    boundaries: set[str]
+    glued: dict[str, tuple[str, str]] = field(default_factory=dict)
+    contacts: dict[str, ContactSide] = field(default_factory=dict)
+    bounding_box: tuple = ()
+
+    def occ_geometry(self):
+        return occ.OCCGeometry(self.shape, dim=self.dim)
+
+
+def scene_dim(scene: Scene) -> int:
+    return 3 if scene.scene.dimension == "3d" else 2
+
+
+def _key(side) -> tuple:
+    c = side.center
+    return (c.x, c.y, c.z, side.mass)
+
+
+def _same(a: tuple, b: tuple, tol: float) -> bool:
+    return all(abs(u - v) <= tol for u, v in zip(a, b))
+
+
+def build_geometry(scene: Scene) -> GeometryModel:
+    """Build the geometry of a scene. Raises SceneError listing every geometric problem."""
+    dim = scene_dim(scene)
+    problems: list[Problem] = []
+    raw = {}
+    for i, b in enumerate(scene.blocks):
+        try:
+            raw[b.name] = make_block(b, dim)
+        except (ValueError, RuntimeError, TypeError) as exc:
+            problems.append(Problem(f"blocks[{i}] ({b.name})", str(exc)))
+    if problems:
+        raise SceneError(problems, source="geometry")
+    names = [b.name for b in scene.blocks]
+    # painter's order
+    carved = {}
+    for i, name in enumerate(names):
+        shp = raw[name]
+        later = [raw[n] for n in names[i + 1:]]
+        if later:
+            shp = shp - (later[0] if len(later) == 1 else occ.Fuse(later))
+        vol = sum(c.mass for c in cells(shp, dim))
+        if vol <= 1e-12 * max(1.0, sum(c.mass for c in cells(raw[name], dim))):
+            problems.append(Problem(f"blocks.{name}", "is entirely covered by blocks declared after it"))
+        carved[name] = shp
+    if problems:
+        raise SceneError(problems, source="geometry")
+    glued_all = occ.Glue([carved[n] for n in names]) if len(names) > 1 else carved[names[0]]
+    bb = glued_all.bounding_box
+    lo, hi = np.array([bb[0].x, bb[0].y, bb[0].z]), np.array([bb[1].x, bb[1].y, bb[1].z])
+    size = float(np.max(hi - lo))
+    tol = 1e-8 * max(size, 1e-30)
+    if scene.scene.dimension == "axisymmetric" and lo[0] < -tol:
+        problems.append(Problem("blocks", f"axisymmetric scenes need r = x >= 0; the geometry reaches "
+                                          f"x = {lo[0]:.6g}"))
+    block_cells = {n: list(cells(glued_all, dim)[n]) for n in names}
+    # which blocks touch, and along which sides
+    touching: dict[frozenset, list] = {}
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            shared = []
+            for ca in block_cells[a]:
+                for cb in block_cells[b]:
+                    shared += list(sides(ca, dim) * sides(cb, dim))
+            if shared:
+                touching[frozenset((a, b))] = shared
+    # interfaces
+    declared = {}
+    for k, itf in enumerate(scene.interfaces):
+        path = f"interfaces[{k}] ({itf.name})"
+        unknown = [b for b in itf.blocks if b not in names]
+        if unknown:
+            problems.append(Problem(path, f"unknown block(s) {unknown}; blocks are {names}"))
+            continue
+        if itf.blocks[0] == itf.blocks[1]:
+            problems.append(Problem(path, "an interface needs two different blocks"))
+            continue
+        pair = frozenset(itf.blocks)
+        if pair in declared:
+            problems.append(Problem(path, f"blocks {itf.blocks} already have interface {declared[pair].name!r}"))
+            continue
+        if pair not in touching:
+            problems.append(Problem(path, f"blocks {itf.blocks[0]!r} and {itf.blocks[1]!r} do not touch"))
+            continue
+        if itf.master is not None and itf.master not in itf.blocks:
+            problems.append(Problem(f"{path}.master", f"{itf.master!r} is not one of {itf.blocks}"))
+            continue
+        declared[pair] = itf
+    for pair in touching:
+        if pair not in declared:
+            a, b = sorted(pair)
+            problems.append(Problem("interfaces", f"blocks {a!r} and {b!r} touch but no interface is declared "
+                                                  "for them (add [[interfaces]] with type 'glued' or 'contact')"))
+    if problems:
+        raise SceneError(problems, source="geometry")
+    # groups of glued blocks
+    parent = {n: n for n in names}
+
+    def find(n):
+        while parent[n] != n:
+            parent[n] = parent[parent[n]]
+            n = parent[n]
+        return n
+    for pair, itf in declared.items():
+        if itf.type == "glued":
+            a, b = tuple(pair)
+            parent[find(a)] = find(b)
+    for pair, itf in declared.items():
+        if itf.type == "contact" and find(itf.blocks[0]) == find(itf.blocks[1]):
+            problems.append(Problem(f"interfaces ({itf.name})", "a contact interface between blocks that are "
+                                    "also joined through glued interfaces is not supported"))
+    if problems:
+        raise SceneError(problems, source="geometry")
+    model = GeometryModel(shape=None, dim=dim, regions=names, boundaries=set(), bounding_box=(lo, hi))
+    contact_keys = {}
+    for pair, itf in declared.items():
+        shared = touching[pair]
+        if itf.type == "glued":
+            for s in shared:
+                s.name = itf.name
+            model.glued[itf.name] = tuple(itf.blocks)
+        else:
+            master = itf.master or itf.blocks[0]
+            minion = [b for b in itf.blocks if b != master][0]
+            cs = ContactSide(itf.name, master, minion)
+            model.contacts[itf.name] = cs
+            contact_keys[itf.name] = [_key(s) for s in shared]
+    groups: dict[str, list[str]] = {}
+    for n in names:
+        groups.setdefault(find(n), []).append(n)
+    group_shapes = []
+    for gi, members in enumerate(groups.values()):
+        gshape = occ.Compound([c for m in members for c in block_cells[m]])
+        if gi > 0:
+            gshape = gshape.Move((0, 0, 0))  # an independent copy: its sides are not shared with others
+        group_shapes.append((members, gshape))
+    for members, gshape in group_shapes:
+        for cs in model.contacts.values():
+            for block, bname in ((cs.master_block, cs.master), (cs.minion_block, cs.minion)):
+                if block not in members:
+                    continue
+                for c in cells(gshape, dim)[block]:
+                    for s in sides(c, dim):
+                        if any(_same(_key(s), k, tol) for k in contact_keys[cs.name]):
+                            s.name = bname
+    final = group_shapes[0][1] if len(group_shapes) == 1 else occ.Compound([g for _, g in group_shapes])
+    for cell in cells(final, dim):
+        b = next(bl for bl in scene.blocks if bl.name == cell.name)
+        if b.maxh is not None:
+            cell.maxh = b.maxh
+    for s in sides(final, dim):
+        h = scene.mesh.boundary_maxh.get(s.name)
+        if h is not None:
+            s.maxh = h
+    model.shape = final
+    model.boundaries = {s.name or DEFAULT for s in sides(final, dim)}
+    return model

@@ -1,0 +1,145 @@
+"""netgen.occ shapes of single blocks, with their own sides named by selectors.
+
+A 2D block is an OCC face in the x-y plane (in axisymmetric scenes x is the radius r and y the axial
+coordinate z); a 3D block is a solid. Sides are edges (2D) or faces (3D).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from netgen import occ
+
+from ..scene.model import Block
+
+
+def sides(shape, dim: int):
+    """The boundary entities of a shape: edges in 2D, faces in 3D."""
+    return shape.edges if dim == 2 else shape.faces
+
+
+def cells(shape, dim: int):
+    """The cells of a shape: faces in 2D, solids in 3D."""
+    return shape.faces if dim == 2 else shape.solids
+
+
+def make_block(block: Block, dim: int):
+    """Build the OCC shape of one block, name its cells and its sides (selectors, polygon/profile names).
+
+    Returns the shape; raises ValueError naming the missing or wrong data.
+    """
+    s = block.shape
+    if dim == 2 and s not in ("rectangle", "polygon", "circle", "profile"):
+        raise ValueError(f"shape {s!r} is a 3D shape; 2D shapes are rectangle, polygon, circle, profile")
+    if dim == 3 and s not in ("box", "cylinder"):
+        raise ValueError(f"shape {s!r} is a 2D shape; 3D shapes are box, cylinder")
+    if s == "rectangle":
+        _need(block, "origin", 2)
+        _need(block, "size", 2)
+        if min(block.size) <= 0:
+            raise ValueError(f"size {block.size} must be positive")
+        shape = occ.WorkPlane().MoveTo(*block.origin).Rectangle(*block.size).Face()
+    elif s == "circle":
+        _need(block, "center", 2)
+        if block.radius is None or block.radius <= 0:
+            raise ValueError(f"radius must be given and positive, got {block.radius}")
+        shape = occ.WorkPlane().Circle(*block.center, block.radius).Face()
+    elif s == "polygon":
+        pts = block.points or []
+        if len(pts) < 3 or any(len(p) != 2 for p in pts):
+            raise ValueError("points must hold at least 3 points [x, y]")
+        names = block.edges or [""] * len(pts)
+        if len(names) != len(pts):
+            raise ValueError(f"edges names {len(names)} sides but the polygon has {len(pts)}")
+        wp = occ.WorkPlane().MoveTo(*pts[0])
+        for p, name in zip(pts[1:], names[:-1]):
+            wp.LineTo(*p, name=name or None)
+        wp.Close(name=names[-1] or None)
+        shape = wp.Face()
+    elif s == "profile":
+        _need(block, "start", 2)
+        segs = block.segments or []
+        if not segs:
+            raise ValueError("a profile needs segments")
+        wp = occ.WorkPlane().MoveTo(*block.start)
+        pos = np.array(block.start, float)
+        for i, seg in enumerate(segs):
+            if (seg.line is None) == (seg.spline is None):
+                raise ValueError(f"segments[{i}] must have exactly one of 'line' or 'spline'")
+            if seg.line is not None:
+                end = np.array(seg.line, float)
+                wp.LineTo(*end, name=seg.name or None)
+            else:
+                pts = [occ.gp_Pnt2d(*p) for p in seg.spline]
+                end = np.array(seg.spline[-1], float)
+                wp.Spline(pts, name=seg.name or None)
+            pos = end
+        scale = max(1.0, float(np.abs(np.array(block.start)).max()))
+        if np.linalg.norm(pos - np.array(block.start)) > 1e-9 * scale:
+            raise ValueError(f"profile is not closed: ends at {pos.tolist()}, starts at {block.start}")
+        shape = wp.Face()
+    elif s == "box":
+        _need(block, "origin", 3)
+        _need(block, "size", 3)
+        if min(block.size) <= 0:
+            raise ValueError(f"size {block.size} must be positive")
+        p0 = occ.Pnt(*block.origin)
+        p1 = occ.Pnt(*(np.array(block.origin) + np.array(block.size)))
+        shape = occ.Box(p0, p1)
+    else:  # cylinder
+        _need(block, "center", 3)
+        if block.radius is None or block.radius <= 0 or block.height is None or block.height <= 0:
+            raise ValueError("cylinder needs positive radius and height")
+        axis = block.axis or [0.0, 0.0, 1.0]
+        shape = occ.Cylinder(occ.Pnt(*block.center), occ.Dir(*axis), block.radius, block.height)
+    cells(shape, dim).name = block.name
+    if block.maxh is not None:
+        cells(shape, dim).maxh = block.maxh
+    _name_sides(shape, block, dim)
+    return shape
+
+
+def _need(block: Block, attr: str, n: int) -> None:
+    v = getattr(block, attr)
+    if v is None or len(v) != n:
+        raise ValueError(f"'{attr}' must be given as {n} numbers")
+
+
+def _name_sides(shape, block: Block, dim: int) -> None:
+    for name, sel in block.boundaries.items():
+        for selector in ([sel] if isinstance(sel, str) else sel):
+            for side in select(shape, block, selector, dim):
+                side.name = name
+
+
+def select(shape, block: Block, selector: str, dim: int) -> list:
+    """The sides of a block a selector picks (raises ValueError for a selector the shape does not have)."""
+    all_sides = list(sides(shape, dim))
+    if selector == "all":
+        return all_sides
+    axes = {"x": occ.X, "y": occ.Y, "z": occ.Z}
+    if selector in ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax"):
+        if selector[0] == "z" and dim == 2:
+            raise ValueError(f"selector {selector!r} needs a 3D block")
+        if block.shape in ("circle", "cylinder") and not (block.shape == "cylinder" and selector[0] == "z"
+                                                          and (block.axis or [0, 0, 1]) == [0, 0, 1]):
+            raise ValueError(f"selector {selector!r} does not apply to a {block.shape}; use 'all' "
+                             "(or 'top', 'bottom', 'lateral' for a cylinder)")
+        lst = sides(shape, dim)
+        ax = axes[selector[0]]
+        return [lst.Min(ax) if selector.endswith("min") else lst.Max(ax)]
+    if selector in ("top", "bottom", "lateral"):
+        if block.shape != "cylinder":
+            raise ValueError(f"selector {selector!r} applies to cylinders only")
+        p = np.array(block.center, float)
+        d = np.array(block.axis or [0, 0, 1], float)
+        d /= np.linalg.norm(d)
+        out = []
+        for f in all_sides:
+            c = f.center
+            t = float(np.dot(np.array([c.x, c.y, c.z]) - p, d))
+            kind = "bottom" if abs(t) < 1e-9 * block.height else \
+                "top" if abs(t - block.height) < 1e-9 * block.height else "lateral"
+            if kind == selector:
+                out.append(f)
+        return out
+    raise ValueError(f"unknown selector {selector!r}")

@@ -1,0 +1,68 @@
+"""PNG figures with matplotlib (Agg backend, headless): fields with region outlines, probe time curves."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
+from matplotlib.tri import Triangulation  # noqa: E402
+
+from .meshdata import MeshArrays  # noqa: E402
+
+
+def _save(fig, path: Path) -> None:
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".png")
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=130)
+        os.replace(tmp, path)
+    finally:
+        plt.close(fig)
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def field_figure(m: MeshArrays, values: np.ndarray, path: Path, *, title: str, label: str,
+                 axis_labels=("x (m)", "y (m)"), window=None, cmap="inferno") -> None:
+    """A filled plot of vertex values with the region outlines; ``window`` = [xmin, xmax, ymin, ymax]."""
+    fig, ax = plt.subplots(figsize=(7, 5.5))
+    tri = Triangulation(m.points[:, 0], m.points[:, 1], m.triangles)
+    pc = ax.tripcolor(tri, values, shading="gouraud", cmap=cmap)
+    ax.add_collection(LineCollection(m.outline, colors="white", linewidths=0.8))
+    fig.colorbar(pc, ax=ax, label=label)
+    if window is not None:
+        ax.set_xlim(window[0], window[1])
+        ax.set_ylim(window[2], window[3])
+    ax.set_aspect("equal")
+    ax.set_xlabel(axis_labels[0])
+    ax.set_ylabel(axis_labels[1])
+    ax.set_title(title)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def time_curves(times: np.ndarray, curves: dict[str, np.ndarray], path: Path, *, title: str,
+                ylabel: str, time_unit: float = 1.0, time_label: str = "t (s)",
+                hlines: dict[str, float] | None = None) -> None:
+    """Curves over time (one per probe), optional horizontal reference lines (e.g. a design limit)."""
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    t = np.asarray(times) / time_unit
+    for name, vals in curves.items():
+        ax.plot(t, vals, label=name, marker="." if len(t) < 40 else None)
+    for name, y in (hlines or {}).items():
+        ax.axhline(y, color="k", linestyle="--", linewidth=0.8, label=name)
+    ax.set_xlabel(time_label)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    _save(fig, path)

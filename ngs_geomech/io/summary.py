@@ -1,0 +1,39 @@
+"""The run summary (``summary.json``): scene, versions, wall times, mesh size, probe values."""
+
+from __future__ import annotations
+
+import math
+import platform
+import sys
+from importlib import metadata
+
+
+def versions() -> dict[str, str]:
+    out = {"python": sys.version.split()[0], "platform": platform.platform()}
+    for pkg in ("ngs-geomech", "ngsolve", "netgen-mesher", "numpy", "scipy", "matplotlib"):
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            out[pkg] = "not installed"
+    return out
+
+
+def probe_statistics(times: list[float], values: list[float]) -> dict[str, float]:
+    """Final, maximal and minimal value of a probe series and when they occur (s)."""
+    if not values:
+        return {}
+    i_max = max(range(len(values)), key=values.__getitem__)
+    i_min = min(range(len(values)), key=values.__getitem__)
+    return {"final": values[-1], "max": values[i_max], "time_of_max": times[i_max],
+            "min": values[i_min], "time_of_min": times[i_min]}
+
+
+def finite(x):
+    """JSON-safe copy: raises on NaN/Inf so no non-finite number is ever written as a result."""
+    if isinstance(x, dict):
+        return {k: finite(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [finite(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        raise ValueError("non-finite value in summary")
+    return x

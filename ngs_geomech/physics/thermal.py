@@ -1,0 +1,194 @@
+"""Heat conduction forms: steady (2.17), (2.19)-(2.22) and transient (2.43) of the seed, with anisotropic
+conductivity per body, Kirchhoff-transformed temperature-dependent conductivity, sources, Dirichlet,
+flux and Robin conditions, and temperature/flux continuity across contact interfaces (2.22).
+
+Weak form of one theta step from t0 to t1 = t0 + dt (unknown T = T(t1), old T0 = T(t0), weight w = 1 in
+plane and 3D scenes, w = r in axisymmetric ones; all integrals carry w):
+
+    (rho c (T - T0)/dt, v) + theta (kappa f(T) grad T, grad v) + (1 - theta) (kappa f(T0) grad T0, grad v)
+      + sum_Robin <h (theta T + (1 - theta) T0), v> + sum_contact c((T, lambda), (v, mu))
+      = theta l(t1; v) + (1 - theta) l(t0; v),
+    l(t; v) = (Q(t), v) + sum_flux <q0(t), v> + sum_Robin <h T_amb(t), v>,
+
+where f(T) = 1 + b (T - T_ref) per region (kappa f(T) grad T = kappa grad Theta(T), Theta the Kirchhoff
+transform). A steady solve drops the time terms (theta = 1). Units: T in K (or degC), kappa W/(m K),
+rho c J/(m^3 K), Q W/m^3, q0 W/m^2, h W/(m^2 K).
+
+Contact interfaces are coupled by a mortar method: on the master side Gamma_m a multiplier lambda (the
+heat flux -kappa dT/dn_m, W/m^2) in the trace space of order p, and
+
+    c((T, lambda), (v, mu)) = <lambda, v_m - v_s> + <mu, T_m - T_s>   on Gamma_m,
+
+with T_s evaluated at the closest point of the minion side (NGSolve ContactBoundary, ``Other()``). The
+coupling is taken implicitly (at t1), so that T_m = T_s holds weakly at every step; with Crank-Nicolson
+lambda is then the step's average flux. Multiplier dofs at interface ends on Dirichlet boundaries are
+removed (otherwise the saddle-point matrix is singular there).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import ngsolve as ngs
+import numpy as np
+
+from ..materials import ThermalProperties
+from .coefficients import TimeFunction, boundary_cf, region_cf, regions_regex
+
+
+@dataclass
+class HeatSetup:
+    """Plain inputs of the heat forms.
+
+    ``dirichlet``, ``flux`` map boundary names to TimeFunctions (K, W/m^2); ``robin`` maps boundary names
+    to (h in W/(m^2 K), ambient TimeFunction); ``sources`` maps region names to TimeFunctions of the power
+    density (W/m^3); ``contacts`` lists (master boundary, minion boundary) name pairs.
+    """
+
+    props: dict[str, ThermalProperties]
+    order: int = 1
+    axisymmetric: bool = False
+    steady: bool = False
+    theta: float = 1.0
+    dirichlet: dict[str, TimeFunction] = field(default_factory=dict)
+    flux: dict[str, TimeFunction] = field(default_factory=dict)
+    robin: dict[str, tuple[float, TimeFunction]] = field(default_factory=dict)
+    sources: dict[str, TimeFunction] = field(default_factory=dict)
+    contacts: list[tuple[str, str]] = field(default_factory=list)
+
+    @property
+    def nonlinear(self) -> bool:
+        return any(p.nonlinear for p in self.props.values())
+
+
+class HeatForms:
+    """Spaces, state and forms of one heat problem on a given mesh (builds no mesh, writes no file).
+
+    ``gf`` holds the new state (temperature and interface multipliers), ``gf_old`` the old one;
+    ``t_new``, ``t_old``, ``inv_dt`` are Parameters the driver sets before each step.
+    """
+
+    def __init__(self, mesh, setup: HeatSetup):
+        self.mesh = mesh
+        self.setup = setup
+        dim = mesh.dim
+        dir_names = regions_regex(setup.dirichlet)
+        self.V = ngs.H1(mesh, order=setup.order, dirichlet=dir_names)
+        self.multiplier_spaces = [ngs.H1(mesh, order=setup.order, definedon=mesh.Boundaries(m),
+                                         dirichlet=dir_names) for m, _ in setup.contacts]
+        self.X = ngs.FESpace([self.V, *self.multiplier_spaces]) if setup.contacts else self.V
+        self.gf = ngs.GridFunction(self.X)
+        self.gf_old = ngs.GridFunction(self.X)
+        self.t_new = ngs.Parameter(0.0)
+        self.t_old = ngs.Parameter(0.0)
+        self.inv_dt = ngs.Parameter(1.0)
+        self.theta = ngs.Parameter(1.0 if setup.steady else setup.theta)
+        self.weight = ngs.x if setup.axisymmetric else ngs.CoefficientFunction(1.0)
+        names = list(setup.props)
+        self.kappa = region_cf(mesh, {n: ngs.CoefficientFunction(tuple(setup.props[n].kappa.flatten()),
+                                                                 dims=(dim, dim)) for n in names},
+                               default=ngs.CoefficientFunction((0.0,) * dim * dim, dims=(dim, dim)))
+        self.rho_c = region_cf(mesh, {n: setup.props[n].rho_c or 0.0 for n in names})
+        self._build_forms()
+
+    # -- pieces ---------------------------------------------------------------------------------------
+    def temperature(self, gf=None):
+        """The temperature component of a state GridFunction (default: the new state)."""
+        g = gf if gf is not None else self.gf
+        return g.components[0] if self.setup.contacts else g
+
+    def multipliers(self, gf=None) -> list:
+        g = gf if gf is not None else self.gf
+        return list(g.components[1:]) if self.setup.contacts else []
+
+    def conductivity_factor(self, T):
+        """f(T) = 1 + b (T - T_ref) per region (dimensionless)."""
+        if not self.setup.nonlinear:
+            return ngs.CoefficientFunction(1.0)
+        return region_cf(self.mesh, {n: 1 + p.b * (T - p.t_ref) for n, p in self.setup.props.items()}, 1.0)
+
+    def kirchhoff(self, T):
+        """Kirchhoff variable Theta(T) = int_{T_ref}^T f(s) ds per region, K."""
+        return region_cf(self.mesh, {n: (T - p.t_ref) + p.b / 2 * (T - p.t_ref) ** 2
+                                     for n, p in self.setup.props.items()})
+
+    def heat_flux(self, T):
+        """Heat flux vector q = -kappa f(T) grad T, W/m^2."""
+        return -self.conductivity_factor(T) * (self.kappa * ngs.grad(T))
+
+    def _load(self, t, v, factor=1.0):
+        """factor * l(t; v) (see module docstring); 0 when the scene has no loads."""
+        s = self.setup
+        w = factor * self.weight
+        lf = 0
+        if s.sources:
+            q = region_cf(self.mesh, {n: f(t) for n, f in s.sources.items()})
+            lf += w * q * v * ngs.dx(definedon=self.mesh.Materials(regions_regex(s.sources)))
+        for name, f in s.flux.items():
+            lf += w * f(t) * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+        for name, (h, amb) in s.robin.items():
+            lf += w * h * amb(t) * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+        return lf
+
+    def _build_forms(self):
+        s, w, X = self.setup, self.weight, self.X
+        if s.contacts:
+            trials, tests = X.TnT()
+            T, v = trials[0], tests[0]
+        else:
+            T, v = X.TnT()
+        T_old = self.temperature(self.gf_old)
+        th = self.theta
+        k_new = self.conductivity_factor(T) * (self.kappa * ngs.grad(T))
+        lhs = ngs.BilinearForm(X, symmetric=not s.nonlinear and not s.contacts)
+        form = th * w * ngs.InnerProduct(k_new, ngs.grad(v)) * ngs.dx
+        if not s.steady:
+            form += w * self.inv_dt * self.rho_c * T * v * ngs.dx
+        for name, (h, _) in s.robin.items():
+            form += th * w * h * T * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+        lhs += form
+        self.contact_boundaries = []
+        for k, (master, minion) in enumerate(s.contacts):
+            lam, mu = trials[1 + k], tests[1 + k]
+            cb = ngs.ContactBoundary(self.mesh.Boundaries(master), self.mesh.Boundaries(minion))
+            cb.AddIntegrator(w * (lam * (v - v.Other()) + mu * (T - T.Other())))
+            self.contact_boundaries.append(cb)
+        rhs = ngs.LinearForm(X)
+        if s.steady:
+            load = self._load(self.t_new, v)
+            if not isinstance(load, int):
+                rhs += load
+        else:
+            old = w * self.inv_dt * self.rho_c * T_old * v * ngs.dx
+            old += -(1 - th) * w * ngs.InnerProduct(self.conductivity_factor(T_old) * (self.kappa * ngs.grad(T_old)),
+                                                    ngs.grad(v)) * ngs.dx
+            for name, (h, _) in s.robin.items():
+                old += -(1 - th) * w * h * T_old * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+            rhs += old
+            load_new = self._load(self.t_new, v, th)
+            if not isinstance(load_new, int):
+                rhs += load_new
+                rhs += self._load(self.t_old, v, 1 - th)
+        self.lhs, self.rhs = lhs, rhs
+        self._pairing_gf = None
+
+    def update_contact_pairs(self) -> None:
+        """(Re)build the contact point pairs (after creating the forms and after every mesh change)."""
+        if not self.contact_boundaries:
+            return
+        if self._pairing_gf is None:
+            self._pairing_gf = ngs.GridFunction(ngs.VectorH1(self.mesh, order=1))
+        for cb in self.contact_boundaries:
+            cb.Update(self._pairing_gf, self.lhs, intorder=2 * self.setup.order + 2, maxdist=self._maxdist())
+
+    def _maxdist(self) -> float:
+        """Search radius of the closest-point pairing: the domain size (only the minion side of the same
+        interface is searched, so a large radius cannot pair wrong sides)."""
+        pts = np.array([p.p for p in self.mesh.ngmesh.Points()])
+        return float(np.max(pts.max(axis=0) - pts.min(axis=0)))
+
+    def dirichlet_values(self, t_param) -> object | None:
+        """Boundary CF of the Dirichlet temperatures at time t_param (None without Dirichlet conditions)."""
+        if not self.setup.dirichlet:
+            return None
+        return boundary_cf(self.mesh, {n: f(t_param) for n, f in self.setup.dirichlet.items()})

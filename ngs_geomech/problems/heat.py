@@ -1,0 +1,71 @@
+"""From a scene to the heat problem's plain inputs (:class:`HeatSetup`)."""
+
+from __future__ import annotations
+
+import math
+
+import ngsolve as ngs
+
+from ..geometry.assemble import GeometryModel
+from ..materials import thermal_properties
+from ..physics.coefficients import expression_function, region_cf
+from ..physics.thermal import HeatSetup
+from ..scene.model import Scene, Source
+
+THETA = {"backward_euler": 1.0, "crank_nicolson": 0.5}
+
+
+def region_measure(mesh, region: str, axisymmetric: bool) -> float:
+    """Volume of a region in m^3 (axisymmetric: 2 pi int r dA; plane: area, i.e. m^3 per m of depth)."""
+    w = 2 * math.pi * ngs.x if axisymmetric else ngs.CoefficientFunction(1.0)
+    return float(ngs.Integrate(w, mesh, definedon=mesh.Materials(region)))
+
+
+def source_function(src: Source, volume: float):
+    """Power density Q(t) of a source, W/m^3, as a TimeFunction."""
+    if src.density is not None:
+        dens = expression_function(src.density)
+        return lambda t: ngs.IfPos(t - src.start, 1.0, 0.0) * dens(t) if src.start > 0 else dens(t)
+    q0 = src.power / volume
+    terms = src.decay or [[1.0, math.inf]]
+
+    def make(t):
+        total = 0
+        for a, tau in terms:
+            total = total + (a if math.isinf(tau) else a * ngs.exp(-(t - src.start) / tau))
+        return q0 * ngs.IfPos(t - src.start, total, 0.0) if src.start != 0 else q0 * total
+    return make
+
+
+def heat_setup(scene: Scene, geo: GeometryModel, mesh) -> HeatSetup:
+    """The HeatSetup of a validated scene on its mesh."""
+    axi = scene.scene.dimension == "axisymmetric"
+    dim = 3 if scene.scene.dimension == "3d" else 2
+    props = {name: thermal_properties(m, dim) for name, m in scene.materials.items()}
+    setup = HeatSetup(props=props, order=scene.mesh.order, axisymmetric=axi,
+                      steady=scene.physics.thermal == "steady",
+                      theta=THETA[scene.time.scheme] if scene.time else 1.0)
+    for name, bc in scene.boundary_conditions.items():
+        if bc.temperature is not None:
+            setup.dirichlet[name] = expression_function(bc.temperature)
+        elif bc.flux is not None:
+            setup.flux[name] = expression_function(bc.flux)
+        elif bc.heat_transfer_coefficient is not None:
+            setup.robin[name] = (bc.heat_transfer_coefficient, expression_function(bc.ambient_temperature))
+    by_region: dict[str, list] = {}
+    for src in scene.sources:
+        by_region.setdefault(src.region, []).append(
+            source_function(src, region_measure(mesh, src.region, axi)))
+    for region, funcs in by_region.items():
+        setup.sources[region] = (lambda fs: (lambda t: sum((f(t) for f in fs[1:]), fs[0](t))))(funcs)
+    setup.contacts = [(cs.master, cs.minion) for cs in geo.contacts.values()]
+    return setup
+
+
+def initial_temperature(scene: Scene, mesh, t_param):
+    """The initial temperature as one CoefficientFunction (per-region values where given)."""
+    base = expression_function(scene.initial.temperature)(t_param)
+    if not scene.initial.regions:
+        return base
+    return region_cf(mesh, {n: expression_function(v)(t_param) for n, v in scene.initial.regions.items()},
+                     default=base)

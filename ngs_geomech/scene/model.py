@@ -1,0 +1,207 @@
+"""The typed scene objects. A scene is declared in TOML (see ``geometries/*.toml``) or built in Python
+from these same frozen dataclasses; :func:`ngs_geomech.scene.parse.scene_from_dict` reads the former.
+
+Units are SI throughout: lengths in m, times in s (strings like ``"10 year"`` are accepted),
+temperatures in degC or K (one convention per scene; only differences enter the physics),
+conductivity in W/(m K), volumetric heat capacity rho*c in J/(m^3 K), heat flux in W/m^2,
+power density in W/m^3.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .schema import (boolean, dict_of, either, expr, field, integer, list_of, nested, number, one_of,
+                     optional, string, time)
+
+DIMENSIONS = ("plane", "axisymmetric", "3d")
+SHAPES_2D = ("rectangle", "polygon", "circle", "profile")
+SHAPES_3D = ("box", "cylinder")
+SELECTORS = ("all", "xmin", "xmax", "ymin", "ymax", "zmin", "zmax", "top", "bottom", "lateral")
+point = list_of(number)
+matrix = list_of(list_of(number))
+
+
+@dataclass(frozen=True, kw_only=True)
+class SceneInfo:
+    """``[scene]``: name, description and spatial setting."""
+
+    name: str = field(string, doc="scene name (used in output file names)")
+    description: str = field(string, "", doc="free text")
+    dimension: str = field(one_of(*DIMENSIONS), "plane",
+                           doc="'plane' (x, y), 'axisymmetric' (r = x >= 0, z = y, axis x = 0) or '3d'")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Physics:
+    """``[physics]``: which problems are solved. Only what is switched on is built."""
+
+    thermal: str | None = field(optional(one_of("steady", "transient")), None,
+                                doc="heat conduction (2.17) steady or transient (2.43)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class MeshSettings:
+    """``[mesh]``: mesh size and finite element order."""
+
+    maxh: float = field(number, 1.0, doc="global maximal element size, m")
+    order: int = field(integer, 1, doc="polynomial order of the fields (curved boundaries to the same order)")
+    grading: float = field(number, 0.3, doc="netgen grading in (0, 1): smaller gives slower growth")
+    boundary_maxh: dict = field(dict_of(number), {}, doc="maximal element size per boundary name, m")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Segment:
+    """One piece of a ``profile`` block outline: a straight line or a spline to its last point."""
+
+    line: list | None = field(optional(point), None, doc="end point [x, y] of a straight segment, m")
+    spline: list | None = field(optional(list_of(point)), None,
+                                doc="points [[x, y], ...] the spline passes through; the last is its end")
+    name: str = field(string, "", doc="boundary name of this segment")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Block:
+    """``[[blocks]]``: one body. Later blocks are cut out of earlier ones (painter's order)."""
+
+    name: str = field(string, doc="region (material) name")
+    shape: str = field(one_of(*SHAPES_2D, *SHAPES_3D), doc="rectangle, polygon, circle, profile | box, cylinder")
+    origin: list | None = field(optional(point), None, doc="lower corner (rectangle, box), m")
+    size: list | None = field(optional(point), None, doc="extent (rectangle, box), m")
+    points: list | None = field(optional(list_of(point)), None, doc="polygon corners in order, m")
+    edges: list | None = field(optional(list_of(string)), None,
+                               doc="polygon: boundary name of each side (side i runs from point i to i+1)")
+    start: list | None = field(optional(point), None, doc="profile: start point, m")
+    segments: list | None = field(optional(list_of(nested(Segment))), None, doc="profile: outline pieces")
+    center: list | None = field(optional(point), None, doc="circle centre, or cylinder base centre, m")
+    radius: float | None = field(optional(number), None, doc="circle or cylinder radius, m")
+    height: float | None = field(optional(number), None, doc="cylinder height, m")
+    axis: list | None = field(optional(point), None, doc="cylinder axis direction (default z)")
+    boundaries: dict = field(dict_of(either(string, list_of(string), what="a selector or list of selectors")),
+                             {}, doc="boundary name -> selector(s) of this block's own sides: "
+                                     + ", ".join(SELECTORS))
+    maxh: float | None = field(optional(number), None, doc="maximal element size in this block, m")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Interface:
+    """``[[interfaces]]``: where two blocks touch; ``glued`` (conforming mesh) or ``contact``
+    (independent, possibly non-matching meshes, coupled weakly)."""
+
+    name: str = field(string, doc="interface name")
+    blocks: list = field(list_of(string, 2), doc="the two block names")
+    type: str = field(one_of("glued", "contact"), "glued", doc="'glued' or 'contact'")
+    master: str | None = field(optional(string), None,
+                               doc="contact: block whose side carries the coupling (default the first)")
+
+
+conductivity_value = either(number, matrix, what="a number or a symmetric matrix [[kxx, kxy], [kxy, kyy]]")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Material:
+    """``[materials.REGION]``: material data of one region, SI units."""
+
+    conductivity: object = field(optional(conductivity_value), None,
+                                 doc="thermal conductivity kappa_ij, W/(m K): scalar or full symmetric tensor")
+    conductivity_principal: list | None = field(optional(point), None,
+                                                doc="principal conductivities, W/(m K) (with conductivity_angle)")
+    conductivity_angle: object = field(optional(either(number, point, what="an angle or 3 angles")), None,
+                                       doc="rotation of the principal axes, degrees: one angle in 2D "
+                                           "(from x), Z-Y-X Euler angles [a, b, c] in 3D")
+    conductivity_temperature_coefficient: float = field(number, 0.0,
+                                                        doc="b in kappa(T) = kappa (1 + b (T - T_ref)), 1/K")
+    reference_temperature: float = field(number, 0.0, doc="T_ref of the conductivity law, degC or K")
+    rho_c: float | None = field(optional(number), None, doc="volumetric heat capacity rho*c, J/(m^3 K)")
+    density: float | None = field(optional(number), None, doc="rho, kg/m^3 (with specific_heat)")
+    specific_heat: float | None = field(optional(number), None, doc="c, J/(kg K) (with density)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class BoundaryCondition:
+    """``[boundary_conditions.NAME]``: one condition per boundary name; unnamed boundaries are insulated."""
+
+    temperature: object = field(optional(expr), None, doc="prescribed temperature T (2.19), degC or K")
+    flux: object = field(optional(expr), None,
+                         doc="prescribed heat flux into the body q0 = kappa_ij dT/dx_j n_i (2.21), W/m^2")
+    insulated: bool = field(boolean, False, doc="kappa dT/dn = 0 (2.20)")
+    heat_transfer_coefficient: float | None = field(optional(number), None,
+                                                    doc="Robin: q = h (T_ambient - T), W/(m^2 K)")
+    ambient_temperature: object = field(optional(expr), None, doc="Robin ambient temperature, degC or K")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Source:
+    """``[[sources]]``: heat source W (2.6) / Q (2.17) in one region."""
+
+    region: str = field(string, doc="region the heat is released in")
+    power: float | None = field(optional(number), None,
+                                doc="total power P0, W (plane scenes: W per m of depth); spread uniformly")
+    density: object = field(optional(expr), None, doc="power density Q(x, t), W/m^3 (instead of power)")
+    decay: list = field(list_of(list_of(either(number, time, what="a number or a time"), 2)), [],
+                        doc="[[a_i, tau_i], ...]: P(t) = P0 sum a_i exp(-(t - start)/tau_i); empty: constant")
+    start: float = field(time, 0.0, doc="switch-on time, s")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Initial:
+    """``[initial]``: initial temperature, optionally per region."""
+
+    temperature: object = field(expr, 0.0, doc="initial temperature T(x, 0), degC or K")
+    regions: dict = field(dict_of(expr), {}, doc="region name -> initial temperature there")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TimeSettings:
+    """``[time]``: time interval and step control."""
+
+    start: float = field(time, 0.0, doc="start time, s")
+    end: float = field(time, doc="end time, s")
+    dt: float = field(time, doc="first time step, s")
+    dt_growth: float = field(number, 1.0, doc="factor applied to dt after each step (>= 1)")
+    dt_max: float | None = field(optional(time), None, doc="largest time step, s")
+    scheme: str = field(one_of("backward_euler", "crank_nicolson"), "backward_euler",
+                        doc="theta scheme: backward Euler (theta=1) or Crank-Nicolson (theta=1/2)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Probe:
+    """``[[output.probes]]``: a value recorded at each output time."""
+
+    name: str = field(string, doc="probe name (key in summary.json)")
+    quantity: str = field(one_of("temperature"), "temperature", doc="field to sample")
+    point: list | None = field(optional(point), None, doc="a point, m")
+    region: str | None = field(optional(string), None, doc="a region (max/min/mean over it)")
+    boundary: str | None = field(optional(string), None, doc="a boundary (max/min/mean over it)")
+    statistic: str = field(one_of("value", "max", "min", "mean"), "value",
+                           doc="'value' at a point, or max/min/mean over a region or boundary")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Output:
+    """``[output]``: what is written (VTK series, figures, summary.json)."""
+
+    vtk: bool = field(boolean, True, doc="write a VTK series (.vtu per output time and a .pvd)")
+    every: int = field(integer, 1, doc="write VTK every N-th step (the last step is always written)")
+    figures: bool = field(boolean, True, doc="write PNG figures")
+    subdivision: int = field(integer, 0, doc="VTK subdivision of each element (for order > 1)")
+    figure_window: list | None = field(optional(list_of(number, 4)), None,
+                                       doc="[xmin, xmax, ymin, ymax] of an extra zoomed field figure, m")
+    probes: list = field(list_of(nested(Probe)), [], doc="probes recorded over time")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scene:
+    """A whole scene: geometry, materials, conditions, physics, time and output settings."""
+
+    scene: SceneInfo = field(nested(SceneInfo), doc="name and dimension")
+    blocks: list = field(list_of(nested(Block)), doc="bodies")
+    physics: Physics = field(nested(Physics), Physics(), doc="physics switched on")
+    mesh: MeshSettings = field(nested(MeshSettings), MeshSettings(), doc="mesh settings")
+    interfaces: list = field(list_of(nested(Interface)), [], doc="block interfaces")
+    materials: dict = field(dict_of(nested(Material)), {}, doc="materials per region")
+    boundary_conditions: dict = field(dict_of(nested(BoundaryCondition)), {}, doc="per boundary name")
+    sources: list = field(list_of(nested(Source)), [], doc="heat sources")
+    initial: Initial = field(nested(Initial), Initial(), doc="initial conditions")
+    time: TimeSettings | None = field(optional(nested(TimeSettings)), None, doc="time settings (transient)")
+    output: Output = field(nested(Output), Output(), doc="output settings")

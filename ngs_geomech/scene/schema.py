@@ -1,0 +1,208 @@
+"""A small typed-schema reader: dicts (from TOML or Python) to frozen dataclasses.
+
+Each dataclass field declares its converter in ``metadata["conv"]``. Reading collects every problem
+(unknown key with a suggestion, missing key, wrong type, bad value), each named by its dotted path,
+instead of stopping at the first.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+from typing import Any, Callable
+
+from .. import expressions
+from ..errors import Problem
+from ..units import parse_time
+
+MISSING = dataclasses.MISSING
+
+
+class Invalid(ValueError):
+    """A value that cannot be converted; the message says why."""
+
+
+Conv = Callable[[Any, str, list], Any]
+
+
+def field(conv: Conv, default: Any = MISSING, doc: str = "") -> Any:
+    """A dataclass field with a converter and a docstring (units belong in ``doc``)."""
+    md = {"conv": conv, "doc": doc}
+    if default is MISSING:
+        return dataclasses.field(metadata=md)
+    if isinstance(default, (list, dict)):
+        return dataclasses.field(default_factory=lambda d=default: type(d)(d), metadata=md)
+    if dataclasses.is_dataclass(default):
+        return dataclasses.field(default_factory=lambda d=default: dataclasses.replace(d), metadata=md)
+    return dataclasses.field(default=default, metadata=md)
+
+
+# -- leaf converters: raise Invalid ------------------------------------------------------------------
+
+def number(v, path, problems):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise Invalid(f"expected a number, got {v!r}")
+    if not math.isfinite(v):
+        raise Invalid(f"value {v!r} is not finite")
+    return float(v)
+
+
+def integer(v, path, problems):
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise Invalid(f"expected an integer, got {v!r}")
+    return int(v)
+
+
+def string(v, path, problems):
+    if not isinstance(v, str):
+        raise Invalid(f"expected a string, got {v!r}")
+    return v
+
+
+def boolean(v, path, problems):
+    if not isinstance(v, bool):
+        raise Invalid(f"expected true or false, got {v!r}")
+    return v
+
+
+def time(v, path, problems):
+    try:
+        return parse_time(v)
+    except ValueError as exc:
+        raise Invalid(str(exc)) from None
+
+
+def expr(v, path, problems):
+    """A number or an expression string (see :mod:`ngs_geomech.expressions`)."""
+    if isinstance(v, bool):
+        raise Invalid(f"expected a number or an expression string, got {v!r}")
+    if isinstance(v, (int, float)):
+        return number(v, path, problems)
+    if isinstance(v, str):
+        msgs = expressions.check(v)
+        if msgs:
+            raise Invalid("; ".join(msgs))
+        return v
+    raise Invalid(f"expected a number or an expression string, got {v!r}")
+
+
+def one_of(*choices: str) -> Conv:
+    def conv(v, path, problems):
+        if v not in choices:
+            hint = difflib.get_close_matches(str(v), choices, n=1)
+            extra = f" (did you mean {hint[0]!r}?)" if hint else ""
+            raise Invalid(f"{v!r} is not one of {', '.join(map(repr, choices))}{extra}")
+        return v
+    return conv
+
+
+def optional(conv: Conv) -> Conv:
+    def c(v, path, problems):
+        return None if v is None else conv(v, path, problems)
+    return c
+
+
+def list_of(conv: Conv, length: int | None = None) -> Conv:
+    def c(v, path, problems):
+        if not isinstance(v, (list, tuple)):
+            raise Invalid(f"expected a list, got {v!r}")
+        if length is not None and len(v) != length:
+            raise Invalid(f"expected a list of {length} items, got {len(v)}")
+        out = []
+        for i, item in enumerate(v):
+            r = convert(conv, item, f"{path}[{i}]", problems)
+            out.append(r)
+        return out
+    return c
+
+
+def dict_of(conv: Conv) -> Conv:
+    def c(v, path, problems):
+        if not isinstance(v, dict):
+            raise Invalid(f"expected a table, got {v!r}")
+        return {str(k): convert(conv, item, f"{path}.{k}", problems) for k, item in v.items()}
+    return c
+
+
+def either(*convs: Conv, what: str) -> Conv:
+    def c(v, path, problems):
+        for conv in convs:
+            try:
+                sub: list = []
+                r = conv(v, path, sub)
+                if not sub:
+                    return r
+            except Invalid:
+                continue
+        raise Invalid(f"expected {what}, got {v!r}")
+    return c
+
+
+def nested(cls: type) -> Conv:
+    def c(v, path, problems):
+        return read(cls, v, path, problems)
+    return c
+
+
+def convert(conv: Conv, value: Any, path: str, problems: list) -> Any:
+    """Apply a converter; on failure record a Problem and return None."""
+    try:
+        return conv(value, path, problems)
+    except Invalid as exc:
+        problems.append(Problem(path, str(exc)))
+        return None
+
+
+def read(cls: type, data: Any, path: str, problems: list[Problem]) -> Any:
+    """Build ``cls`` from ``data`` (a dict), appending problems; returns None when not a table."""
+    if dataclasses.is_dataclass(data) and isinstance(data, cls):
+        return data
+    if not isinstance(data, dict):
+        problems.append(Problem(path or "scene", f"expected a table, got {data!r}"))
+        return None
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    kwargs = {}
+    for key in data:
+        if key not in fields:
+            hint = difflib.get_close_matches(key, list(fields), n=1)
+            extra = f" (did you mean {hint[0]!r}?)" if hint else f" (known keys: {', '.join(fields)})"
+            problems.append(Problem(_join(path, key), f"unknown key{extra}"))
+    for name, f in fields.items():
+        p = _join(path, name)
+        if name in data:
+            kwargs[name] = convert(f.metadata["conv"], data[name], p, problems)
+            if kwargs[name] is None and f.default is not MISSING:
+                kwargs[name] = f.default
+            elif kwargs[name] is None and f.default_factory is not MISSING:
+                kwargs[name] = f.default_factory()
+        elif f.default is MISSING and f.default_factory is MISSING:
+            problems.append(Problem(p, "required key is missing"))
+            kwargs[name] = None
+    return cls(**kwargs)
+
+
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+def to_dict(obj: Any) -> Any:
+    """Plain-data form of a schema object (for summaries), omitting None values."""
+    if dataclasses.is_dataclass(obj):
+        return {f.name: to_dict(getattr(obj, f.name)) for f in dataclasses.fields(obj)
+                if getattr(obj, f.name) is not None}
+    if isinstance(obj, dict):
+        return {k: to_dict(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_dict(v) for v in obj]
+    return obj
+
+
+def describe(cls: type, indent: str = "") -> str:
+    """Text reference of a schema (keys, defaults, docs) for the documentation."""
+    lines = []
+    for f in dataclasses.fields(cls):
+        default = "" if f.default is MISSING and f.default_factory is MISSING else \
+            f" = {f.default if f.default is not MISSING else f.default_factory()!r}"
+        lines.append(f"{indent}{f.name}{default}: {f.metadata.get('doc', '')}")
+    return "\n".join(lines)

@@ -1,0 +1,213 @@
+"""Semantic validation of a scene, before any meshing or solving.
+
+Every problem found is reported, each naming its item: unknown region or boundary names, regions without a
+material, unphysical values, inconsistent settings. The geometry is built (cheap: OCC shapes, no mesh) to
+learn the region and boundary names.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from ..errors import Problem, SceneError
+from ..geometry.assemble import GeometryModel, build_geometry, scene_dim
+from ..materials import thermal_properties
+from .model import Scene
+
+NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+def validate(scene: Scene) -> GeometryModel:
+    """Check a scene; return its geometry model, or raise SceneError listing every problem."""
+    problems: list[Problem] = []
+    _check_names(scene, problems)
+    _check_settings(scene, problems)
+    _check_materials(scene, problems)
+    geo = None
+    if not any(p.item.startswith("blocks") for p in problems):
+        try:
+            geo = build_geometry(scene)
+        except SceneError as exc:
+            problems += exc.problems
+    if geo is not None:
+        _check_references(scene, geo, problems)
+    if problems:
+        raise SceneError(problems, source=f"scene {scene.scene.name!r}")
+    return geo
+
+
+def _check_names(scene: Scene, problems: list[Problem]) -> None:
+    if not scene.blocks:
+        problems.append(Problem("blocks", "a scene needs at least one block"))
+    seen = set()
+    for i, b in enumerate(scene.blocks):
+        if not NAME.match(b.name or "") or "__" in b.name:
+            problems.append(Problem(f"blocks[{i}].name", f"{b.name!r} must start with a letter, hold letters, "
+                                                         "digits and single underscores"))
+        if b.name in seen:
+            problems.append(Problem(f"blocks[{i}].name", f"block name {b.name!r} is used twice"))
+        seen.add(b.name)
+        for bname in b.boundaries:
+            if not NAME.match(bname) or "__" in bname:
+                problems.append(Problem(f"blocks[{i}].boundaries.{bname}", "boundary names must start with a "
+                                        "letter and hold letters, digits and single underscores"))
+        if b.maxh is not None and b.maxh <= 0:
+            problems.append(Problem(f"blocks[{i}].maxh", f"must be positive, got {b.maxh}"))
+    inames = set()
+    for i, itf in enumerate(scene.interfaces):
+        if not NAME.match(itf.name or "") or "__" in itf.name:
+            problems.append(Problem(f"interfaces[{i}].name", f"{itf.name!r} is not a valid name"))
+        if itf.name in inames or itf.name in seen:
+            problems.append(Problem(f"interfaces[{i}].name", f"name {itf.name!r} is used twice"))
+        inames.add(itf.name)
+
+
+def _check_settings(scene: Scene, problems: list[Problem]) -> None:
+    ph = scene.physics
+    if ph.thermal is None:
+        problems.append(Problem("physics", "no physics is switched on (set physics.thermal = 'steady' or "
+                                           "'transient')"))
+    m = scene.mesh
+    if m.maxh <= 0:
+        problems.append(Problem("mesh.maxh", f"must be positive, got {m.maxh}"))
+    if not 1 <= m.order <= 6:
+        problems.append(Problem("mesh.order", f"must be between 1 and 6, got {m.order}"))
+    if not 0 < m.grading <= 1:
+        problems.append(Problem("mesh.grading", f"must be in (0, 1], got {m.grading}"))
+    for k, h in m.boundary_maxh.items():
+        if h <= 0:
+            problems.append(Problem(f"mesh.boundary_maxh.{k}", f"must be positive, got {h}"))
+    t = scene.time
+    if ph.thermal == "transient":
+        if t is None:
+            problems.append(Problem("time", "a transient scene needs [time] with end and dt"))
+        else:
+            if t.dt <= 0:
+                problems.append(Problem("time.dt", f"must be positive, got {t.dt:g} s"))
+            if t.end <= t.start:
+                problems.append(Problem("time.end", f"end {t.end:g} s must be after start {t.start:g} s"))
+            if t.dt_growth < 1:
+                problems.append(Problem("time.dt_growth", f"must be >= 1, got {t.dt_growth}"))
+            if t.dt_max is not None and t.dt_max < t.dt:
+                problems.append(Problem("time.dt_max", f"{t.dt_max:g} s is smaller than dt {t.dt:g} s"))
+            elif t.dt > 0 and t.end > t.start:
+                n = _count_steps(t)
+                if n > 1_000_000:
+                    problems.append(Problem("time.dt", f"{n} steps to reach the end: dt is far too small"))
+    if scene.output.every < 1:
+        problems.append(Problem("output.every", f"must be >= 1, got {scene.output.every}"))
+    if scene.output.subdivision < 0:
+        problems.append(Problem("output.subdivision", f"must be >= 0, got {scene.output.subdivision}"))
+    for i, s in enumerate(scene.sources):
+        p = f"sources[{i}]"
+        if (s.power is None) == (s.density is None):
+            problems.append(Problem(p, "give exactly one of 'power' (W) or 'density' (W/m^3)"))
+        if s.decay and s.density is not None:
+            problems.append(Problem(f"{p}.decay", "'decay' applies to 'power'; write the time dependence into "
+                                                  "'density' instead"))
+        for j, pair in enumerate(s.decay):
+            if pair and pair[1] is not None and pair[1] <= 0:
+                problems.append(Problem(f"{p}.decay[{j}]", f"time constant must be positive, got {pair[1]}"))
+    for name, bc in scene.boundary_conditions.items():
+        p = f"boundary_conditions.{name}"
+        kinds = [k for k, v in (("temperature", bc.temperature), ("flux", bc.flux),
+                                ("heat_transfer_coefficient", bc.heat_transfer_coefficient)) if v is not None]
+        if bc.insulated:
+            kinds.append("insulated")
+        if len(kinds) > 1:
+            problems.append(Problem(p, f"contradictory conditions {kinds}: give one of temperature, flux, "
+                                       "insulated, or heat_transfer_coefficient with ambient_temperature"))
+        if not kinds:
+            problems.append(Problem(p, "no condition given (temperature, flux, insulated, "
+                                       "or heat_transfer_coefficient with ambient_temperature)"))
+        if (bc.heat_transfer_coefficient is None) != (bc.ambient_temperature is None):
+            problems.append(Problem(p, "heat_transfer_coefficient and ambient_temperature go together"))
+        if bc.heat_transfer_coefficient is not None and bc.heat_transfer_coefficient <= 0:
+            problems.append(Problem(f"{p}.heat_transfer_coefficient",
+                                    f"must be positive, got {bc.heat_transfer_coefficient}"))
+
+
+def _count_steps(t) -> int:
+    n, time_, dt = 0, t.start, t.dt
+    while time_ < t.end - 1e-12 * abs(t.end) and n <= 1_000_001:
+        time_ += dt
+        dt = min(dt * t.dt_growth, t.dt_max or float("inf"))
+        n += 1
+    return n
+
+
+def _check_materials(scene: Scene, problems: list[Problem]) -> None:
+    dim = scene_dim(scene)
+    for name, mat in scene.materials.items():
+        try:
+            props = thermal_properties(mat, dim)
+        except ValueError as exc:
+            problems.append(Problem(f"materials.{name}", str(exc)))
+            continue
+        if scene.physics.thermal == "transient" and props.rho_c is None:
+            problems.append(Problem(f"materials.{name}", "a transient thermal scene needs rho_c "
+                                                         "(or density and specific_heat)"))
+
+
+def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
+    regions = set(geo.regions)
+    interface_sides = set(geo.glued)
+    for cs in geo.contacts.values():
+        interface_sides |= {cs.master, cs.minion}
+    outer = geo.boundaries - interface_sides
+    for r in geo.regions:
+        if r not in scene.materials:
+            problems.append(Problem(f"materials.{r}", f"region {r!r} has no material"))
+    for name in scene.materials:
+        if name not in regions:
+            problems.append(Problem(f"materials.{name}", f"no region {name!r} in the geometry "
+                                                         f"(regions: {', '.join(geo.regions)})"))
+    for name in scene.boundary_conditions:
+        if name in interface_sides:
+            problems.append(Problem(f"boundary_conditions.{name}", f"{name!r} is an interface, not an outer "
+                                                                   "boundary"))
+        elif name not in outer:
+            problems.append(Problem(f"boundary_conditions.{name}", f"no boundary {name!r} in the geometry "
+                                    f"(boundaries: {', '.join(sorted(outer))})"))
+    for name in scene.mesh.boundary_maxh:
+        if name not in geo.boundaries:
+            problems.append(Problem(f"mesh.boundary_maxh.{name}", f"no boundary {name!r} in the geometry"))
+    for i, s in enumerate(scene.sources):
+        if s.region not in regions:
+            problems.append(Problem(f"sources[{i}].region", f"no region {s.region!r} in the geometry"))
+    for name in scene.initial.regions:
+        if name not in regions:
+            problems.append(Problem(f"initial.regions.{name}", f"no region {name!r} in the geometry"))
+    if scene.physics.thermal == "steady":
+        fixes = [n for n, bc in scene.boundary_conditions.items()
+                 if bc.temperature is not None or bc.heat_transfer_coefficient is not None]
+        if not fixes:
+            problems.append(Problem("boundary_conditions", "a steady heat problem needs a temperature or a "
+                                    "heat_transfer_coefficient condition somewhere, or its solution is not unique"))
+    lo, hi = geo.bounding_box
+    for i, pr in enumerate(scene.output.probes):
+        p = f"output.probes[{i}] ({pr.name})"
+        targets = [k for k in ("point", "region", "boundary") if getattr(pr, k) is not None]
+        if len(targets) != 1:
+            problems.append(Problem(p, "give exactly one of point, region, boundary"))
+            continue
+        if pr.point is not None:
+            if pr.statistic != "value":
+                problems.append(Problem(f"{p}.statistic", "a point probe has statistic 'value'"))
+            if len(pr.point) != geo.dim:
+                problems.append(Problem(f"{p}.point", f"needs {geo.dim} coordinates"))
+            elif np.any(np.array(pr.point) < lo[:geo.dim] - 1e-9) or np.any(np.array(pr.point) > hi[:geo.dim] + 1e-9):
+                problems.append(Problem(f"{p}.point", f"{pr.point} lies outside the geometry"))
+        else:
+            if pr.statistic == "value":
+                problems.append(Problem(f"{p}.statistic", "use max, min or mean over a region or boundary"))
+            if pr.region is not None and pr.region not in regions:
+                problems.append(Problem(f"{p}.region", f"no region {pr.region!r}"))
+            if pr.boundary is not None and pr.boundary not in geo.boundaries:
+                problems.append(Problem(f"{p}.boundary", f"no boundary {pr.boundary!r}"))
+    names = [pr.name for pr in scene.output.probes]
+    for n in set(names):
+        if names.count(n) > 1:
+            problems.append(Problem("output.probes", f"probe name {n!r} is used twice"))

@@ -1,0 +1,122 @@
+"""Solving the heat forms: steady solves and theta time steps, linear (factor once per dt) or with
+Newton's method for the Kirchhoff-transformed k(T) law."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import ngsolve as ngs
+import numpy as np
+
+from ..errors import SolverError
+from ..physics.thermal import HeatForms
+from .linear import check_finite, inverse
+
+
+@dataclass
+class StepInfo:
+    """What one solve did: Newton iterations (1 for linear solves) and the final relative residual."""
+
+    iterations: int
+    residual: float
+    factorized: bool
+
+
+class HeatSolver:
+    """Drives :class:`HeatForms`: Dirichlet data, assembly, factorization cache, Newton."""
+
+    def __init__(self, forms: HeatForms, newton_tol: float = 1e-10, newton_maxit: int = 30):
+        self.f = forms
+        self.newton_tol = newton_tol
+        self.newton_maxit = newton_maxit
+        self._cache: dict[float, object] = {}
+        self._tmp = ngs.GridFunction(forms.V)
+        self.factorizations = 0
+        forms.update_contact_pairs()
+
+    @property
+    def symmetric(self) -> bool:
+        s = self.f.setup
+        return not s.nonlinear and not s.contacts
+
+    def set_dirichlet(self) -> None:
+        """Put the Dirichlet temperatures at t_new into the state's Dirichlet dofs (other dofs untouched)."""
+        cf = self.f.dirichlet_values(self.f.t_new)
+        if cf is None:
+            return
+        T = self.f.temperature()
+        self._tmp.Set(cf, ngs.BND)
+        T.vec.data += ngs.Projector(self.f.V.FreeDofs(), False) * (self._tmp.vec - T.vec)
+
+    def _factor(self, key: float):
+        inv = self._cache.get(key)
+        if inv is None:
+            self.f.lhs.Assemble()
+            inv = inverse(self.f.lhs.mat, self.f.X.FreeDofs(), self.symmetric)
+            self.factorizations += 1
+            if len(self._cache) >= 2:
+                self._cache.pop(next(iter(self._cache)))
+            self._cache[key] = inv
+            return inv, True
+        return inv, False
+
+    def solve(self, where: str) -> StepInfo:
+        """Solve for the new state (t_new, inv_dt already set, old state in gf_old)."""
+        self.set_dirichlet()
+        self.f.rhs.Assemble()
+        if not self.f.setup.nonlinear:
+            inv, fresh = self._factor(round(self.f.inv_dt.Get(), 12))
+            r = self.f.rhs.vec.CreateVector()
+            r.data = self.f.rhs.vec - self.f.lhs.mat * self.f.gf.vec
+            self.f.gf.vec.data += inv * r
+            check_finite(self.f.gf.vec, f"heat solve at {where}",
+                         "Check the material data and boundary conditions of the scene.")
+            return StepInfo(1, 0.0, fresh)
+        return self._newton(where)
+
+    def _newton(self, where: str) -> StepInfo:
+        f, gf = self.f, self.f.gf
+        free = f.X.FreeDofs()
+        fixed = ~np.array(list(free), dtype=bool)
+        res = gf.vec.CreateVector()
+        du = gf.vec.CreateVector()
+        trial = gf.vec.CreateVector()
+
+        def residual(vec) -> float:
+            f.lhs.Apply(vec, res)
+            res.data -= f.rhs.vec
+            arr = res.FV().NumPy()
+            arr[fixed] = 0.0
+            return float(ngs.Norm(res))
+        r0 = residual(gf.vec)
+        scale = max(r0, float(ngs.Norm(f.rhs.vec)), 1e-300)
+        rel = r0 / scale
+        it = 0
+        while rel > self.newton_tol:
+            if it >= self.newton_maxit:
+                raise SolverError(f"Newton for the k(T) heat problem at {where} did not converge in "
+                                  f"{self.newton_maxit} iterations (relative residual {rel:.3e}). "
+                                  "Reduce the time step or check that kappa(T) stays positive.")
+            f.lhs.AssembleLinearization(gf.vec)
+            inv = inverse(f.lhs.mat, free, symmetric=False)
+            self.factorizations += 1
+            du.data = inv * res
+            step, new_rel = 1.0, math.inf
+            while step > 1e-4:
+                trial.data = gf.vec - step * du
+                rn = residual(trial)
+                new_rel = rn / scale
+                if math.isfinite(new_rel) and new_rel < (1 - 1e-4 * step) * rel:
+                    break
+                step /= 2
+            if not math.isfinite(new_rel) or new_rel >= rel:
+                if rel < 1e3 * self.newton_tol:
+                    break
+                raise SolverError(f"Newton for the k(T) heat problem at {where} stagnated at relative "
+                                  f"residual {rel:.3e}. Reduce the time step or check kappa(T) > 0.")
+            gf.vec.data = trial
+            rel = new_rel
+            it += 1
+        check_finite(gf.vec, f"heat solve at {where}")
+        return StepInfo(max(it, 1), rel, True)
