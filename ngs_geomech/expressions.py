@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import ast
 import math
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 from .units import DAY, HOUR, YEAR
 
@@ -91,6 +91,8 @@ def compile_expr(text: str) -> Callable[[Mapping[str, object]], object]:
                 return a * b
             if isinstance(op, ast.Div):
                 return a / b
+            if isinstance(b, float) and b.is_integer():
+                b = int(b)  # NGSolve integrates CF ** 2.0 to NaN where the base is <= 0; CF ** 2 is exact
             return a ** b
         if isinstance(node, ast.Call):
             return ns[node.func.id](ev(node.args[0], ns))

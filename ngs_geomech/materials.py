@@ -52,7 +52,7 @@ def conductivity_tensor(m: Material, dim: int) -> np.ndarray:
     given = [k for k in ("conductivity", "conductivity_principal") if getattr(m, k) is not None]
     if len(given) != 1:
         raise ValueError("give exactly one of 'conductivity' or 'conductivity_principal'"
-                         + (f" (both given)" if len(given) == 2 else " (none given)"))
+                         + (" (both given)" if len(given) == 2 else " (none given)"))
     if m.conductivity is not None:
         if m.conductivity_angle is not None:
             raise ValueError("'conductivity_angle' goes with 'conductivity_principal', not 'conductivity'")

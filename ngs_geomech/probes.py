@@ -7,7 +7,7 @@ import math
 import ngsolve as ngs
 import numpy as np
 
-from .errors import SceneError, Problem
+from .errors import Problem, SceneError
 from .scene.model import Probe
 
 

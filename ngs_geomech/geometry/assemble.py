@@ -99,9 +99,14 @@ def build_geometry(scene: Scene) -> GeometryModel:
     lo, hi = np.array([bb[0].x, bb[0].y, bb[0].z]), np.array([bb[1].x, bb[1].y, bb[1].z])
     size = float(np.max(hi - lo))
     tol = 1e-8 * max(size, 1e-30)
-    if scene.scene.dimension == "axisymmetric" and lo[0] < -tol:
-        problems.append(Problem("blocks", f"axisymmetric scenes need r = x >= 0; the geometry reaches "
-                                          f"x = {lo[0]:.6g}"))
+    # OCC pads bounding boxes by its absolute precision (1e-7 m): allow for that on the axis
+    axis_tol = max(tol, 1e-6)
+    if scene.scene.dimension == "axisymmetric" and lo[0] < -axis_tol:
+        for i, b in enumerate(scene.blocks):
+            xmin = raw[b.name].bounding_box[0].x
+            if xmin < -axis_tol:
+                problems.append(Problem(f"blocks[{i}] ({b.name})", f"axisymmetric scenes need r = x >= 0; this "
+                                                                   f"block reaches x = {xmin:.6g}"))
     block_cells = {n: list(cells(glued_all, dim)[n]) for n in names}
     # which blocks touch, and along which sides
     touching: dict[frozenset, list] = {}
@@ -154,7 +159,7 @@ def build_geometry(scene: Scene) -> GeometryModel:
         if itf.type == "glued":
             a, b = tuple(pair)
             parent[find(a)] = find(b)
-    for pair, itf in declared.items():
+    for itf in declared.values():
         if itf.type == "contact" and find(itf.blocks[0]) == find(itf.blocks[1]):
             problems.append(Problem(f"interfaces ({itf.name})", "a contact interface between blocks that are "
                                     "also joined through glued interfaces is not supported"))
@@ -182,6 +187,11 @@ def build_geometry(scene: Scene) -> GeometryModel:
         gshape = occ.Compound([c for m in members for c in block_cells[m]])
         if gi > 0:
             gshape = gshape.Move((0, 0, 0))  # an independent copy: its sides are not shared with others
+            # its own mesh-size layer: netgen's size field is otherwise global, so a finer maxh on one side
+            # of a contact interface would refine the other side too (and the meshes would match)
+            for kind in ("solids", "faces", "edges", "vertices"):
+                for sub in getattr(gshape, kind):
+                    sub.layer = gi + 1
         group_shapes.append((members, gshape))
     for members, gshape in group_shapes:
         for cs in model.contacts.values():

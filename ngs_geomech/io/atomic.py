@@ -23,11 +23,18 @@ def write_text_atomic(path: Path, text: str) -> None:
             fh.write(text)
             fh.flush()
             os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())    # mkstemp creates 0600; give the file the usual permissions
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def write_json_atomic(path: Path, data: object) -> None:
@@ -41,6 +48,7 @@ class OutputDir:
         self.target = Path(target).resolve()
         self.target.parent.mkdir(parents=True, exist_ok=True)
         self.path = Path(tempfile.mkdtemp(dir=self.target.parent, prefix=f".{self.target.name}.partial-"))
+        os.chmod(self.path, 0o777 & ~_umask())  # mkdtemp creates 0700; the output is an ordinary directory
 
     def commit(self) -> Path:
         """Move the staged output to the target (replacing an older output there)."""

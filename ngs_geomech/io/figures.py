@@ -14,6 +14,7 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.tri import Triangulation  # noqa: E402
 
+from .atomic import _umask  # noqa: E402
 from .meshdata import MeshArrays  # noqa: E402
 
 
@@ -23,6 +24,7 @@ def _save(fig, path: Path) -> None:
     os.close(fd)
     try:
         fig.savefig(tmp, dpi=130)
+        os.chmod(tmp, 0o666 & ~_umask())    # mkstemp creates 0600
         os.replace(tmp, path)
     finally:
         plt.close(fig)

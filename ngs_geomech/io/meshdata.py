@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
 import ngsolve as ngs
+import numpy as np
 
 
 @dataclass

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import ngsolve as ngs
 
+from .atomic import write_text_atomic
+
 
 class VtkSeries:
     """Write named coefficient functions over the mesh at chosen times into ``directory/basename*``."""
@@ -14,6 +16,7 @@ class VtkSeries:
         self.directory = Path(directory)
         self.directory.mkdir(parents=True, exist_ok=True)
         self.names = list(fields)
+        self.basename = basename
         self.out = ngs.VTKOutput(mesh, coefs=list(fields.values()), names=self.names,
                                  filename=str(self.directory / basename), subdivision=subdivision,
                                  floatsize="double")
@@ -22,3 +25,11 @@ class VtkSeries:
     def write(self, time: float) -> None:
         self.out.Do(time=time)
         self.count += 1
+        if self.count == 1:
+            # NGSolve writes the .pvd only from the second output on; a steady run writes one output, and
+            # its series must have a .pvd too (NGSolve's own replaces this one at the next write)
+            write_text_atomic(self.directory / f"{self.basename}.pvd",
+                              '<?xml version="1.0"?>\n<VTKFile type ="Collection" version="1.0" '
+                              'byte_order="LittleEndian">\n<Collection>\n'
+                              f'<DataSet timestep="{time:g}" file="{self.basename}.vtu"/>\n'
+                              "</Collection>\n</VTKFile>\n")

@@ -19,10 +19,13 @@ heat flux -kappa dT/dn_m, W/m^2) in the trace space of order p, and
 
     c((T, lambda), (v, mu)) = <lambda, v_m - v_s> + <mu, T_m - T_s>   on Gamma_m,
 
-with T_s evaluated at the closest point of the minion side (NGSolve ContactBoundary, ``Other()``). The
+with T_s the minion trace opposite. In 2D the integrals are split at the nodes of both sides
+(segment-based, :mod:`ngs_geomech.physics.mortar`); in 3D NGSolve's ContactBoundary (closest point,
+``Other()``) integrates with a Gauss rule on master elements. The
 coupling is taken implicitly (at t1), so that T_m = T_s holds weakly at every step; with Crank-Nicolson
 lambda is then the step's average flux. Multiplier dofs at interface ends on Dirichlet boundaries are
-removed (otherwise the saddle-point matrix is singular there).
+reduced as in the standard modified mortar space (see ``HeatForms._free_dofs``); otherwise the
+saddle-point matrix is singular there.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ import numpy as np
 
 from ..materials import ThermalProperties
 from .coefficients import TimeFunction, boundary_cf, region_cf, regions_regex
+from .mortar import mortar_coupling_2d
 
 
 @dataclass
@@ -74,9 +78,10 @@ class HeatForms:
         dim = mesh.dim
         dir_names = regions_regex(setup.dirichlet)
         self.V = ngs.H1(mesh, order=setup.order, dirichlet=dir_names)
-        self.multiplier_spaces = [ngs.H1(mesh, order=setup.order, definedon=mesh.Boundaries(m),
-                                         dirichlet=dir_names) for m, _ in setup.contacts]
+        self.multiplier_spaces = [ngs.H1(mesh, order=setup.order, definedon=mesh.Boundaries(m))
+                                  for m, _ in setup.contacts]
         self.X = ngs.FESpace([self.V, *self.multiplier_spaces]) if setup.contacts else self.V
+        self.freedofs = self._free_dofs(dir_names)
         self.gf = ngs.GridFunction(self.X)
         self.gf_old = ngs.GridFunction(self.X)
         self.t_new = ngs.Parameter(0.0)
@@ -90,6 +95,46 @@ class HeatForms:
                                default=ngs.CoefficientFunction((0.0,) * dim * dim, dims=(dim, dim)))
         self.rho_c = region_cf(mesh, {n: setup.props[n].rho_c or 0.0 for n in names})
         self._build_forms()
+
+    def _free_dofs(self, dir_names: str):
+        """Free dofs of the state: X's, less multiplier dofs at contact-interface ends on a Dirichlet boundary
+        (cross points, where the temperature is fixed on both sides), as in the standard modified mortar
+        space: the multiplier has degree p - 1 on the end element, so it still carries the flux there.
+
+        2D, order p >= 2: the top-degree bubble of the end element is removed. 2D, order 1: the end vertex
+        function is merged into its neighbour's (``self.merge``: the multiplier is constant on the end
+        element). 3D: all multiplier dofs on the cross-point curve are removed (the multiplier vanishes
+        there: a local flux error).
+        """
+        free = ngs.BitArray(self.X.FreeDofs())
+        self.merge = [dict() for _ in self.setup.contacts]
+        if not self.setup.contacts or not self.setup.dirichlet:
+            return free
+        dirichlet_vertices = set()
+        for el in self.mesh.Boundaries(dir_names).Elements():
+            dirichlet_vertices.update(el.vertices)
+        offset = self.V.ndof
+        for k, ((master, _), L) in enumerate(zip(self.setup.contacts, self.multiplier_spaces)):
+            for el in self.mesh.Boundaries(master).Elements():
+                ends = [v for v in el.vertices if v in dirichlet_vertices]
+                if not ends:
+                    continue
+                if self.mesh.dim == 2 and self.setup.order >= 2:
+                    dofs = [L.GetDofNrs(el.edges[0])[-1]]
+                elif self.mesh.dim == 2:
+                    dofs = [d for v in ends for d in L.GetDofNrs(v)]
+                    others = [v for v in el.vertices if v not in dirichlet_vertices]
+                    if others:
+                        for d in dofs:
+                            self.merge[k][d] = L.GetDofNrs(others[0])[0]
+                else:
+                    dofs = [d for v in ends for d in L.GetDofNrs(v)]
+                    dofs += [d for e in el.edges if all(v in dirichlet_vertices for v in self.mesh[e].vertices)
+                             for d in L.GetDofNrs(e)]
+                for d in dofs:
+                    free[offset + d] = False
+            offset += L.ndof
+        return free
 
     # -- pieces ---------------------------------------------------------------------------------------
     def temperature(self, gf=None):
@@ -117,7 +162,7 @@ class HeatForms:
         return -self.conductivity_factor(T) * (self.kappa * ngs.grad(T))
 
     def _load(self, t, v, factor=1.0):
-        """factor * l(t; v) (see module docstring); 0 when the scene has no loads."""
+        """Factor * l(t; v) (see module docstring); 0 when the scene has no loads."""
         s = self.setup
         w = factor * self.weight
         lf = 0
@@ -130,8 +175,18 @@ class HeatForms:
             lf += w * h * amb(t) * v * ngs.ds(definedon=self.mesh.Boundaries(name))
         return lf
 
+    def _volume_measure(self):
+        """The volume measure: one fixed quadrature rule per element type (order 2p + 1, exact for straight
+        elements with the weight r), shared by the matrix and the old-state terms. NGSolve's default rules differ
+        between BilinearForm and LinearForm (for p >= 2 with the weight r, and on curved elements); with
+        theta < 1 that mismatch made the step operator amplify stiff modes (Crank-Nicolson blew up)."""
+        q = 2 * self.setup.order + 1
+        types = (ngs.TRIG, ngs.QUAD) if self.mesh.dim == 2 else (ngs.TET, ngs.HEX, ngs.PRISM, ngs.PYRAMID)
+        return ngs.dx(intrules={et: ngs.IntegrationRule(et, q) for et in types})
+
     def _build_forms(self):
         s, w, X = self.setup, self.weight, self.X
+        dx = self._volume_measure()
         if s.contacts:
             trials, tests = X.TnT()
             T, v = trials[0], tests[0]
@@ -140,28 +195,29 @@ class HeatForms:
         T_old = self.temperature(self.gf_old)
         th = self.theta
         k_new = self.conductivity_factor(T) * (self.kappa * ngs.grad(T))
-        lhs = ngs.BilinearForm(X, symmetric=not s.nonlinear and not s.contacts)
-        form = th * w * ngs.InnerProduct(k_new, ngs.grad(v)) * ngs.dx
+        lhs = ngs.BilinearForm(X)  # full storage: the solver copies it (with the mortar coupling)
+        form = th * w * ngs.InnerProduct(k_new, ngs.grad(v)) * dx
         if not s.steady:
-            form += w * self.inv_dt * self.rho_c * T * v * ngs.dx
+            form += w * self.inv_dt * self.rho_c * T * v * dx
         for name, (h, _) in s.robin.items():
             form += th * w * h * T * v * ngs.ds(definedon=self.mesh.Boundaries(name))
         lhs += form
         self.contact_boundaries = []
-        for k, (master, minion) in enumerate(s.contacts):
-            lam, mu = trials[1 + k], tests[1 + k]
-            cb = ngs.ContactBoundary(self.mesh.Boundaries(master), self.mesh.Boundaries(minion))
-            cb.AddIntegrator(w * (lam * (v - v.Other()) + mu * (T - T.Other())))
-            self.contact_boundaries.append(cb)
+        if self.mesh.dim == 3:  # element-based ContactBoundary integrators (see update_contact_pairs)
+            for k, (master, minion) in enumerate(s.contacts):
+                lam, mu = trials[1 + k], tests[1 + k]
+                cb = ngs.ContactBoundary(self.mesh.Boundaries(master), self.mesh.Boundaries(minion))
+                cb.AddIntegrator(w * (lam * (v - v.Other()) + mu * (T - T.Other())))
+                self.contact_boundaries.append(cb)
         rhs = ngs.LinearForm(X)
         if s.steady:
             load = self._load(self.t_new, v)
             if not isinstance(load, int):
                 rhs += load
         else:
-            old = w * self.inv_dt * self.rho_c * T_old * v * ngs.dx
+            old = w * self.inv_dt * self.rho_c * T_old * v * dx
             old += -(1 - th) * w * ngs.InnerProduct(self.conductivity_factor(T_old) * (self.kappa * ngs.grad(T_old)),
-                                                    ngs.grad(v)) * ngs.dx
+                                                    ngs.grad(v)) * dx
             for name, (h, _) in s.robin.items():
                 old += -(1 - th) * w * h * T_old * v * ngs.ds(definedon=self.mesh.Boundaries(name))
             rhs += old
@@ -173,8 +229,29 @@ class HeatForms:
         self._pairing_gf = None
 
     def update_contact_pairs(self) -> None:
-        """(Re)build the contact point pairs (after creating the forms and after every mesh change)."""
-        if not self.contact_boundaries:
+        """(Re)build the contact coupling (after creating the forms and after every mesh change).
+
+        2D: the segment-based mortar matrix ``self.coupling`` (exact integration, see
+        :mod:`ngs_geomech.physics.mortar`). 3D: NGSolve ContactBoundary elements added to ``lhs``
+        (Gauss rule on master elements: exact for matching interface meshes, a consistency error otherwise).
+        """
+        self.coupling = None
+        if not self.setup.contacts:
+            return
+        if self.mesh.dim == 2:
+            rows, cols, vals = [], [], []
+            offset = self.V.ndof
+            for (master, minion), L, merge in zip(self.setup.contacts, self.multiplier_spaces, self.merge):
+                r, c, v = mortar_coupling_2d(self.mesh, self.V, L, master, minion, merge=merge,
+                                             axisymmetric=self.setup.axisymmetric, order=2 * self.setup.order)
+                rows += [r + offset, c]
+                cols += [c, r + offset]
+                vals += [v, v]
+                offset += L.ndof
+            n = self.X.ndof
+            self.coupling = ngs.la.SparseMatrixd.CreateFromCOO(
+                list(map(int, np.concatenate(rows))), list(map(int, np.concatenate(cols))),
+                list(map(float, np.concatenate(vals))), n, n)
             return
         if self._pairing_gf is None:
             self._pairing_gf = ngs.GridFunction(ngs.VectorH1(self.mesh, order=1))

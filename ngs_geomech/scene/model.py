@@ -11,8 +11,21 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .schema import (boolean, dict_of, either, expr, field, integer, list_of, nested, number, one_of,
-                     optional, string, time)
+from .schema import (
+    boolean,
+    dict_of,
+    either,
+    expr,
+    field,
+    integer,
+    list_of,
+    nested,
+    number,
+    one_of,
+    optional,
+    string,
+    time,
+)
 
 DIMENSIONS = ("plane", "axisymmetric", "3d")
 SHAPES_2D = ("rectangle", "polygon", "circle", "profile")

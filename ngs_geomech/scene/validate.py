@@ -10,10 +10,12 @@ from __future__ import annotations
 import re
 
 import numpy as np
+from netgen import occ
 
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel, build_geometry, scene_dim
-from ..materials import thermal_properties
+from ..geometry.shapes import cells
+from ..materials import conductivity_tensor, volumetric_heat_capacity
 from .model import Scene
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -141,12 +143,22 @@ def _count_steps(t) -> int:
 def _check_materials(scene: Scene, problems: list[Problem]) -> None:
     dim = scene_dim(scene)
     for name, mat in scene.materials.items():
+        # conductivity and heat capacity are checked separately so that both are reported, each under
+        # the key at fault (e.g. materials.granite.rho_c)
+        key = "conductivity_principal" if mat.conductivity_principal is not None else "conductivity"
+        if mat.conductivity is None and mat.conductivity_principal is None:
+            key = ""
         try:
-            props = thermal_properties(mat, dim)
+            conductivity_tensor(mat, dim)
         except ValueError as exc:
-            problems.append(Problem(f"materials.{name}", str(exc)))
+            problems.append(Problem(f"materials.{name}" + (f".{key}" if key else ""), str(exc)))
+        key = "rho_c" if mat.rho_c is not None else "density" if mat.density is not None else "specific_heat"
+        try:
+            rho_c = volumetric_heat_capacity(mat)
+        except ValueError as exc:
+            problems.append(Problem(f"materials.{name}.{key}", str(exc)))
             continue
-        if scene.physics.thermal == "transient" and props.rho_c is None:
+        if scene.physics.thermal == "transient" and rho_c is None:
             problems.append(Problem(f"materials.{name}", "a transient thermal scene needs rho_c "
                                                          "(or density and specific_heat)"))
 
@@ -168,6 +180,10 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
         if name in interface_sides:
             problems.append(Problem(f"boundary_conditions.{name}", f"{name!r} is an interface, not an outer "
                                                                    "boundary"))
+        elif name in geo.contacts:
+            cs = geo.contacts[name]
+            problems.append(Problem(f"boundary_conditions.{name}", f"{name!r} is a contact interface (sides "
+                                    f"{cs.master!r}, {cs.minion!r}), not an outer boundary"))
         elif name not in outer:
             problems.append(Problem(f"boundary_conditions.{name}", f"no boundary {name!r} in the geometry "
                                     f"(boundaries: {', '.join(sorted(outer))})"))
@@ -186,7 +202,6 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
         if not fixes:
             problems.append(Problem("boundary_conditions", "a steady heat problem needs a temperature or a "
                                     "heat_transfer_coefficient condition somewhere, or its solution is not unique"))
-    lo, hi = geo.bounding_box
     for i, pr in enumerate(scene.output.probes):
         p = f"output.probes[{i}] ({pr.name})"
         targets = [k for k in ("point", "region", "boundary") if getattr(pr, k) is not None]
@@ -198,7 +213,7 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
                 problems.append(Problem(f"{p}.statistic", "a point probe has statistic 'value'"))
             if len(pr.point) != geo.dim:
                 problems.append(Problem(f"{p}.point", f"needs {geo.dim} coordinates"))
-            elif np.any(np.array(pr.point) < lo[:geo.dim] - 1e-9) or np.any(np.array(pr.point) > hi[:geo.dim] + 1e-9):
+            elif not _inside(geo, pr.point):
                 problems.append(Problem(f"{p}.point", f"{pr.point} lies outside the geometry"))
         else:
             if pr.statistic == "value":
@@ -211,3 +226,16 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
     for n in set(names):
         if names.count(n) > 1:
             problems.append(Problem("output.probes", f"probe name {n!r} is used twice"))
+
+
+def _inside(geo: GeometryModel, point: list) -> bool:
+    """Whether a point lies in (or on the boundary of) one of the geometry's cells, up to a relative
+    tolerance. The bounding box alone is not enough (concave blocks, holes)."""
+    lo, hi = geo.bounding_box
+    tol = 1e-9 * max(float(np.max(hi - lo)), 1e-30)
+    pt = np.zeros(3)
+    pt[:geo.dim] = point
+    if np.any(pt < lo - tol) or np.any(pt > hi + tol):
+        return False
+    vertex = occ.Vertex(occ.Pnt(*pt))
+    return any(vertex.Distance(c) <= tol for c in cells(geo.shape, geo.dim))

@@ -49,26 +49,28 @@ class HeatSolver:
         self._tmp.Set(cf, ngs.BND)
         T.vec.data += ngs.Projector(self.f.V.FreeDofs(), False) * (self._tmp.vec - T.vec)
 
-    def _factor(self, key: float):
-        inv = self._cache.get(key)
-        if inv is None:
-            self.f.lhs.Assemble()
-            inv = inverse(self.f.lhs.mat, self.f.X.FreeDofs(), self.symmetric)
-            self.factorizations += 1
-            if len(self._cache) >= 2:
-                self._cache.pop(next(iter(self._cache)))
-            self._cache[key] = inv
-            return inv, True
-        return inv, False
+    def _system(self, key: str):
+        """(matrix, inverse) of the step operator for one dt, cached for the last two dts."""
+        hit = self._cache.get(key)
+        if hit is not None:
+            return hit[0], hit[1], False
+        self.f.lhs.Assemble()
+        mat = with_coupling(self.f.lhs.mat, self.f.coupling)
+        inv = inverse(mat, self.f.freedofs, self.symmetric)
+        self.factorizations += 1
+        if len(self._cache) >= 2:
+            self._cache.pop(next(iter(self._cache)))
+        self._cache[key] = (mat, inv)
+        return mat, inv, True
 
     def solve(self, where: str) -> StepInfo:
         """Solve for the new state (t_new, inv_dt already set, old state in gf_old)."""
         self.set_dirichlet()
         self.f.rhs.Assemble()
         if not self.f.setup.nonlinear:
-            inv, fresh = self._factor(round(self.f.inv_dt.Get(), 12))
+            mat, inv, fresh = self._system(f"{self.f.inv_dt.Get():.14g}")
             r = self.f.rhs.vec.CreateVector()
-            r.data = self.f.rhs.vec - self.f.lhs.mat * self.f.gf.vec
+            r.data = self.f.rhs.vec - mat * self.f.gf.vec
             self.f.gf.vec.data += inv * r
             check_finite(self.f.gf.vec, f"heat solve at {where}",
                          "Check the material data and boundary conditions of the scene.")
@@ -77,14 +79,18 @@ class HeatSolver:
 
     def _newton(self, where: str) -> StepInfo:
         f, gf = self.f, self.f.gf
-        free = f.X.FreeDofs()
+        free = f.freedofs
         fixed = ~np.array(list(free), dtype=bool)
         res = gf.vec.CreateVector()
         du = gf.vec.CreateVector()
         trial = gf.vec.CreateVector()
 
+        coupling = f.coupling
+
         def residual(vec) -> float:
             f.lhs.Apply(vec, res)
+            if coupling is not None:
+                res.data += coupling * vec
             res.data -= f.rhs.vec
             arr = res.FV().NumPy()
             arr[fixed] = 0.0
@@ -99,7 +105,7 @@ class HeatSolver:
                                   f"{self.newton_maxit} iterations (relative residual {rel:.3e}). "
                                   "Reduce the time step or check that kappa(T) stays positive.")
             f.lhs.AssembleLinearization(gf.vec)
-            inv = inverse(f.lhs.mat, free, symmetric=False)
+            inv = inverse(with_coupling(f.lhs.mat, coupling), free, symmetric=False)
             self.factorizations += 1
             du.data = inv * res
             step, new_rel = 1.0, math.inf
@@ -120,3 +126,13 @@ class HeatSolver:
             it += 1
         check_finite(gf.vec, f"heat solve at {where}")
         return StepInfo(max(it, 1), rel, True)
+
+
+def with_coupling(mat, coupling):
+    """An assembled copy of ``mat`` (+ ``coupling`` when given), so cached operators stay valid when the
+    bilinear form is assembled again for another time step."""
+    r, c, v = (np.array(a) for a in mat.COO())
+    if coupling is not None:
+        r2, c2, v2 = (np.array(a) for a in coupling.COO())
+        r, c, v = np.concatenate([r, r2]), np.concatenate([c, c2]), np.concatenate([v, v2])
+    return ngs.la.SparseMatrixd.CreateFromCOO(r.tolist(), c.tolist(), v.tolist(), mat.height, mat.width)

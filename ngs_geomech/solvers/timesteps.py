@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Iterator
+from collections.abc import Iterator
 
 
 def schedule(start: float, end: float, dt: float, growth: float = 1.0,

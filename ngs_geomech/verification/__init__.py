@@ -1,0 +1,1 @@
+"""Verification of the solvers against closed-form and manufactured solutions (see ``studies/``)."""
