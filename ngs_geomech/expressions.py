@@ -32,22 +32,27 @@ def check(text: str) -> list[str]:
         tree = ast.parse(text, mode="eval")
     except SyntaxError as exc:
         return [f"cannot parse expression {text!r}: {exc.msg}"]
-    problems = []
+    bad: list[str] = []       # what is not allowed, each named once
+    unknown: list[str] = []
     for node in ast.walk(tree):
-        if not isinstance(node, _ALLOWED_NODES):
-            problems.append(f"expression {text!r}: {type(node).__name__} is not allowed")
-        elif isinstance(node, ast.Constant) and not isinstance(node.value, (int, float)):
-            problems.append(f"expression {text!r}: constant {node.value!r} is not a number")
-        elif isinstance(node, ast.Call):
+        if isinstance(node, ast.Call):
             if not (isinstance(node.func, ast.Name) and node.func.id in FUNCTIONS) or node.keywords \
                     or len(node.args) != 1:
-                name = getattr(node.func, "id", "?")
-                problems.append(f"expression {text!r}: function {name!r} is not allowed "
-                                f"(use one of {', '.join(FUNCTIONS)} with one argument)")
+                bad.append(f"function {node.func.id!r}" if isinstance(node.func, ast.Name) else "method calls")
+        elif not isinstance(node, _ALLOWED_NODES):
+            bad.append(f"{type(node).__name__.lower()} syntax")
+        elif isinstance(node, ast.Constant) and not isinstance(node.value, (int, float)):
+            bad.append(f"the constant {node.value!r}")
         elif isinstance(node, ast.Name) and node.id not in VARIABLES and node.id not in CONSTANTS \
-                and node.id not in FUNCTIONS:
-            problems.append(f"expression {text!r}: unknown name {node.id!r} "
-                            f"(variables {', '.join(VARIABLES)}; constants {', '.join(CONSTANTS)})")
+                and node.id not in FUNCTIONS and node.id not in unknown:
+            unknown.append(node.id)
+    problems = []
+    if unknown:
+        problems.append(f"expression {text!r}: unknown name(s) {', '.join(map(repr, unknown))} (variables "
+                        f"{', '.join(VARIABLES)}; constants {', '.join(CONSTANTS)})")
+    if bad:
+        problems.append(f"expression {text!r}: {', '.join(dict.fromkeys(bad))} not allowed (arithmetic, "
+                        f"numbers and the functions {', '.join(FUNCTIONS)} with one argument)")
     return problems
 
 

@@ -46,6 +46,7 @@ class OutputDir:
 
     def __init__(self, target: Path):
         self.target = Path(target).resolve()
+        self._made = [p for p in reversed(self.target.parents) if not p.exists()]  # removed again on abort
         self.target.parent.mkdir(parents=True, exist_ok=True)
         self.path = Path(tempfile.mkdtemp(dir=self.target.parent, prefix=f".{self.target.name}.partial-"))
         os.chmod(self.path, 0o777 & ~_umask())  # mkdtemp creates 0700; the output is an ordinary directory
@@ -62,4 +63,10 @@ class OutputDir:
         return self.target
 
     def abort(self) -> None:
+        """Remove the staged output and any parent directories this run created."""
         shutil.rmtree(self.path, ignore_errors=True)
+        for p in reversed(self._made):
+            try:
+                p.rmdir()
+            except OSError:
+                break

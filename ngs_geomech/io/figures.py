@@ -37,7 +37,13 @@ def field_figure(m: MeshArrays, values: np.ndarray, path: Path, *, title: str, l
     """A filled plot of vertex values with the region outlines; ``window`` = [xmin, xmax, ymin, ymax]."""
     fig, ax = plt.subplots(figsize=(7, 5.5))
     tri = Triangulation(m.points[:, 0], m.points[:, 1], m.triangles)
-    pc = ax.tripcolor(tri, values, shading="gouraud", cmap=cmap)
+    vmin = vmax = None
+    if window is not None:  # colour range of what is shown
+        inside = ((m.points[:, 0] >= window[0]) & (m.points[:, 0] <= window[1])
+                  & (m.points[:, 1] >= window[2]) & (m.points[:, 1] <= window[3]))
+        if inside.any():
+            vmin, vmax = float(values[inside].min()), float(values[inside].max())
+    pc = ax.tripcolor(tri, values, shading="gouraud", cmap=cmap, vmin=vmin, vmax=vmax)
     ax.add_collection(LineCollection(m.outline, colors="white", linewidths=0.8))
     fig.colorbar(pc, ax=ax, label=label)
     if window is not None:

@@ -36,7 +36,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ..materials import ThermalProperties
-from .coefficients import TimeFunction, boundary_cf, region_cf, regions_regex
+from .coefficients import Separable, TimeFunction, boundary_cf, region_cf, regions_regex
 from .mortar import mortar_coupling_2d
 
 
@@ -57,7 +57,7 @@ class HeatSetup:
     dirichlet: dict[str, TimeFunction] = field(default_factory=dict)
     flux: dict[str, TimeFunction] = field(default_factory=dict)
     robin: dict[str, tuple[float, TimeFunction]] = field(default_factory=dict)
-    sources: dict[str, TimeFunction] = field(default_factory=dict)
+    sources: dict[str, TimeFunction | list[TimeFunction]] = field(default_factory=dict)
     contacts: list[tuple[str, str]] = field(default_factory=list)
 
     @property
@@ -87,6 +87,7 @@ class HeatForms:
         self.t_new = ngs.Parameter(0.0)
         self.t_old = ngs.Parameter(0.0)
         self.inv_dt = ngs.Parameter(1.0)
+        self.t_load = ngs.Parameter(0.0)
         self.theta = ngs.Parameter(1.0 if setup.steady else setup.theta)
         self.weight = ngs.x if setup.axisymmetric else ngs.CoefficientFunction(1.0)
         names = list(setup.props)
@@ -161,19 +162,69 @@ class HeatForms:
         """Heat flux vector q = -kappa f(T) grad T, W/m^2."""
         return -self.conductivity_factor(T) * (self.kappa * ngs.grad(T))
 
-    def _load(self, t, v, factor=1.0):
-        """Factor * l(t; v) (see module docstring); 0 when the scene has no loads."""
-        s = self.setup
-        w = factor * self.weight
-        lf = 0
-        if s.sources:
-            q = region_cf(self.mesh, {n: f(t) for n, f in s.sources.items()})
-            lf += w * q * v * ngs.dx(definedon=self.mesh.Materials(regions_regex(s.sources)))
+    def _load_terms(self, v):
+        """The load l(t; v) split by how it depends on time: a list of (integrand maker, kind, scale) with
+        kind 'static' (assembled once), 'separable' (assembled once, times scale(t)) or 'dynamic'
+        (assembled at every time it is needed)."""
+        s, w = self.setup, self.weight
+        items = []
+        for region, funcs in s.sources.items():
+            measure = ngs.dx(definedon=self.mesh.Materials(region))
+            for f in (funcs if isinstance(funcs, list) else [funcs]):
+                items.append((f, lambda g, m=measure: w * g * v * m))
         for name, f in s.flux.items():
-            lf += w * f(t) * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+            measure = ngs.ds(definedon=self.mesh.Boundaries(name))
+            items.append((f, lambda g, m=measure: w * g * v * m))
         for name, (h, amb) in s.robin.items():
-            lf += w * h * amb(t) * v * ngs.ds(definedon=self.mesh.Boundaries(name))
-        return lf
+            measure = ngs.ds(definedon=self.mesh.Boundaries(name))
+            items.append((amb, lambda g, m=measure, h=h: w * h * g * v * m))
+        terms = []
+        for f, integrand in items:
+            if isinstance(f, Separable):
+                terms.append((lambda t, f=f, i=integrand: i(f.spatial), "separable", f.scale))
+            elif getattr(f, "time_dependent", True) is False:
+                terms.append((lambda t, f=f, i=integrand: i(f(t)), "static", None))
+            else:
+                terms.append((lambda t, f=f, i=integrand: i(f(t)), "dynamic", None))
+        return terms
+
+    def _build_loads(self, v):
+        X = self.X
+        self._static = []          # (vector, scale or None)
+        dynamic = ngs.LinearForm(X)
+        has_dynamic = False
+        for make, kind, scale in self._load_terms(v):
+            if kind == "dynamic":
+                dynamic += make(self.t_load)
+                has_dynamic = True
+            else:
+                lf = ngs.LinearForm(X)
+                lf += make(None)
+                self._static.append((lf, scale))
+        self._dynamic = dynamic if has_dynamic else None
+        self._load_cache: dict[float, object] = {}
+        self._static_assembled = False
+
+    def loads(self, t: float):
+        """The load vector l(t; .) (W), assembling only what depends on t (two times are cached)."""
+        if t in self._load_cache:
+            return self._load_cache[t]
+        if not self._static_assembled:
+            for lf, _ in self._static:
+                lf.Assemble()
+            self._static_assembled = True
+        vec = self.gf.vec.CreateVector()
+        vec[:] = 0.0
+        for lf, scale in self._static:
+            vec.data += (1.0 if scale is None else scale(t)) * lf.vec
+        if self._dynamic is not None:
+            self.t_load.Set(t)
+            self._dynamic.Assemble()
+            vec.data += self._dynamic.vec
+        if len(self._load_cache) >= 2:
+            self._load_cache.pop(next(iter(self._load_cache)))
+        self._load_cache[t] = vec
+        return vec
 
     def _volume_measure(self):
         """The volume measure: one fixed quadrature rule per element type (order 2p + 1, exact for straight
@@ -209,23 +260,28 @@ class HeatForms:
                 cb = ngs.ContactBoundary(self.mesh.Boundaries(master), self.mesh.Boundaries(minion))
                 cb.AddIntegrator(w * (lam * (v - v.Other()) + mu * (T - T.Other())))
                 self.contact_boundaries.append(cb)
-        rhs = ngs.LinearForm(X)
-        if s.steady:
-            load = self._load(self.t_new, v)
-            if not isinstance(load, int):
-                rhs += load
-        else:
+        self._build_loads(v)
+        self.lhs = lhs
+        # old-state terms: matrices for linear problems (mass and stiffness, the same quadrature as lhs),
+        # a linear form in T_old for the k(T) law
+        self.mass = self.stiffness = self.old_state = None
+        if not s.steady and not s.nonlinear:
+            self.mass = ngs.BilinearForm(X)
+            self.mass += w * self.rho_c * T * v * dx
+            self.stiffness = ngs.BilinearForm(X)
+            stiff = w * ngs.InnerProduct(self.kappa * ngs.grad(T), ngs.grad(v)) * dx
+            for name, (h, _) in s.robin.items():
+                stiff += w * h * T * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+            self.stiffness += stiff
+        elif not s.steady:
             old = w * self.inv_dt * self.rho_c * T_old * v * dx
             old += -(1 - th) * w * ngs.InnerProduct(self.conductivity_factor(T_old) * (self.kappa * ngs.grad(T_old)),
                                                     ngs.grad(v)) * dx
             for name, (h, _) in s.robin.items():
                 old += -(1 - th) * w * h * T_old * v * ngs.ds(definedon=self.mesh.Boundaries(name))
-            rhs += old
-            load_new = self._load(self.t_new, v, th)
-            if not isinstance(load_new, int):
-                rhs += load_new
-                rhs += self._load(self.t_old, v, 1 - th)
-        self.lhs, self.rhs = lhs, rhs
+            self.old_state = ngs.LinearForm(X)
+            self.old_state += old
+        self._matrices_assembled = False
         self._pairing_gf = None
 
     def update_contact_pairs(self) -> None:
@@ -263,6 +319,32 @@ class HeatForms:
         interface is searched, so a large radius cannot pair wrong sides)."""
         pts = np.array([p.p for p in self.mesh.ngmesh.Points()])
         return float(np.max(pts.max(axis=0) - pts.min(axis=0)))
+
+    def right_hand_side(self):
+        """The right-hand side of the step from t_old to t_new (see the module docstring), W."""
+        s = self.setup
+        t1 = self.t_new.Get()
+        if s.steady:
+            b = self.gf.vec.CreateVector()
+            b.data = self.loads(t1)
+            return b
+        th = self.theta.Get()
+        b = self.gf.vec.CreateVector()
+        b.data = th * self.loads(t1)
+        if th < 1:
+            b.data += (1 - th) * self.loads(self.t_old.Get())
+        if self.old_state is not None:
+            self.old_state.Assemble()
+            b.data += self.old_state.vec
+        else:
+            if not self._matrices_assembled:
+                self.mass.Assemble()
+                self.stiffness.Assemble()
+                self._matrices_assembled = True
+            b.data += self.inv_dt.Get() * (self.mass.mat * self.gf_old.vec)
+            if th < 1:
+                b.data -= (1 - th) * (self.stiffness.mat * self.gf_old.vec)
+        return b
 
     def dirichlet_values(self, t_param) -> object | None:
         """Boundary CF of the Dirichlet temperatures at time t_param (None without Dirichlet conditions)."""

@@ -8,7 +8,7 @@ import ngsolve as ngs
 
 from ..geometry.assemble import GeometryModel
 from ..materials import thermal_properties
-from ..physics.coefficients import expression_function, region_cf
+from ..physics.coefficients import Separable, expression_function, region_cf
 from ..physics.thermal import HeatSetup
 from ..scene.model import Scene, Source
 
@@ -22,19 +22,24 @@ def region_measure(mesh, region: str, axisymmetric: bool) -> float:
 
 
 def source_function(src: Source, volume: float):
-    """Power density Q(t) of a source, W/m^3, as a TimeFunction."""
+    """Power density Q(t) of a source, W/m^3, as a TimeFunction (separable for 'power' with 'decay')."""
     if src.density is not None:
         dens = expression_function(src.density)
-        return lambda t: ngs.IfPos(t - src.start, 1.0, 0.0) * dens(t) if src.start > 0 else dens(t)
-    q0 = src.power / volume
+        if src.start == 0:
+            return dens
+        return lambda t: ngs.IfPos(t - src.start, 1.0, 0.0) * dens(t)
     terms = src.decay or [[1.0, math.inf]]
 
-    def make(t):
-        total = 0
-        for a, tau in terms:
-            total = total + (a if math.isinf(tau) else a * ngs.exp(-(t - src.start) / tau))
-        return q0 * ngs.IfPos(t - src.start, total, 0.0) if src.start != 0 else q0 * total
-    return make
+    def scale(t: float) -> float:
+        if t < src.start:
+            return 0.0
+        return sum(a if math.isinf(tau) else a * math.exp(-(t - src.start) / tau) for a, tau in terms)
+
+    def scale_cf(t):
+        total = sum((a if math.isinf(tau) else a * ngs.exp(-(t - src.start) / tau) for a, tau in terms),
+                    ngs.CoefficientFunction(0.0))
+        return ngs.IfPos(t - src.start, total, 0.0) if src.start != 0 else total
+    return Separable(ngs.CoefficientFunction(src.power / volume), scale, scale_cf)
 
 
 def heat_setup(scene: Scene, geo: GeometryModel, mesh) -> HeatSetup:
@@ -52,12 +57,9 @@ def heat_setup(scene: Scene, geo: GeometryModel, mesh) -> HeatSetup:
             setup.flux[name] = expression_function(bc.flux)
         elif bc.heat_transfer_coefficient is not None:
             setup.robin[name] = (bc.heat_transfer_coefficient, expression_function(bc.ambient_temperature))
-    by_region: dict[str, list] = {}
     for src in scene.sources:
-        by_region.setdefault(src.region, []).append(
+        setup.sources.setdefault(src.region, []).append(
             source_function(src, region_measure(mesh, src.region, axi)))
-    for region, funcs in by_region.items():
-        setup.sources[region] = (lambda fs: (lambda t: sum((f(t) for f in fs[1:]), fs[0](t))))(funcs)
     setup.contacts = [(cs.master, cs.minion) for cs in geo.contacts.values()]
     return setup
 

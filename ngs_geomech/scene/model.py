@@ -41,6 +41,7 @@ class SceneInfo:
 
     name: str = field(string, doc="scene name (used in output file names)")
     description: str = field(string, "", doc="free text")
+    temperature_unit: str = field(one_of("C", "K"), "C", doc="unit of all temperatures (labels only)")
     dimension: str = field(one_of(*DIMENSIONS), "plane",
                            doc="'plane' (x, y), 'axisymmetric' (r = x >= 0, z = y, axis x = 0) or '3d'")
 

@@ -10,6 +10,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ..errors import SolverError
+from ..physics.coefficients import regions_regex
 from ..physics.thermal import HeatForms
 from .linear import check_finite, inverse
 
@@ -32,6 +33,8 @@ class HeatSolver:
         self.newton_maxit = newton_maxit
         self._cache: dict[float, object] = {}
         self._tmp = ngs.GridFunction(forms.V)
+        self._fixed = ngs.Projector(forms.V.FreeDofs(), False)   # onto the Dirichlet dofs
+        self._dirichlet_ready = False
         self.factorizations = 0
         forms.update_contact_pairs()
 
@@ -41,13 +44,20 @@ class HeatSolver:
         return not s.nonlinear and not s.contacts
 
     def set_dirichlet(self) -> None:
-        """Put the Dirichlet temperatures at t_new into the state's Dirichlet dofs (other dofs untouched)."""
-        cf = self.f.dirichlet_values(self.f.t_new)
-        if cf is None:
+        """Put the Dirichlet temperatures at t_new into the state's Dirichlet dofs (other dofs untouched).
+
+        Time-independent data are interpolated once; later calls only copy them into the state.
+        """
+        f = self.f
+        if not f.setup.dirichlet:
             return
-        T = self.f.temperature()
-        self._tmp.Set(cf, ngs.BND)
-        T.vec.data += ngs.Projector(self.f.V.FreeDofs(), False) * (self._tmp.vec - T.vec)
+        static = all(getattr(g, "time_dependent", True) is False for g in f.setup.dirichlet.values())
+        if not (static and self._dirichlet_ready):
+            cf = f.dirichlet_values(f.t_new)
+            self._tmp.Set(cf, ngs.BND, definedon=f.mesh.Boundaries(regions_regex(f.setup.dirichlet)))
+            self._dirichlet_ready = True
+        T = f.temperature()
+        T.vec.data += self._fixed * (self._tmp.vec - T.vec)
 
     def _system(self, key: str):
         """(matrix, inverse) of the step operator for one dt, cached for the last two dts."""
@@ -66,18 +76,18 @@ class HeatSolver:
     def solve(self, where: str) -> StepInfo:
         """Solve for the new state (t_new, inv_dt already set, old state in gf_old)."""
         self.set_dirichlet()
-        self.f.rhs.Assemble()
+        rhs = self.f.right_hand_side()
         if not self.f.setup.nonlinear:
             mat, inv, fresh = self._system(f"{self.f.inv_dt.Get():.14g}")
-            r = self.f.rhs.vec.CreateVector()
-            r.data = self.f.rhs.vec - mat * self.f.gf.vec
+            r = rhs.CreateVector()
+            r.data = rhs - mat * self.f.gf.vec
             self.f.gf.vec.data += inv * r
             check_finite(self.f.gf.vec, f"heat solve at {where}",
                          "Check the material data and boundary conditions of the scene.")
             return StepInfo(1, 0.0, fresh)
-        return self._newton(where)
+        return self._newton(where, rhs)
 
-    def _newton(self, where: str) -> StepInfo:
+    def _newton(self, where: str, rhs) -> StepInfo:
         f, gf = self.f, self.f.gf
         free = f.freedofs
         fixed = ~np.array(list(free), dtype=bool)
@@ -91,12 +101,12 @@ class HeatSolver:
             f.lhs.Apply(vec, res)
             if coupling is not None:
                 res.data += coupling * vec
-            res.data -= f.rhs.vec
+            res.data -= rhs
             arr = res.FV().NumPy()
             arr[fixed] = 0.0
             return float(ngs.Norm(res))
         r0 = residual(gf.vec)
-        scale = max(r0, float(ngs.Norm(f.rhs.vec)), 1e-300)
+        scale = max(r0, float(ngs.Norm(rhs)), 1e-300)
         rel = r0 / scale
         it = 0
         while rel > self.newton_tol:
