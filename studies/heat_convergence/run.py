@@ -28,6 +28,7 @@ from pathlib import Path
 
 from ngs_geomech.io.atomic import write_json_atomic
 from ngs_geomech.verification import manufactured as mms
+from ngs_geomech.verification.point_source import point_source_errors
 
 STUDY = "heat_convergence"
 LEVELS = {
@@ -46,17 +47,6 @@ def _entry(quantity: str, hs, dofs, errors, expected) -> dict:
     return {"quantity": quantity, "h": [float(h) for h in hs], "dofs": [int(d) for d in dofs],
             "errors": [float(e) for e in errors], "observed_order": mms.observed_order(hs, errors),
             "expected_order": expected}
-
-
-def _point_source(level: int) -> dict | None:
-    """The point-source errors, or None while :mod:`ngs_geomech.verification.point_source` is absent."""
-    try:
-        from ngs_geomech.verification.point_source import point_source_errors
-    except ModuleNotFoundError as exc:
-        if exc.name != "ngs_geomech.verification.point_source":
-            raise
-        return None
-    return point_source_errors(level)
 
 
 def main(level: int = 0, out: str | Path | None = None) -> dict:
@@ -132,15 +122,14 @@ def run(level: int) -> tuple[dict, dict]:
 
     # decaying point source (closed form)
     tic = time.perf_counter()
-    ps = _point_source(level)
+    ps = point_source_errors(level)
     timing["point_source_s"] = time.perf_counter() - tic
-    if ps is not None:
-        metrics["point_source_max_rel_error"] = float(ps["max_rel_error"])
-        for key, value in ps.items():
-            if key not in ("max_rel_error", "level") and isinstance(value, (int, float)) \
-                    and not isinstance(value, bool) and math.isfinite(value):
-                metrics[f"point_source_{key}"] = float(value)
-        tables["point_source"] = ps
+    metrics["point_source_max_rel_error"] = float(ps["max_rel_error"])
+    for key, value in ps.items():
+        if key not in ("max_rel_error", "level") and isinstance(value, (int, float)) \
+                and not isinstance(value, bool) and math.isfinite(value):
+            metrics[f"point_source_{key}"] = float(value)
+    tables["point_source"] = ps
 
     timing["total_s"] = time.perf_counter() - t_start
     result = {"study": STUDY, "level": level, "metrics": metrics, "convergence": convergence, "timing_s": timing}
