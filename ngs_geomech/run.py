@@ -168,7 +168,7 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path) -> None:
     if not scene.output.figures or (mesh.dim != 2 and not (probes.series and len(probes.times) > 1)):
         return
     directory.mkdir(parents=True, exist_ok=True)
-    unit = "degC" if scene.scene.temperature_unit == "C" else "K"
+    t_unit = "degC" if scene.scene.temperature_unit == "C" else "K"
     if mesh.dim == 2:
         arrays = mesh_arrays(mesh)
         labels = ("r (m)", "z (m)") if scene.scene.dimension == "axisymmetric" else ("x (m)", "y (m)")
@@ -176,14 +176,14 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path) -> None:
         t_end = probes.times[-1] if probes.times else 0.0
         figures.field_figure(arrays, vals, directory / "temperature.png",
                              title=f"{scene.scene.name}: temperature at t = {format_time(t_end)}",
-                             label=f"T ({unit})", axis_labels=labels)
+                             label=f"T ({t_unit})", axis_labels=labels)
         if scene.output.figure_window:
             figures.field_figure(arrays, vals, directory / "temperature_zoom.png",
                                  title=f"{scene.scene.name}: temperature at t = {format_time(t_end)} (near field)",
-                                 label=f"T ({unit})", axis_labels=labels, window=scene.output.figure_window)
+                                 label=f"T ({t_unit})", axis_labels=labels, window=scene.output.figure_window)
     if probes.series and len(probes.times) > 1:
         span = probes.times[-1] - probes.times[0]
         unit, label = (YEAR, "t (years)") if span >= 2 * YEAR else (1.0, "t (s)")
         figures.time_curves(probes.times, probes.series, directory / "probes.png",
-                            title=f"{scene.scene.name}: probes", ylabel=f"temperature ({unit})",
+                            title=f"{scene.scene.name}: probes", ylabel=f"temperature ({t_unit})",
                             time_unit=unit, time_label=label)

@@ -304,3 +304,17 @@ def test_fault2d_meshes_differ_on_the_two_sides_of_the_fault():
               for name in counts}
     assert length["fault__west"] == pytest.approx(length["fault__east"], rel=2e-2)
     assert length["fault__west"] > np.hypot(0.4, 2.0)   # longer than the chord: curved
+
+
+def test_figure_labels_name_units(tmp_path, monkeypatch):
+    """The probe figure's axis labels carry the temperature unit and the time unit, not a number."""
+    from ngs_geomech.io import figures
+
+    seen = {}
+
+    def spy(times, curves, path, **kw):
+        seen.update(kw)
+    monkeypatch.setattr(figures, "time_curves", spy)
+    assert cli.main(["run", "canister", "--out", str(tmp_path / "o"), "--quiet", "--set", "time.end='3 year'",
+                     "--set", "output.vtk=false"]) == 0
+    assert seen["ylabel"] == "temperature (degC)" and seen["time_label"] == "t (years)"
