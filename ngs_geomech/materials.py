@@ -78,14 +78,17 @@ def conductivity_tensor(m: Material, dim: int) -> np.ndarray:
 
 
 def volumetric_heat_capacity(m: Material) -> float | None:
-    """rho*c in J/(m^3 K), from 'rho_c' or 'density' * 'specific_heat'; None when not given."""
+    """rho*c in J/(m^3 K), from 'rho_c' or 'density' * 'specific_heat'; None when not given.
+
+    'density' alone is allowed (gravity needs it); 'specific_heat' needs 'density'.
+    """
     if m.rho_c is not None:
-        if m.density is not None or m.specific_heat is not None:
+        if m.specific_heat is not None:
             raise ValueError("give either 'rho_c' or 'density' and 'specific_heat', not both")
         value = m.rho_c
-    elif m.density is not None or m.specific_heat is not None:
-        if m.density is None or m.specific_heat is None:
-            raise ValueError("'density' and 'specific_heat' go together")
+    elif m.specific_heat is not None:
+        if m.density is None:
+            raise ValueError("'specific_heat' needs 'density'")
         value = m.density * m.specific_heat
     else:
         return None

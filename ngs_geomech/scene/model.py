@@ -52,6 +52,11 @@ class Physics:
 
     thermal: str | None = field(optional(one_of("steady", "transient")), None,
                                 doc="heat conduction (2.17) steady or transient (2.43)")
+    mechanics: str | None = field(optional(one_of("static")), None,
+                                  doc="'static': (quasi-)static elasticity (2.17)-(2.18), with thermal stresses "
+                                      "when thermal is on; solved at every time of the thermal run")
+    plane_model: str = field(one_of("plane_strain", "plane_stress"), "plane_strain",
+                             doc="2D plane scenes: plane strain (eps_zz = 0) or plane stress (sigma_zz = 0)")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -113,6 +118,26 @@ conductivity_value = either(number, matrix, what="a number or a symmetric matrix
 
 
 @dataclass(frozen=True, kw_only=True)
+class Orthotropic:
+    """Orthotropic engineering constants in the material axes 1, 2, 3 (Pa); nu_ij = -eps_j / eps_i."""
+
+    E: list = field(list_of(number, 3), doc="[E1, E2, E3], Pa")
+    nu: list = field(list_of(number, 3), doc="[nu12, nu13, nu23]")
+    G: list = field(list_of(number, 3), doc="[G12, G13, G23], Pa")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TransverselyIsotropic:
+    """Transversely isotropic constants: isotropic in the 1-2 plane, axis 3 (e.g. bedding normal)."""
+
+    E_plane: float = field(number, doc="Young's modulus in the plane of isotropy, Pa")
+    E_axis: float = field(number, doc="Young's modulus along the axis, Pa")
+    nu_plane: float = field(number, doc="Poisson ratio in the plane (nu12)")
+    nu_axis: float = field(number, doc="Poisson ratio nu31 = -eps_1/eps_3 under axial load")
+    G_axis: float = field(number, doc="shear modulus in planes containing the axis (G13), Pa")
+
+
+@dataclass(frozen=True, kw_only=True)
 class Material:
     """``[materials.REGION]``: material data of one region, SI units."""
 
@@ -129,6 +154,26 @@ class Material:
     rho_c: float | None = field(optional(number), None, doc="volumetric heat capacity rho*c, J/(m^3 K)")
     density: float | None = field(optional(number), None, doc="rho, kg/m^3 (with specific_heat)")
     specific_heat: float | None = field(optional(number), None, doc="c, J/(kg K) (with density)")
+    youngs_modulus: float | None = field(optional(number), None, doc="E, Pa (isotropic, with poisson_ratio)")
+    poisson_ratio: float | None = field(optional(number), None, doc="nu in (-1, 0.5) (isotropic)")
+    lame_lambda: float | None = field(optional(number), None, doc="Lame lambda, Pa (with lame_mu)")
+    lame_mu: float | None = field(optional(number), None, doc="shear modulus mu, Pa (with lame_lambda)")
+    orthotropic: Orthotropic | None = field(optional(nested(Orthotropic)), None, doc="orthotropic constants")
+    transversely_isotropic: TransverselyIsotropic | None = field(optional(nested(TransverselyIsotropic)), None,
+                                                                 doc="transversely isotropic constants")
+    stiffness_voigt: list | None = field(optional(matrix), None,
+                                         doc="full 6x6 stiffness c_ijkl in Voigt order xx, yy, zz, yz, xz, xy "
+                                             "(engineering shear strains), Pa; symmetric positive definite (2.38)")
+    elastic_rotation: object = field(optional(either(number, point, what="an angle or 3 angles")), None,
+                                     doc="rotation of the material axes, degrees: about z (2D), Z-Y-X Euler (3D)")
+    thermal_expansion: object = field(optional(conductivity_value), None,
+                                      doc="linear thermal expansion alpha, 1/K: scalar or symmetric 3x3 tensor "
+                                          "(beta_ij = c_ijkl alpha_kl, (2.18))")
+    stress_free_temperature: float = field(number, 0.0, doc="T0 of the thermal stress -beta (T - T0), degC or K")
+    rheology_lambda: float = field(number, 1.0, doc="lambda of W = A1^lambda (2.1): <1 softening, 1 linear, "
+                                                    ">1 hardening")
+    reference_strain: float = field(number, 1e-3, doc="strain scale of the lambda law: c* = lambda (A1/A_ref)^"
+                                                      "(lambda-1) c with A_ref the A1 of this uniaxial strain")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -142,6 +187,12 @@ class BoundaryCondition:
     heat_transfer_coefficient: float | None = field(optional(number), None,
                                                     doc="Robin: q = h (T_ambient - T), W/(m^2 K)")
     ambient_temperature: object = field(optional(expr), None, doc="Robin ambient temperature, degC or K")
+    displacement: list | None = field(optional(list_of(either(expr, one_of("free"), what="an expression or 'free'"))),
+                                      None, doc="prescribed displacement u0 (2.20), m, per component; 'free' "
+                                                "leaves a component free")
+    traction: list | None = field(optional(list_of(expr)), None, doc="surface force P (2.19), Pa, per component")
+    pressure: object = field(optional(expr), None, doc="normal pressure p (traction -p n), Pa")
+    symmetry: bool = field(boolean, False, doc="symmetry u_n = 0, tau_t = 0 (2.16) on a straight boundary")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -166,6 +217,22 @@ class Initial:
 
 
 @dataclass(frozen=True, kw_only=True)
+class MechanicsSettings:
+    """``[mechanics]``: loads and nonlinear solver of the elastic problem."""
+
+    gravity: list | None = field(optional(point), None, doc="gravitational acceleration vector, m/s^2")
+    initial_stress: list | None = field(optional(list_of(list_of(expr))), None,
+                                        doc="initial (e.g. lithostatic) stress tensor sigma0, Pa (expressions)")
+    nonlinear_solver: str = field(one_of("newton", "secant"), "newton",
+                                  doc="for rheology_lambda != 1: Newton on W (line search) or the secant modules "
+                                      "method (2.32)-(2.34)")
+    tolerance: float = field(number, 1e-8, doc="relative tolerance of the nonlinear iteration")
+    max_iterations: int = field(integer, 100, doc="iteration limit of the nonlinear solver")
+    regularization: float = field(number, 1e-6, doc="delta in (A1/A_ref + delta)^lambda (lambda < 1 is singular "
+                                                    "at zero strain)")
+
+
+@dataclass(frozen=True, kw_only=True)
 class TimeSettings:
     """``[time]``: time interval and step control."""
 
@@ -183,7 +250,9 @@ class Probe:
     """``[[output.probes]]``: a value recorded at each output time."""
 
     name: str = field(string, doc="probe name (key in summary.json)")
-    quantity: str = field(one_of("temperature"), "temperature", doc="field to sample")
+    quantity: str = field(one_of("temperature", "displacement_x", "displacement_y", "displacement_z",
+                                 "von_mises", "mean_stress", "sigma_1", "sigma_3"), "temperature",
+                          doc="field to sample")
     point: list | None = field(optional(point), None, doc="a point, m")
     region: str | None = field(optional(string), None, doc="a region (max/min/mean over it)")
     boundary: str | None = field(optional(string), None, doc="a boundary (max/min/mean over it)")
@@ -216,6 +285,7 @@ class Scene:
     materials: dict = field(dict_of(nested(Material)), {}, doc="materials per region")
     boundary_conditions: dict = field(dict_of(nested(BoundaryCondition)), {}, doc="per boundary name")
     sources: list = field(list_of(nested(Source)), [], doc="heat sources")
+    mechanics: MechanicsSettings = field(nested(MechanicsSettings), MechanicsSettings(), doc="mechanics settings")
     initial: Initial = field(nested(Initial), Initial(), doc="initial conditions")
     time: TimeSettings | None = field(optional(nested(TimeSettings)), None, doc="time settings (transient)")
     output: Output = field(nested(Output), Output(), doc="output settings")
