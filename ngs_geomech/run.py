@@ -11,22 +11,25 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import ngsolve as ngs
+import numpy as np
 
-from .errors import SolverError
 from .geometry.assemble import GeometryModel
 from .geometry.mesh import make_mesh
-from .io import figures
+from .io import figures, stress_figures
 from .io.atomic import OutputDir, write_json_atomic
 from .io.meshdata import mesh_arrays, vertex_values
 from .io.progress import Progress
 from .io.summary import finite, probe_statistics, versions
 from .io.vtk import VtkSeries
+from .physics.elasticity import ElasticForms, stress_measures
 from .physics.thermal import HeatForms
 from .probes import ProbeSet
 from .problems.heat import heat_setup, initial_temperature
+from .problems.mechanics import elastic_setup, mechanics_warnings
 from .scene.model import Scene
 from .scene.schema import to_dict
 from .scene.validate import validate
+from .solvers.elastic import ElasticSolver
 from .solvers.heat import HeatSolver
 from .solvers.timesteps import schedule
 from .units import YEAR, format_time
@@ -41,6 +44,7 @@ class RunResult:
     summary: dict
     out: Path | None
     timings: dict = field(default_factory=dict)
+    mechanics: object = None
 
 
 def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, threads: int | None = None,
@@ -73,87 +77,142 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     mesh = make_mesh(geo, scene.mesh)
     timings["mesh_s"] = _time.perf_counter() - tic
     axi = scene.scene.dimension == "axisymmetric"
+    name = scene.scene.name
     tic = _time.perf_counter()
-    setup = heat_setup(scene, geo, mesh)
-    forms = HeatForms(mesh, setup)
-    solver = HeatSolver(forms)
+    fields = {"region": mesh.MaterialCF({n: i for i, n in enumerate(mesh.GetMaterials())}, default=-1)}
+    heat = solver = T = None
+    if scene.physics.thermal:
+        setup = heat_setup(scene, geo, mesh)
+        heat = HeatForms(mesh, setup)
+        solver = HeatSolver(heat)
+        T = heat.temperature()
+        fields["temperature"] = T
+        fields["heat_flux"] = heat.heat_flux(T)
+        if setup.nonlinear:
+            fields["kirchhoff_theta"] = heat.kirchhoff(T)
+    mech = None
+    if scene.physics.mechanics:
+        mech = _Mechanics(scene, geo, mesh, T)
+        fields.update(mech.fields)
     probes = ProbeSet(mesh, scene.output.probes, axi)
     timings["setup_s"] = _time.perf_counter() - tic
-    T = forms.temperature()
-    fields = {"temperature": T,
-              "region": mesh.MaterialCF({n: i for i, n in enumerate(mesh.GetMaterials())}, default=-1),
-              "heat_flux": forms.heat_flux(T)}
-    if setup.nonlinear:
-        fields["kirchhoff_theta"] = forms.kirchhoff(T)
-    name = scene.scene.name
     vtk = None
     if staging is not None and scene.output.vtk:
         vtk = VtkSeries(mesh, fields, staging.path, name, scene.output.subdivision)
-    history = {"time": [], "newton_iterations": [], "interface_heat_flow_W": {}}
+    history = {"newton_iterations": [], "interface_heat_flow_W": {}}
     solve_s = 0.0
-    if scene.physics.thermal == "steady":
-        tic = _time.perf_counter()
-        forms.t_new.Set(0.0)
-        info = solver.solve("steady state")
-        solve_s += _time.perf_counter() - tic
-        probes.record(0.0, T)
-        history["time"].append(0.0)
-        history["newton_iterations"].append(info.iterations)
-        _interface_flows(forms, history, axi)
+
+    def output(t: float, k: int | None, last: bool, where: str) -> None:
+        """Mechanics (when on) and VTK at the output steps; thermal probes at every step."""
+        if T is not None:
+            probes.record(t, {"temperature": T})
+        if k is not None and not ((k + 1) % scene.output.every == 0 or last):
+            return
+        if mech is not None:
+            mech.solve(t, where)
+            probes.record(t, mech.probe_fields)
         if vtk:
-            vtk.write(0.0)
+            vtk.write(t)
+
+    ts = scene.time
+    transient = scene.physics.thermal == "transient" or (heat is None and ts is not None)
+    if not transient:
+        tic = _time.perf_counter()
+        if heat is not None:
+            heat.t_new.Set(0.0)
+            info = solver.solve("steady state")
+            history["newton_iterations"].append(info.iterations)
+            _interface_flows(heat, history, axi)
+        output(0.0, None, True, "steady state")
+        solve_s += _time.perf_counter() - tic
         nsteps = 0
     else:
-        ts = scene.time
-        forms.t_new.Set(ts.start)
-        T.Set(initial_temperature(scene, mesh, forms.t_new))
-        solver.set_dirichlet()
-        probes.record(ts.start, T)
-        history["time"].append(ts.start)
-        if vtk:
-            vtk.write(ts.start)
+        if heat is not None:
+            heat.t_new.Set(ts.start)
+            T.Set(initial_temperature(scene, mesh, heat.t_new))
+            solver.set_dirichlet()
+        output(ts.start, None, True, f"t = {format_time(ts.start)}")
         steps = list(schedule(ts.start, ts.end, ts.dt, ts.dt_growth, ts.dt_max))
         bar = Progress(ts.end - ts.start, f"{name}", enabled=show)
-        for k, (a, b) in enumerate(steps):
-            tic = _time.perf_counter()
-            forms.gf_old.vec.data = forms.gf.vec
-            forms.t_old.Set(a)
-            forms.t_new.Set(b)
-            forms.inv_dt.Set(1.0 / (b - a))
-            try:
-                info = solver.solve(f"step {k + 1} (t = {format_time(b)})")
-            except SolverError:
-                bar.close()
-                raise
-            solve_s += _time.perf_counter() - tic
-            probes.record(b, T)
-            history["time"].append(b)
-            history["newton_iterations"].append(info.iterations)
-            _interface_flows(forms, history, axi)
-            last = k == len(steps) - 1
-            if vtk and ((k + 1) % scene.output.every == 0 or last):
-                vtk.write(b)
-            bar.update(b - ts.start, f"t = {format_time(b)}  dt = {format_time(b - a)}")
-        bar.close()
+        try:
+            for k, (a, b) in enumerate(steps):
+                tic = _time.perf_counter()
+                where = f"step {k + 1} (t = {format_time(b)})"
+                if heat is not None:
+                    heat.gf_old.vec.data = heat.gf.vec
+                    heat.t_old.Set(a)
+                    heat.t_new.Set(b)
+                    heat.inv_dt.Set(1.0 / (b - a))
+                    info = solver.solve(where)
+                    history["newton_iterations"].append(info.iterations)
+                    _interface_flows(heat, history, axi)
+                output(b, k, k == len(steps) - 1, where)
+                solve_s += _time.perf_counter() - tic
+                bar.update(b - ts.start, f"t = {format_time(b)}  dt = {format_time(b - a)}")
+        finally:
+            bar.close()
         nsteps = len(steps)
     timings["solve_s"] = solve_s
+    dofs = (heat.X.ndof if heat else 0) + (mech.forms.X.ndof if mech else 0)
+    thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity == "temperature"), [])
     summary = {
         "scene": to_dict(scene),
         "versions": versions(),
-        "mesh": {"vertices": mesh.nv, "elements": mesh.ne, "dofs": forms.X.ndof, "order": scene.mesh.order,
+        "mesh": {"vertices": mesh.nv, "elements": mesh.ne, "dofs": dofs, "order": scene.mesh.order,
                  "regions": list(mesh.GetMaterials())},
         "steps": nsteps,
-        "factorizations": solver.factorizations,
+        "factorizations": (solver.factorizations if solver else 0) + (mech.solver.factorizations if mech else 0),
         "newton_iterations_max": max(history["newton_iterations"] or [0]),
-        "probes": {n: finite(probe_statistics(probes.times, v)) for n, v in probes.series.items()},
-        "probe_series": {"time_s": probes.times, **{n: finite(v) for n, v in probes.series.items()}},
+        "probes": {n: finite(probe_statistics(probes.times[n], v)) for n, v in probes.series.items()},
+        "probe_series": {"time_s": thermal_times,
+                         **{n: finite(v) for n, v in probes.series.items()},
+                         "times_s": {n: probes.times[n] for n in probes.series}},
         "interface_heat_flow_W": {k: finite(v) for k, v in history["interface_heat_flow_W"].items()},
+        "warnings": mech.warnings if mech else [],
     }
+    if mech is not None:
+        summary["mechanics"] = mech.summary()
     if staging is not None:
         tic = _time.perf_counter()
-        _figures(scene, mesh, T, probes, staging.path / "figures")
+        _figures(scene, mesh, T, probes, staging.path / "figures", mech)
         timings["output_s"] = _time.perf_counter() - tic
-    return RunResult(mesh=mesh, forms=forms, summary=summary, out=None, timings=timings)
+    return RunResult(mesh=mesh, forms=heat, summary=summary, out=None, timings=timings, mechanics=mech)
+
+
+class _Mechanics:
+    """The elastic part of a run: forms, solver, output fields, solve history."""
+
+    def __init__(self, scene: Scene, geo: GeometryModel, mesh, temperature):
+        ms = scene.mechanics
+        self.setup = elastic_setup(scene, geo, mesh, temperature)
+        self.forms = ElasticForms(mesh, self.setup)
+        self.solver = ElasticSolver(self.forms, method=ms.nonlinear_solver, tol=ms.tolerance,
+                                    maxit=ms.max_iterations)
+        self.warnings = mechanics_warnings(scene, self.setup)
+        u = self.forms.displacement()
+        sigma = self.forms.stress_tensor(u)
+        measures = stress_measures(sigma)
+        self.sigma = sigma
+        self.fields = {"displacement": u, "stress": sigma, **measures,
+                       "strain_energy_density": self.forms.strain_energy_density(u)}
+        self.probe_fields = {"displacement_x": u[0], "displacement_y": u[1], "von_mises": measures["von_mises"],
+                             "mean_stress": measures["mean_stress"], "sigma_1": measures["sigma_1"],
+                             "sigma_3": measures["sigma_3"]}
+        if mesh.dim == 3:
+            self.probe_fields["displacement_z"] = u[2]
+        self.times: list[float] = []
+
+    def solve(self, t: float, where: str) -> None:
+        self.forms.t.Set(t)
+        self.solver.solve(where)
+        self.times.append(t)
+
+    def summary(self) -> dict:
+        h = self.solver.history
+        return {"model": self.setup.model, "solver": self.solver.method if self.setup.nonlinear else "linear",
+                "solves": len(h), "times_s": self.times,
+                "iterations": [i.iterations for i in h], "wall_s": [i.wall_s for i in h],
+                "last_changes": h[-1].changes if h else []}
 
 
 def _interface_flows(forms: HeatForms, history: dict, axi: bool) -> None:
@@ -164,16 +223,24 @@ def _interface_flows(forms: HeatForms, history: dict, axi: bool) -> None:
         history["interface_heat_flow_W"].setdefault(master, []).append(q)
 
 
-def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path) -> None:
-    if not scene.output.figures or (mesh.dim != 2 and not (probes.series and len(probes.times) > 1)):
+def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None) -> None:
+    if not scene.output.figures:
+        return
+    t_unit = "degC" if scene.scene.temperature_unit == "C" else "K"
+    units = {"temperature": t_unit, "von_mises": "Pa", "mean_stress": "Pa", "sigma_1": "Pa", "sigma_3": "Pa",
+             "displacement_x": "m", "displacement_y": "m", "displacement_z": "m"}
+    groups: dict[str, list] = {}
+    for p in probes.probes:
+        if len(probes.times[p.name]) > 1:
+            groups.setdefault(p.quantity, []).append(p.name)
+    if mesh.dim != 2 and not groups:
         return
     directory.mkdir(parents=True, exist_ok=True)
-    t_unit = "degC" if scene.scene.temperature_unit == "C" else "K"
-    if mesh.dim == 2:
-        arrays = mesh_arrays(mesh)
-        labels = ("r (m)", "z (m)") if scene.scene.dimension == "axisymmetric" else ("x (m)", "y (m)")
+    labels = ("r (m)", "z (m)") if scene.scene.dimension == "axisymmetric" else ("x (m)", "y (m)")
+    arrays = mesh_arrays(mesh) if mesh.dim == 2 else None
+    t_end = scene.time.end if scene.time else 0.0
+    if arrays is not None and T is not None:
         vals = vertex_values(T)
-        t_end = probes.times[-1] if probes.times else 0.0
         figures.field_figure(arrays, vals, directory / "temperature.png",
                              title=f"{scene.scene.name}: temperature at t = {format_time(t_end)}",
                              label=f"T ({t_unit})", axis_labels=labels)
@@ -181,9 +248,46 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path) -> None:
             figures.field_figure(arrays, vals, directory / "temperature_zoom.png",
                                  title=f"{scene.scene.name}: temperature at t = {format_time(t_end)} (near field)",
                                  label=f"T ({t_unit})", axis_labels=labels, window=scene.output.figure_window)
-    if probes.series and len(probes.times) > 1:
-        span = probes.times[-1] - probes.times[0]
+    if arrays is not None and mech is not None:
+        _mechanics_figures(scene, mesh, arrays, mech, directory, labels, t_end)
+    for quantity, names in groups.items():
+        times = probes.times[names[0]]
+        span = times[-1] - times[0]
         unit, label = (YEAR, "t (years)") if span >= 2 * YEAR else (1.0, "t (s)")
-        figures.time_curves(probes.times, probes.series, directory / "probes.png",
-                            title=f"{scene.scene.name}: probes", ylabel=f"temperature ({t_unit})",
+        fname = "probes.png" if quantity == "temperature" else f"probes_{quantity}.png"
+        figures.time_curves(times, {n: probes.series[n] for n in names}, directory / fname,
+                            title=f"{scene.scene.name}: probes", ylabel=f"{quantity} ({units[quantity]})",
                             time_unit=unit, time_label=label)
+
+
+def _mechanics_figures(scene: Scene, mesh, arrays, mech, directory: Path, labels, t_end: float) -> None:
+    """Von Mises stress and principal stress crosses (the seed's Fig. 1) at the last mechanics time."""
+    vm = _vertex_average(mesh, mech.fields["von_mises"])
+    figures.field_figure(arrays, vm / 1e6, directory / "von_mises.png",
+                         title=f"{scene.scene.name}: von Mises stress at t = {format_time(t_end)}",
+                         label="von Mises stress (MPa)", axis_labels=labels, cmap="viridis")
+    windows = [(None, "principal_stress.png")]
+    if scene.output.figure_window:
+        windows.append((scene.output.figure_window, "principal_stress_zoom.png"))
+    sig = mech.sigma
+    for window, fname in windows:
+        pts, elements = stress_figures.grid_samples(arrays, spacing=None, window=window)
+        if len(pts) == 0:
+            continue
+        mips = mesh(pts[:, 0], pts[:, 1])
+        sxx = np.asarray(sig[0, 0](mips)).ravel()
+        syy = np.asarray(sig[1, 1](mips)).ravel()
+        sxy = np.asarray(sig[0, 1](mips)).ravel()
+        s1, s2, th = stress_figures.principal_2d(sxx, syy, sxy)
+        stress_figures.principal_stress_crosses(
+            arrays, pts, s1, s2, th, directory / fname, axis_labels=labels, window=window,
+            title=f"{scene.scene.name}: principal stresses at t = {format_time(t_end)}",
+            background=vm / 1e6, background_label="von Mises stress (MPa)")
+
+
+def _vertex_average(mesh, cf) -> np.ndarray:
+    """Vertex values of a (possibly discontinuous) scalar CF: its L2 projection onto P1, vertex dofs."""
+    V = ngs.H1(mesh, order=1)
+    g = ngs.GridFunction(V)
+    g.Set(cf)
+    return np.array(g.vec.FV().NumPy()[:mesh.nv], copy=True)

@@ -20,6 +20,7 @@ from ..scene.model import Scene
 from .shapes import cells, make_block, sides
 
 DEFAULT = "default"
+AXIS = "axis"
 
 
 @dataclass
@@ -211,6 +212,13 @@ def build_geometry(scene: Scene) -> GeometryModel:
         h = scene.mesh.boundary_maxh.get(s.name)
         if h is not None:
             s.maxh = h
+    if scene.scene.dimension == "axisymmetric":
+        # unnamed sides on the axis r = 0 are called 'axis' (u_r = 0 there; insulated for heat)
+        for s in sides(final, dim):
+            if not s.name:
+                lo_s, hi_s = s.bounding_box
+                if abs(lo_s.x) <= max(tol, 1e-6) and abs(hi_s.x) <= max(tol, 1e-6):
+                    s.name = AXIS
     model.shape = final
     model.boundaries = {s.name or DEFAULT for s in sides(final, dim)}
     return model

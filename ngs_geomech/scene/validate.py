@@ -12,6 +12,7 @@ import re
 import numpy as np
 from netgen import occ
 
+from ..elastic_materials import MaterialError, axisymmetric, elastic_properties
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel, build_geometry, scene_dim
 from ..geometry.shapes import cells
@@ -68,9 +69,27 @@ def _check_names(scene: Scene, problems: list[Problem]) -> None:
 
 def _check_settings(scene: Scene, problems: list[Problem]) -> None:
     ph = scene.physics
-    if ph.thermal is None:
+    if ph.thermal is None and ph.mechanics is None:
         problems.append(Problem("physics", "no physics is switched on (set physics.thermal = 'steady' or "
-                                           "'transient')"))
+                                           "'transient', and/or physics.mechanics = 'static')"))
+    dim = scene_dim(scene)
+    ms = scene.mechanics
+    if ph.mechanics is not None:
+        if ms.gravity is not None and len(ms.gravity) != dim:
+            problems.append(Problem("mechanics.gravity", f"needs {dim} components, got {len(ms.gravity)}"))
+        if ms.initial_stress is not None and (len(ms.initial_stress) != dim
+                                              or any(len(r) != dim for r in ms.initial_stress)):
+            problems.append(Problem("mechanics.initial_stress", f"must be a {dim}x{dim} table of expressions"))
+        if ms.tolerance <= 0:
+            problems.append(Problem("mechanics.tolerance", f"must be positive, got {ms.tolerance}"))
+        if ms.max_iterations < 1:
+            problems.append(Problem("mechanics.max_iterations", f"must be >= 1, got {ms.max_iterations}"))
+        if ms.regularization < 0:
+            problems.append(Problem("mechanics.regularization", f"must be >= 0, got {ms.regularization}"))
+        softening = [n for n, m in scene.materials.items() if m.rheology_lambda < 1]
+        if softening and ms.regularization <= 0:
+            problems.append(Problem("mechanics.regularization", f"must be positive: rheology_lambda < 1 in "
+                                    f"{softening} is singular at zero strain"))
     m = scene.mesh
     if m.maxh <= 0:
         problems.append(Problem("mesh.maxh", f"must be positive, got {m.maxh}"))
@@ -118,17 +137,36 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
                                 ("heat_transfer_coefficient", bc.heat_transfer_coefficient)) if v is not None]
         if bc.insulated:
             kinds.append("insulated")
+        mkinds = [k for k, v in (("displacement", bc.displacement), ("traction", bc.traction),
+                                 ("pressure", bc.pressure)) if v is not None]
+        if bc.symmetry:
+            mkinds.append("symmetry")
         if len(kinds) > 1:
             problems.append(Problem(p, f"contradictory conditions {kinds}: give one of temperature, flux, "
                                        "insulated, or heat_transfer_coefficient with ambient_temperature"))
-        if not kinds:
-            problems.append(Problem(p, "no condition given (temperature, flux, insulated, "
-                                       "or heat_transfer_coefficient with ambient_temperature)"))
+        if len(mkinds) > 1:
+            problems.append(Problem(p, f"contradictory conditions {mkinds}: give one of displacement, traction, "
+                                       "pressure, symmetry"))
+        if not kinds and not mkinds:
+            problems.append(Problem(p, "no condition given (temperature, flux, insulated, heat_transfer_coefficient"
+                                       " with ambient_temperature; displacement, traction, pressure, symmetry)"))
+        if kinds and ph.thermal is None:
+            problems.append(Problem(p, f"thermal condition {kinds[0]!r} but physics.thermal is off"))
+        if mkinds and ph.mechanics is None:
+            problems.append(Problem(p, f"mechanical condition {mkinds[0]!r} but physics.mechanics is off"))
+        for key in ("displacement", "traction"):
+            v = getattr(bc, key)
+            if v is not None and len(v) != dim:
+                problems.append(Problem(f"{p}.{key}", f"needs {dim} components, got {len(v)}"))
         if (bc.heat_transfer_coefficient is None) != (bc.ambient_temperature is None):
             problems.append(Problem(p, "heat_transfer_coefficient and ambient_temperature go together"))
         if bc.heat_transfer_coefficient is not None and bc.heat_transfer_coefficient <= 0:
             problems.append(Problem(f"{p}.heat_transfer_coefficient",
                                     f"must be positive, got {bc.heat_transfer_coefficient}"))
+    if ph.mechanics is not None and not any(bc.displacement is not None or bc.symmetry
+                                            for bc in scene.boundary_conditions.values()):
+        problems.append(Problem("boundary_conditions", "the bodies are not held: mechanics needs a displacement or "
+                                "symmetry condition somewhere, or rigid motions are free"))
 
 
 def _count_steps(t) -> int:
@@ -143,24 +181,37 @@ def _count_steps(t) -> int:
 def _check_materials(scene: Scene, problems: list[Problem]) -> None:
     dim = scene_dim(scene)
     for name, mat in scene.materials.items():
-        # conductivity and heat capacity are checked separately so that both are reported, each under
-        # the key at fault (e.g. materials.granite.rho_c)
-        key = "conductivity_principal" if mat.conductivity_principal is not None else "conductivity"
-        if mat.conductivity is None and mat.conductivity_principal is None:
-            key = ""
-        try:
-            conductivity_tensor(mat, dim)
-        except ValueError as exc:
-            problems.append(Problem(f"materials.{name}" + (f".{key}" if key else ""), str(exc)))
+        if scene.physics.thermal is not None:
+            # conductivity and heat capacity are checked separately so that both are reported, each under
+            # the key at fault (e.g. materials.granite.rho_c)
+            key = "conductivity_principal" if mat.conductivity_principal is not None else "conductivity"
+            if mat.conductivity is None and mat.conductivity_principal is None:
+                key = ""
+            try:
+                conductivity_tensor(mat, dim)
+            except ValueError as exc:
+                problems.append(Problem(f"materials.{name}" + (f".{key}" if key else ""), str(exc)))
         key = "rho_c" if mat.rho_c is not None else "density" if mat.density is not None else "specific_heat"
         try:
             rho_c = volumetric_heat_capacity(mat)
         except ValueError as exc:
             problems.append(Problem(f"materials.{name}.{key}", str(exc)))
-            continue
+            rho_c = 0.0
         if scene.physics.thermal == "transient" and rho_c is None:
             problems.append(Problem(f"materials.{name}", "a transient thermal scene needs rho_c "
                                                          "(or density and specific_heat)"))
+        if scene.physics.mechanics is not None:
+            try:
+                props = elastic_properties(mat, dim)
+                if scene.scene.dimension == "axisymmetric":
+                    axisymmetric(props.C, props.beta)
+            except MaterialError as exc:
+                problems.append(Problem(f"materials.{name}.{exc.key}" if exc.key else f"materials.{name}",
+                                        str(exc)))
+            except ValueError as exc:
+                problems.append(Problem(f"materials.{name}", str(exc)))
+            if scene.mechanics.gravity is not None and mat.density is None:
+                problems.append(Problem(f"materials.{name}.density", "gravity is on: every region needs a density"))
 
 
 def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
@@ -208,6 +259,11 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
         if len(targets) != 1:
             problems.append(Problem(p, "give exactly one of point, region, boundary"))
             continue
+        needs = "thermal" if pr.quantity == "temperature" else "mechanics"
+        if getattr(scene.physics, needs) is None:
+            problems.append(Problem(f"{p}.quantity", f"{pr.quantity!r} needs physics.{needs}"))
+        if pr.quantity == "displacement_z" and geo.dim != 3:
+            problems.append(Problem(f"{p}.quantity", "displacement_z needs a 3d scene"))
         if pr.point is not None:
             if pr.statistic != "value":
                 problems.append(Problem(f"{p}.statistic", "a point probe has statistic 'value'"))
