@@ -53,7 +53,7 @@ class MaterialError(ValueError):
     def __init__(self, key: str, message: str):
         self.key = key
         self.detail = message
-        super().__init__(f"{key} {message}" if key else message)
+        super().__init__(message if not key else f"{key}{'' if message.startswith(':') else ' '}{message}")
 
 
 # ---------------------------------------------------------------------------------------------- Voigt helpers
@@ -185,15 +185,15 @@ def check_positive_definite(C, key: str) -> np.ndarray:
     if C.shape != (6, 6):
         raise MaterialError(key, f"must be a 6x6 stiffness matrix, got shape {C.shape}")
     if not np.all(np.isfinite(C)):
-        raise MaterialError(key, "stiffness has non-finite entries")
+        raise MaterialError(key, ": stiffness has non-finite entries")
     scale = np.abs(C).max()
     asym = np.abs(C - C.T).max()
     if asym > 1e-10 * scale:
-        raise MaterialError(key, f"stiffness is not symmetric (max |C - C^T| = {asym:.3g} Pa, "
+        raise MaterialError(key, f": stiffness is not symmetric (max |C - C^T| = {asym:.3g} Pa, "
                                  f"max |C| = {scale:.3g} Pa)")
     ev = np.linalg.eigvalsh(0.5 * (C + C.T))
     if ev.min() <= 1e-12 * max(ev.max(), 0.0):
-        raise MaterialError(key, "stiffness is not positive definite (eigenvalues "
+        raise MaterialError(key, ": stiffness is not positive definite (eigenvalues "
                                  + ", ".join(f"{v:.4g}" for v in ev) + " Pa)")
     return C
 
@@ -457,7 +457,7 @@ def _positive_list(key: str, values, unit: str) -> None:
     if len(values) != 3:
         raise MaterialError(key, f"needs 3 values, got {len(values)}")
     if not all(math.isfinite(float(v)) and float(v) > 0 for v in values):
-        raise MaterialError(key, f"= {list(values)} {unit}: all must be positive")
+        raise MaterialError(key, f"= [{', '.join(f'{float(v):g}' for v in values)}] {unit}: all must be positive")
 
 
 def _stiffness(m: Material) -> tuple[np.ndarray, str]:
@@ -491,7 +491,7 @@ def _stiffness(m: Material) -> tuple[np.ndarray, str]:
         _positive_list("orthotropic.E", o.E, "Pa")
         _positive_list("orthotropic.G", o.G, "Pa")
         if len(o.nu) != 3 or not all(math.isfinite(float(v)) for v in o.nu):
-            raise MaterialError("orthotropic.nu", f"= {list(o.nu)} must be 3 finite numbers")
+            raise MaterialError("orthotropic.nu", f"= {list(o.nu)}: must be 3 finite numbers")
         try:
             c = orthotropic(o.E, o.nu, o.G)
         except np.linalg.LinAlgError:
@@ -529,7 +529,7 @@ def elastic_properties(m: Material, dim: int) -> ElasticProperties:
         try:
             R = rotation(m.elastic_rotation, dim)
         except (TypeError, ValueError) as exc:
-            raise MaterialError("elastic_rotation", str(exc)) from None
+            raise MaterialError("elastic_rotation", f": {exc}") from None
         C = rotate_voigt(C, R)
         alpha = R @ alpha @ R.T
         alpha = 0.5 * (alpha + alpha.T)

@@ -238,15 +238,15 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
     directory.mkdir(parents=True, exist_ok=True)
     labels = ("r (m)", "z (m)") if scene.scene.dimension == "axisymmetric" else ("x (m)", "y (m)")
     arrays = mesh_arrays(mesh) if mesh.dim == 2 else None
-    t_end = scene.time.end if scene.time else 0.0
+    t_end = scene.time.end if scene.time else None
     if arrays is not None and T is not None:
         vals = vertex_values(T)
         figures.field_figure(arrays, vals, directory / "temperature.png",
-                             title=f"{scene.scene.name}: temperature at t = {format_time(t_end)}",
+                             title=f"{scene.scene.name}: temperature, {_when(t_end)}",
                              label=f"T ({t_unit})", axis_labels=labels)
         if scene.output.figure_window:
             figures.field_figure(arrays, vals, directory / "temperature_zoom.png",
-                                 title=f"{scene.scene.name}: temperature at t = {format_time(t_end)} (near field)",
+                                 title=f"{scene.scene.name}: temperature, {_when(t_end)} (near field)",
                                  label=f"T ({t_unit})", axis_labels=labels, window=scene.output.figure_window)
     if arrays is not None and mech is not None:
         _mechanics_figures(scene, mesh, arrays, mech, directory, labels, t_end)
@@ -260,18 +260,26 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
                             time_unit=unit, time_label=label)
 
 
+def _when(t: float | None) -> str:
+    return "steady state" if t is None else f"t = {format_time(t)}"
+
+
 def _mechanics_figures(scene: Scene, mesh, arrays, mech, directory: Path, labels, t_end: float) -> None:
     """Von Mises stress and principal stress crosses (the seed's Fig. 1) at the last mechanics time."""
     vm = _vertex_average(mesh, mech.fields["von_mises"])
     figures.field_figure(arrays, vm / 1e6, directory / "von_mises.png",
-                         title=f"{scene.scene.name}: von Mises stress at t = {format_time(t_end)}",
+                         title=f"{scene.scene.name}: von Mises stress, {_when(t_end)}",
                          label="von Mises stress (MPa)", axis_labels=labels, cmap="viridis")
     windows = [(None, "principal_stress.png")]
     if scene.output.figure_window:
         windows.append((scene.output.figure_window, "principal_stress_zoom.png"))
     sig = mech.sigma
     for window, fname in windows:
-        pts, elements = stress_figures.grid_samples(arrays, spacing=None, window=window)
+        lo, hi = arrays.points.min(axis=0), arrays.points.max(axis=0)
+        if window is not None:
+            lo, hi = np.maximum(lo, [window[0], window[2]]), np.minimum(hi, [window[1], window[3]])
+        samples = stress_figures.grid_samples(arrays, float(np.max(hi - lo)) / 22, window)
+        pts = samples.xy
         if len(pts) == 0:
             continue
         mips = mesh(pts[:, 0], pts[:, 1])
@@ -281,7 +289,7 @@ def _mechanics_figures(scene: Scene, mesh, arrays, mech, directory: Path, labels
         s1, s2, th = stress_figures.principal_2d(sxx, syy, sxy)
         stress_figures.principal_stress_crosses(
             arrays, pts, s1, s2, th, directory / fname, axis_labels=labels, window=window,
-            title=f"{scene.scene.name}: principal stresses at t = {format_time(t_end)}",
+            title=f"{scene.scene.name}: principal stresses, {_when(t_end)}",
             background=vm / 1e6, background_label="von Mises stress (MPa)")
 
 

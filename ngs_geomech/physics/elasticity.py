@@ -7,8 +7,8 @@ A1 = c_ijkl e_ij e_kl (2.1)-(2.5), written with the strain energy (Voigt vectors
     W(e) = (A_ref/2) ((A1/A_ref + delta)^lam - delta^lam) - beta (T - T0) . e + sigma0 . e,
 
 so that dW/de = tau; lam = 1 is linear elasticity with c (the seed's c = C/2, A1 measured in units of
-A_ref = the A1 of a uniaxial strain eps_ref). Loads: body forces rho g, tractions P and pressure -p n on
-boundaries (2.19), prescribed displacements u0 per component (2.20)-(2.21), symmetry u_n = 0, tau_t = 0
+A_ref = the A1 of a uniaxial strain eps_ref). Loads: body forces rho g and f (per region), tractions P and
+pressure -p n on boundaries (2.19), prescribed displacements u0 per component (2.20)-(2.21), symmetry u_n = 0, tau_t = 0
 (2.16): on boundaries along a coordinate axis as a component constraint, on oblique straight boundaries
 with a multiplier (the normal traction, Pa) <mu, u.n> + <lambda, v.n>.
 
@@ -37,7 +37,8 @@ class ElasticSetup:
     to a TimeFunction per component (Pa); ``pressure`` to a TimeFunction (Pa); ``symmetry`` lists boundary
     names with u_n = 0; ``axis`` lists boundaries on the axis of an axisymmetric model (u_r = 0);
     ``initial_stress`` is a dim x dim list of TimeFunctions (Pa, in-plane/axisymmetric components only);
-    ``temperature`` is a CoefficientFunction of T (K) for the thermal stress, or None.
+    ``temperature`` is a CoefficientFunction of T (K) for the thermal stress, or None; ``body_force`` maps
+    region names to a TimeFunction per component (N/m^3), a volume load added to rho g.
     """
 
     props: dict[str, ElasticProperties]
@@ -52,6 +53,7 @@ class ElasticSetup:
     initial_stress: list | None = None
     temperature: object | None = None
     regularization: float = 1e-6
+    body_force: dict[str, list] = field(default_factory=dict)
 
     @property
     def nonlinear(self) -> bool:
@@ -196,14 +198,18 @@ class ElasticForms:
         return s if s0 is None else s + s0
 
     # -- forms -----------------------------------------------------------------------------------------------
-    def _loads(self, v):
-        s, w = self.setup, self.weight
+    def _loads(self, v, sign: float = 1.0):
+        """The load terms (body forces, tractions, pressure) tested with v, each times ``sign``."""
+        s, w = self.setup, sign * self.weight
         terms = []
         if s.gravity is not None:
             for name, p in s.props.items():
                 if p.density:
                     g = ngs.CoefficientFunction(tuple(p.density * gi for gi in s.gravity[:self.dim]))
                     terms.append(w * g * v * ngs.dx(definedon=self.mesh.Materials(name)))
+        for name, comps in s.body_force.items():
+            f = ngs.CoefficientFunction(tuple(fc(self.t) for fc in comps))
+            terms.append(w * f * v * ngs.dx(definedon=self.mesh.Materials(name)))
         n = ngs.specialcf.normal(self.dim)
         for name, comps in s.traction.items():
             P = ngs.CoefficientFunction(tuple(f(self.t) for f in comps))
@@ -237,8 +243,8 @@ class ElasticForms:
             if s0 is not None:
                 W = W + ngs.InnerProduct(s0, e)
             energy += w * W * ngs.dx(definedon=self.mesh.Materials(name))
-        for term in self._loads(u):
-            energy += -term
+        for term in self._loads(u, -1.0):
+            energy += term
         for k, (name, nvec) in enumerate(self.oblique):
             lam = trials[1 + k]
             nn = ngs.CoefficientFunction(tuple(float(c) for c in nvec[:self.dim]))

@@ -207,7 +207,7 @@ def _check_materials(scene: Scene, problems: list[Problem]) -> None:
                     axisymmetric(props.C, props.beta)
             except MaterialError as exc:
                 problems.append(Problem(f"materials.{name}.{exc.key}" if exc.key else f"materials.{name}",
-                                        str(exc)))
+                                        exc.detail if exc.key else str(exc)))
             except ValueError as exc:
                 problems.append(Problem(f"materials.{name}", str(exc)))
             if scene.mechanics.gravity is not None and mat.density is None:
@@ -223,6 +223,10 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
     for r in geo.regions:
         if r not in scene.materials:
             problems.append(Problem(f"materials.{r}", f"region {r!r} has no material"))
+    if scene.physics.mechanics is not None and geo.contacts:
+        problems.append(Problem("interfaces", f"contact interfaces {sorted(geo.contacts)} carry heat only: contact "
+                                "mechanics (Signorini, friction) is not implemented yet, so the bodies would not be "
+                                "held together; declare them 'glued' for a mechanical run"))
     for name in scene.materials:
         if name not in regions:
             problems.append(Problem(f"materials.{name}", f"no region {name!r} in the geometry "

@@ -46,12 +46,16 @@ class ElasticSolver:
 
     def set_dirichlet(self) -> None:
         cf = self.f.dirichlet_values()
-        names = {n for names in self.f.fixed_names for n in names}
         u = self.f.displacement()
-        if cf is None:
-            self._tmp.vec[:] = 0.0
-        else:
-            self._tmp.Set(cf, ngs.BND, definedon=self.f.mesh.Boundaries(regions_regex(names)))
+        self._tmp.vec[:] = 0.0
+        if cf is not None:
+            # per component, only on the boundaries fixing that component: a joint Set over all of them
+            # averaged at shared corners (e.g. u_x = d at x = L with a symmetry boundary u_y = 0 along y = 0
+            # gave u_x = d/2 at the corner vertex, so a one-element-wide edge got half its displacement)
+            for k, names in enumerate(self.f.fixed_names):
+                if names:
+                    self._tmp.components[k].Set(cf[k], ngs.BND,
+                                                definedon=self.f.mesh.Boundaries(regions_regex(set(names))))
         u.vec.data += self._fixed * (self._tmp.vec - u.vec)
 
     def _h1(self, u) -> float:

@@ -1,0 +1,238 @@
+"""Principal stresses drawn as crosses (after Nedoma 2001, Fig. 1): at sample points two perpendicular bars
+along the principal directions, each as long as its principal stress is large, compression and extension
+in different colours.
+
+Everything works on plain arrays (:class:`~.meshdata.MeshArrays` and numpy arrays of stress components), so
+the caller decides how the stresses are evaluated: exactly at the sample points (e.g. a GridFunction or an
+analytic field there), or by :func:`interpolate` from vertex values. Interpolate the *components*
+``sxx, syy, sxy`` and then call :func:`principal_2d`; principal values and angles do not interpolate linearly.
+
+Stresses are in Pa with tension positive; the legend states the bar scale in ``stress_unit`` (MPa by default).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+from matplotlib.colors import LinearSegmentedColormap
+from matplotlib.lines import Line2D
+from matplotlib.tri import TrapezoidMapTriFinder, Triangulation
+from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+from .figures import LineCollection, _save, plt
+from .meshdata import MeshArrays
+
+COMPRESSION_COLOR = "#1f4fd6"   # blue
+EXTENSION_COLOR = "#d62728"     # red
+
+
+def principal_2d(sxx, syy, sxy):
+    """Principal stresses of plane tensors: ``(s1, s2, theta1)`` with ``s1 >= s2`` and ``theta1`` in
+    ``(-pi/2, pi/2]`` the angle of the ``s1`` direction from the x axis; ``s2`` acts along ``theta1 + pi/2``.
+
+    Vectorized over broadcastable arrays. An isotropic state (``sxx == syy``, ``sxy == 0``) gives
+    ``s1 == s2 == sxx`` exactly and ``theta1 == 0`` (every direction is principal).
+    """
+    sxx, syy, sxy = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (sxx, syy, sxy)))
+    centre = 0.5 * sxx + 0.5 * syy          # exact (== sxx) when sxx == syy, no overflow
+    half_diff = 0.5 * sxx - 0.5 * syy
+    radius = np.hypot(half_diff, sxy)        # Mohr circle radius, >= 0
+    s1 = centre + radius
+    s2 = centre - radius
+    theta1 = 0.5 * np.arctan2(sxy, half_diff)
+    theta1 = np.where(theta1 <= -0.5 * np.pi, theta1 + np.pi, theta1)  # (-pi/2, pi/2]
+    return s1, s2, theta1
+
+
+class Samples(NamedTuple):
+    """Sample points inside a triangulation: coordinates ``xy`` (n, 2), the containing triangle (n,)
+    (row of ``MeshArrays.triangles``), and the grid spacing they were laid out with (``nan`` if unknown)."""
+
+    xy: np.ndarray
+    triangle: np.ndarray
+    spacing: float = math.nan
+
+
+def _triangulation(m: MeshArrays) -> Triangulation:
+    return Triangulation(m.points[:, 0], m.points[:, 1], m.triangles)
+
+
+def find_triangles(m: MeshArrays, xy) -> np.ndarray:
+    """The triangle (row of ``m.triangles``) containing each point of ``xy`` (n, 2), -1 outside the mesh."""
+    xy = np.atleast_2d(np.asarray(xy, dtype=float))
+    finder = TrapezoidMapTriFinder(_triangulation(m))
+    return np.asarray(finder(xy[:, 0], xy[:, 1]), dtype=int)
+
+
+def grid_samples(m: MeshArrays, spacing: float, window=None) -> Samples:
+    """Points of a regular square grid of ``spacing`` that lie inside the triangulation (holes and the outside
+    are left out), with their triangles. The grid covers the mesh bounding box, or its intersection with
+    ``window`` = [xmin, xmax, ymin, ymax], and is centred in it (equal margins on both sides)."""
+    if not spacing > 0:
+        raise ValueError(f"spacing must be positive, got {spacing!r}")
+    lo = m.points.min(axis=0)
+    hi = m.points.max(axis=0)
+    if window is not None:
+        lo = np.maximum(lo, [window[0], window[2]])
+        hi = np.minimum(hi, [window[1], window[3]])
+    if np.any(hi < lo):
+        return Samples(np.empty((0, 2)), np.empty(0, dtype=int), float(spacing))
+    axes = []
+    for a, b in zip(lo, hi):
+        n = int(math.floor((b - a) / spacing + 1e-9)) + 1
+        start = a + 0.5 * ((b - a) - (n - 1) * spacing)
+        axes.append(start + spacing * np.arange(n))
+    gx, gy = np.meshgrid(*axes)
+    xy = np.column_stack([gx.ravel(), gy.ravel()])
+    tri = find_triangles(m, xy)
+    keep = tri >= 0
+    return Samples(xy[keep], tri[keep], float(spacing))
+
+
+def interpolate(m: MeshArrays, vertex_values, samples) -> np.ndarray:
+    """Linear (barycentric) interpolation of vertex values at sample points.
+
+    ``vertex_values`` is (nv,) or (nv, ...) for several fields at once; ``samples`` is a :class:`Samples`
+    (or an ``(xy, triangle)`` pair) or a plain (n, 2) array of points, which are then located in the mesh.
+    Points outside the mesh (triangle -1) get ``nan``.
+    """
+    if isinstance(samples, tuple):
+        xy, tri = np.asarray(samples[0], dtype=float), np.asarray(samples[1], dtype=int)
+    else:
+        xy = np.atleast_2d(np.asarray(samples, dtype=float))
+        tri = find_triangles(m, xy)
+    values = np.asarray(vertex_values, dtype=float)
+    if values.shape[0] != len(m.points):
+        raise ValueError(f"{values.shape[0]} vertex values for {len(m.points)} vertices")
+    inside = tri >= 0
+    verts = m.triangles[np.where(inside, tri, 0)]                 # (n, 3)
+    p0, p1, p2 = (m.points[verts[:, k]] for k in range(3))
+    e1, e2, d = p1 - p0, p2 - p0, xy - p0
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    l1 = (d[:, 0] * e2[:, 1] - d[:, 1] * e2[:, 0]) / det
+    l2 = (e1[:, 0] * d[:, 1] - e1[:, 1] * d[:, 0]) / det
+    l0 = 1.0 - l1 - l2
+    lam = np.column_stack([l0, l1, l2]).reshape((len(xy), 3) + (1,) * (values.ndim - 1))
+    out = np.sum(lam * values[verts], axis=1)
+    out[~inside] = np.nan
+    return out
+
+
+def cross_segments(samples_xy, s1, s2, theta1, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bars of the crosses: segments (2n, 2, 2) centred at the samples, first along ``theta1`` with length
+    ``scale * |s1|``, then along ``theta1 + pi/2`` with length ``scale * |s2|``; and their stresses (2n,)."""
+    xy = np.asarray(samples_xy, dtype=float).reshape(-1, 2)
+    s = np.concatenate([np.ravel(s1), np.ravel(s2)]).astype(float)
+    th = np.concatenate([np.ravel(theta1), np.ravel(theta1) + 0.5 * np.pi]).astype(float)
+    centre = np.concatenate([xy, xy])
+    half = 0.5 * scale * np.abs(s)
+    d = np.column_stack([np.cos(th), np.sin(th)]) * half[:, None]
+    return np.stack([centre - d, centre + d], axis=1), s
+
+
+def _nice_below(x: float) -> float:
+    """The largest 1, 2 or 5 times a power of ten that is <= x (x > 0)."""
+    p = 10.0 ** math.floor(math.log10(x))
+    for f in (5.0, 2.0, 1.0):
+        if f * p <= x * (1 + 1e-12):
+            return f * p
+    return p
+
+
+def _estimate_spacing(xy: np.ndarray, m: MeshArrays) -> float:
+    if len(xy) >= 2:
+        from scipy.spatial import cKDTree
+
+        dist, _ = cKDTree(xy).query(xy, k=2)
+        nn = dist[:, 1][dist[:, 1] > 0]
+        if len(nn):
+            return float(nn.min())
+    ext = m.points.max(axis=0) - m.points.min(axis=0)
+    return float(ext.max()) / 20.0
+
+
+def _light_greys():
+    base = plt.get_cmap("Greys")
+    return LinearSegmentedColormap.from_list("light_greys", base(np.linspace(0.0, 0.55, 256)))
+
+
+def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Path, *, title: str,
+                             axis_labels=("x (m)", "y (m)"), window=None, scale=None, background=None,
+                             background_label=None, spacing=None, stress_unit=("MPa", 1e6),
+                             cmap=None, linewidth=1.4) -> None:
+    """Principal stress crosses over the region outlines, optionally over a background field.
+
+    At each sample of ``samples_xy`` (n, 2) (or a :class:`Samples`) two perpendicular bars centred at the
+    point: along ``theta1`` for ``s1`` and along ``theta1 + pi/2`` for ``s2`` (as from :func:`principal_2d`),
+    each ``scale * |s|`` long (``scale`` in length per Pa); compression (s < 0) blue, extension (s > 0) red.
+    By default the longest bar is 0.9 times the sample ``spacing`` (taken from a :class:`Samples`, else the
+    smallest distance between samples), so neighbouring crosses do not touch. ``background`` are vertex
+    values drawn as a filled field with a colorbar labelled ``background_label`` (light greys unless
+    ``cmap``). The legend gives the colours and a reference bar for a round stress in ``stress_unit`` =
+    (name, Pa per unit). ``window`` = [xmin, xmax, ymin, ymax] limits the view (and the colour range).
+    """
+    if isinstance(samples_xy, Samples):
+        if spacing is None and math.isfinite(samples_xy.spacing):
+            spacing = samples_xy.spacing
+        samples_xy = samples_xy.xy
+    xy = np.asarray(samples_xy, dtype=float).reshape(-1, 2)
+    s1, s2, theta1 = (np.ravel(np.asarray(a, dtype=float)) for a in (s1, s2, theta1))
+    if not (len(s1) == len(s2) == len(theta1) == len(xy)):
+        raise ValueError(f"{len(xy)} samples but {len(s1)}, {len(s2)}, {len(theta1)} values of s1, s2, theta1")
+    smax = float(np.max(np.abs(np.concatenate([s1, s2])), initial=0.0))
+    if scale is None:
+        if spacing is None:
+            spacing = _estimate_spacing(xy, m)
+        scale = 0.9 * spacing / smax if smax > 0 else 0.0
+
+    fig, ax = plt.subplots(figsize=(7.5, 6.2))
+    if background is not None:
+        values = np.asarray(background, dtype=float)
+        vmin = vmax = None
+        if window is not None:
+            inside = ((m.points[:, 0] >= window[0]) & (m.points[:, 0] <= window[1])
+                      & (m.points[:, 1] >= window[2]) & (m.points[:, 1] <= window[3]))
+            if inside.any():
+                vmin, vmax = float(values[inside].min()), float(values[inside].max())
+        pc = ax.tripcolor(_triangulation(m), values, shading="gouraud", cmap=cmap or _light_greys(),
+                          vmin=vmin, vmax=vmax)
+        fig.colorbar(pc, ax=ax, label=background_label or "", shrink=0.85)
+    ax.add_collection(LineCollection(m.outline, colors="k", linewidths=0.9))
+
+    segs, s = cross_segments(xy, s1, s2, theta1, scale)
+    drawn = np.abs(s) > 0
+    colours = np.where(s < 0, COMPRESSION_COLOR, EXTENSION_COLOR)
+    ax.add_collection(LineCollection(segs[drawn], colors=colours[drawn], linewidths=linewidth,
+                                     capstyle="butt", zorder=3))
+
+    if window is not None:
+        ax.set_xlim(window[0], window[1])
+        ax.set_ylim(window[2], window[3])
+    else:
+        lo, hi = m.points.min(axis=0), m.points.max(axis=0)
+        pad = 0.02 * float((hi - lo).max())
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel(axis_labels[0])
+    ax.set_ylabel(axis_labels[1])
+    ax.set_title(title)
+
+    unit_name, unit = stress_unit
+    handles = [Line2D([], [], color=COMPRESSION_COLOR, lw=2 * linewidth, label="compression (σ < 0)"),
+               Line2D([], [], color=EXTENSION_COLOR, lw=2 * linewidth, label="extension (σ > 0)")]
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, -0.09), ncol=2, fontsize=8,
+              frameon=False, borderaxespad=0.0)
+    if smax > 0 and scale > 0:
+        ref = _nice_below(smax / unit)
+        bar = AnchoredSizeBar(ax.transData, ref * unit * scale, f"{ref:g} {unit_name}", loc="upper right",
+                              bbox_to_anchor=(1.0, -0.09), bbox_transform=ax.transAxes, borderpad=0.0,
+                              pad=0.2, sep=3, frameon=False, color="k", size_vertical=0,
+                              fontproperties={"size": 8})
+        bar.set_in_layout(True)
+        ax.add_artist(bar)
+    fig.tight_layout()
+    _save(fig, path)
