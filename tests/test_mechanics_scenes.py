@@ -1,0 +1,176 @@
+"""Elasticity through the scene path: exact solutions of simple load cases in every model (plane strain,
+plane stress, axisymmetric, 3D), oblique symmetry conditions, gravity with a lithostatic initial stress,
+a quasi-static displacement history, and the thermo-mechanical built-in scene with its outputs."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import ngsolve as ngs
+import numpy as np
+import pytest
+
+from ngs_geomech import cli
+from ngs_geomech.api import run
+from ngs_geomech.errors import SceneError
+from ngs_geomech.scene.parse import scene_from_dict
+
+E, NU, ALPHA = 70e9, 0.25, 8e-6
+ROCK = {"conductivity": 3.0, "youngs_modulus": E, "poisson_ratio": NU, "thermal_expansion": ALPHA,
+        "stress_free_temperature": 0.0}
+
+
+@pytest.fixture(autouse=True, scope="module")
+def one_thread():
+    before = ngs.GetNumThreads()
+    ngs.SetNumThreads(1)
+    yield
+    ngs.SetNumThreads(before)
+
+
+def scene(dimension, blocks, bcs, physics=None, order=2, maxh=0.3, **extra):
+    d = {"scene": {"name": "t", "dimension": dimension},
+         "physics": physics or {"thermal": "steady", "mechanics": "static"},
+         "mesh": {"maxh": maxh, "order": order}, "blocks": blocks,
+         "materials": {b["name"]: dict(ROCK) for b in blocks}, "boundary_conditions": bcs,
+         "output": {"vtk": False, "figures": False}}
+    d.update(extra)
+    return scene_from_dict(d)
+
+
+def sample(result, pts):
+    mesh, mech = result.mesh, result.mechanics
+    u, sig = mech.forms.displacement(), mech.sigma
+    out = []
+    for p in pts:
+        mip = mesh(*p)
+        out.append((np.array(u(mip)), np.array(sig(mip)).reshape(3, 3)))
+    return out
+
+
+def test_free_thermal_expansion_with_oblique_symmetry():
+    """A square rotated by 30 degrees, rollers on two perpendicular oblique sides meeting at the origin,
+    uniform heating by 50 K: free expansion, u = alpha dT x, no stress (needs the multiplier symmetry)."""
+    c, s = math.cos(math.radians(30)), math.sin(math.radians(30))
+    pts = [[0, 0], [c, s], [c - s, s + c], [-s, c]]
+    blocks = [{"name": "rock", "shape": "polygon", "points": pts, "edges": ["sym_a", "free", "free", "sym_b"]}]
+    bcs = {"sym_a": {"symmetry": True, "temperature": 50.0}, "sym_b": {"symmetry": True, "temperature": 50.0},
+           "free": {"temperature": 50.0}}
+    res = run(scene("plane", blocks, bcs), None, progress=False)
+    assert len(res.mechanics.forms.oblique) == 2
+    worst_u, worst_s = 0.0, 0.0
+    for p, (u, sig) in zip(pts[1:] + [[0.3, 0.5]], sample(res, pts[1:] + [[0.3, 0.5]])):
+        exact = ALPHA * 50.0 * np.array(p) * (1 + NU)  # plane strain: eps_inplane = (1 + nu) alpha dT
+        worst_u = max(worst_u, float(np.abs(u - exact).max() / np.abs(exact).max()))
+        worst_s = max(worst_s, float(np.abs(sig[:2, :2]).max()) / (E * ALPHA * 50.0))
+        assert sig[2, 2] == pytest.approx(-E * ALPHA * 50.0, rel=1e-6)   # plane strain sigma_zz
+    print(f"\noblique symmetry, free expansion: max rel displacement error {worst_u:.2e}, "
+          f"in-plane stress / (E alpha dT) {worst_s:.2e}")
+    assert worst_u < 1e-8 and worst_s < 1e-8
+
+
+def test_plane_stress_free_expansion_and_uniaxial_traction():
+    blocks = [{"name": "rock", "shape": "rectangle", "origin": [0, 0], "size": [2, 1],
+               "boundaries": {"left": "xmin", "bottom": "ymin", "right": "xmax"}}]
+    bcs = {"left": {"symmetry": True}, "bottom": {"symmetry": True}, "right": {"traction": [1e6, 0]}}
+    res = run(scene("plane", blocks, bcs, physics={"mechanics": "static", "plane_model": "plane_stress"}),
+              None, progress=False)
+    u, sig = sample(res, [[2.0, 0.5]])[0]
+    print(f"\nplane stress bar: u_x(L) = {u[0]:.6e} m (exact {1e6 * 2 / E:.6e}), sigma_xx = {sig[0, 0]:.6e}")
+    assert u[0] == pytest.approx(1e6 * 2 / E, rel=1e-9)
+    assert u[1] == pytest.approx(-NU * 1e6 / E * 0.5, rel=1e-9)
+    assert sig[0, 0] == pytest.approx(1e6, rel=1e-9) and abs(sig[2, 2]) < 1e-6
+
+
+def test_axisymmetric_free_expansion():
+    """A heated solid cylinder with u_z = 0 at the base and a free mantle: u_r = alpha dT r, u_z = alpha dT z,
+    no stress (u_r = 0 on the axis is imposed automatically)."""
+    blocks = [{"name": "rock", "shape": "rectangle", "origin": [0, 0], "size": [1, 2],
+               "boundaries": {"base": "ymin", "mantle": ["xmax", "ymax"]}}]
+    bcs = {"base": {"symmetry": True, "temperature": 30.0}, "mantle": {"temperature": 30.0}}
+    res = run(scene("axisymmetric", blocks, bcs), None, progress=False)
+    assert "axis" in res.mechanics.setup.axis
+    u, sig = sample(res, [[0.7, 1.3]])[0]
+    assert u[0] == pytest.approx(ALPHA * 30 * 0.7, rel=1e-8) and u[1] == pytest.approx(ALPHA * 30 * 1.3, rel=1e-8)
+    assert np.abs(sig).max() < 1e-6 * E * ALPHA * 30
+
+
+def test_3d_box_under_traction():
+    blocks = [{"name": "rock", "shape": "box", "origin": [0, 0, 0], "size": [2, 1, 1],
+               "boundaries": {"x0": "xmin", "y0": "ymin", "z0": "zmin", "end": "xmax"}}]
+    bcs = {"x0": {"symmetry": True}, "y0": {"symmetry": True}, "z0": {"symmetry": True},
+           "end": {"traction": [-2e6, 0, 0]}}
+    res = run(scene("3d", blocks, bcs, physics={"mechanics": "static"}, order=1, maxh=0.5), None, progress=False)
+    u, sig = sample(res, [[2.0, 1.0, 1.0]])[0]
+    assert u[0] == pytest.approx(-2e6 * 2 / E, rel=1e-9)
+    assert u[1] == pytest.approx(NU * 2e6 / E, rel=1e-9) and u[2] == pytest.approx(NU * 2e6 / E, rel=1e-9)
+    assert sig[0, 0] == pytest.approx(-2e6, rel=1e-9)
+
+
+def test_gravity_balanced_by_lithostatic_initial_stress():
+    blocks = [{"name": "rock", "shape": "rectangle", "origin": [0, -100], "size": [50, 100],
+               "boundaries": {"sides": ["xmin", "xmax"], "bottom": "ymin", "top": "ymax"}}]
+    bcs = {"sides": {"symmetry": True}, "bottom": {"symmetry": True}}
+    mat = dict(ROCK, density=2700.0)
+    d = {"scene": {"name": "litho"}, "physics": {"mechanics": "static"}, "mesh": {"maxh": 10.0, "order": 2},
+         "blocks": blocks, "materials": {"rock": mat}, "boundary_conditions": bcs,
+         "mechanics": {"gravity": [0, -9.81], "initial_stress": [["0.7*2700*9.81*y", "0"], ["0", "2700*9.81*y"]]},
+         "output": {"vtk": False, "figures": False}}
+    res = run(scene_from_dict(d), None, progress=False)
+    u, sig = sample(res, [[25.0, -60.0]])[0]
+    print(f"\nlithostatic: |u| = {np.abs(u).max():.2e} m, sigma_yy = {sig[1, 1]:.6e} Pa")
+    assert np.abs(u).max() < 1e-12
+    assert sig[1, 1] == pytest.approx(2700 * 9.81 * -60.0, rel=1e-9)
+    assert sig[0, 0] == pytest.approx(0.7 * 2700 * 9.81 * -60.0, rel=1e-9)
+    # without the initial stress gravity compacts the column: u_y(top) = -rho g H^2 / (2 M), M = lambda + 2 mu
+    d["mechanics"] = {"gravity": [0, -9.81]}
+    res = run(scene_from_dict(d), None, progress=False)
+    u, _ = sample(res, [[25.0, 0.0]])[0]
+    M = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))
+    assert u[1] == pytest.approx(-2700 * 9.81 * 100.0 ** 2 / (2 * M), rel=1e-8)
+
+
+def test_quasi_static_displacement_history():
+    """A time-dependent prescribed displacement gives a displacement history at the output times."""
+    blocks = [{"name": "rock", "shape": "rectangle", "origin": [0, 0], "size": [1, 1],
+               "boundaries": {"left": "xmin", "bottom": "ymin", "right": "xmax"}}]
+    bcs = {"left": {"symmetry": True}, "bottom": {"symmetry": True},
+           "right": {"displacement": ["1e-4*t/year", "free"]}}
+    d = {"scene": {"name": "hist"}, "physics": {"mechanics": "static"}, "mesh": {"maxh": 0.5, "order": 1},
+         "blocks": blocks, "materials": {"rock": ROCK}, "boundary_conditions": bcs,
+         "time": {"end": "10 year", "dt": "1 year"},
+         "output": {"vtk": False, "figures": False, "every": 2,
+                    "probes": [{"name": "ux", "quantity": "displacement_x", "point": [1.0, 0.5]}]}}
+    res = run(scene_from_dict(d), None, progress=False)
+    times = np.array(res.summary["probe_series"]["times_s"]["ux"])
+    vals = np.array(res.summary["probe_series"]["ux"])
+    year = 365.25 * 86400
+    assert list(np.round(times / year, 6)) == [0, 2, 4, 6, 8, 10]   # mechanics at the output steps only
+    assert np.allclose(vals, 1e-4 * times / year, rtol=1e-9, atol=1e-15)
+
+
+def test_mechanics_with_contact_interface_is_refused():
+    blocks = [{"name": "a", "shape": "rectangle", "origin": [0, 0], "size": [1, 1], "boundaries": {"l": "xmin"}},
+              {"name": "b", "shape": "rectangle", "origin": [1, 0], "size": [1, 1]}]
+    d = {"scene": {"name": "c"}, "physics": {"mechanics": "static"}, "blocks": blocks,
+         "interfaces": [{"name": "f", "blocks": ["a", "b"], "type": "contact"}],
+         "materials": {"a": ROCK, "b": ROCK}, "boundary_conditions": {"l": {"displacement": [0, 0]}}}
+    with pytest.raises(SceneError) as err:
+        run(scene_from_dict(d), None, progress=False)
+    assert "interfaces" in str(err.value) and "glued" in str(err.value)
+
+
+def test_heated_rock_scene_writes_mechanics_output(tmp_path):
+    out = tmp_path / "hr"
+    assert cli.main(["run", "heated_rock", "--out", str(out), "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["mechanics"]["model"] == "plane_strain" and summary["mechanics"]["solves"] == 1
+    for fig in ("temperature.png", "von_mises.png", "principal_stress.png", "principal_stress_zoom.png"):
+        assert (out / "figures" / fig).stat().st_size > 10000
+    vtu = (out / "heated_rock.vtu").read_text(errors="ignore")
+    for field in ("temperature", "displacement", "stress", "von_mises", "mean_stress", "sigma_1", "sigma_3",
+                  "strain_energy_density", "region"):
+        assert f'Name="{field}"' in vtu
+    vm = summary["probes"]["max_von_mises"]["max"]
+    assert 1e6 < vm < 1e8   # thermal stresses of tens of MPa around the heated zone
