@@ -94,6 +94,9 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     if scene.physics.mechanics:
         mech = _Mechanics(scene, geo, mesh, T)
         fields.update(mech.fields)
+        if show:
+            for w in mech.warnings:
+                print(f"warning: {w}", flush=True)
     probes = ProbeSet(mesh, scene.output.probes, axi)
     timings["setup_s"] = _time.perf_counter() - tic
     vtk = None

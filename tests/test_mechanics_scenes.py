@@ -174,3 +174,25 @@ def test_heated_rock_scene_writes_mechanics_output(tmp_path):
         assert f'Name="{field}"' in vtu
     vm = summary["probes"]["max_von_mises"]["max"]
     assert 1e6 < vm < 1e8   # thermal stresses of tens of MPa around the heated zone
+
+
+def test_transient_heating_gives_a_displacement_history(capsys):
+    """One scene drives both solves: a bar heated from one end expands more at every output time; the
+    mechanics is solved only at the output steps; P1 with nu > 0.49 is warned about on stdout."""
+    blocks = [{"name": "rock", "shape": "rectangle", "origin": [0, 0], "size": [4, 1],
+               "boundaries": {"left": "xmin", "bottom": "ymin", "right": "xmax"}}]
+    mat = dict(ROCK, rho_c=2.2e6, poisson_ratio=0.495)
+    d = {"scene": {"name": "heat_bar"}, "physics": {"thermal": "transient", "mechanics": "static"},
+         "mesh": {"maxh": 0.5, "order": 1}, "blocks": blocks, "materials": {"rock": mat},
+         "boundary_conditions": {"left": {"symmetry": True, "temperature": 100.0}, "bottom": {"symmetry": True}},
+         "time": {"end": "20 day", "dt": "1 day"},
+         "output": {"vtk": False, "figures": False, "every": 5,
+                    "probes": [{"name": "ux", "quantity": "displacement_x", "point": [4.0, 0.5]},
+                               {"name": "T_mid", "point": [1.0, 0.5]}]}}
+    res = run(scene_from_dict(d), None, progress=True)
+    out = capsys.readouterr().out
+    assert "warning: materials.rock: Poisson ratio 0.4950 > 0.49 with P1" in out
+    assert res.summary["warnings"] and res.summary["mechanics"]["solves"] == 5   # t = 0, 5, 10, 15, 20 days
+    ux = np.array(res.summary["probe_series"]["ux"])
+    assert len(res.summary["probe_series"]["T_mid"]) == 21
+    assert 0 <= ux[0] < ux[-1] / 3 and np.all(np.diff(ux) > 0)   # t = 0: only the boundary nodes are hot
