@@ -26,14 +26,7 @@ from ngs_geomech.solvers.heat import HeatSolver
 GEOMETRIES = Path(__file__).resolve().parents[1] / "geometries"
 
 
-@pytest.fixture(autouse=True, scope="module")
-def one_thread():
-    """One NGSolve/netgen thread: the meshes here are small, and idle worker threads spin, which makes
-    runs many times slower on a busy machine."""
-    before = ngs.GetNumThreads()
-    ngs.SetNumThreads(1)
-    yield
-    ngs.SetNumThreads(before)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def leftovers(parent: Path, name: str) -> list[Path]:

@@ -17,15 +17,7 @@ from ngs_geomech.geometry.assemble import build_geometry
 from ngs_geomech.geometry.mesh import make_mesh
 from ngs_geomech.scene.parse import scene_from_dict
 
-
-@pytest.fixture(autouse=True, scope="module")
-def one_thread():
-    """One NGSolve/netgen thread: the meshes here are small, and idle worker threads spin, which makes
-    runs many times slower on a busy machine."""
-    before = ngs.GetNumThreads()
-    ngs.SetNumThreads(1)
-    yield
-    ngs.SetNumThreads(before)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def make_scene(blocks, *, dimension="plane", interfaces=(), mesh=None):

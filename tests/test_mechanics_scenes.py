@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import math
 
-import ngsolve as ngs
 import numpy as np
 import pytest
 
@@ -21,12 +20,7 @@ ROCK = {"conductivity": 3.0, "youngs_modulus": E, "poisson_ratio": NU, "thermal_
         "stress_free_temperature": 0.0}
 
 
-@pytest.fixture(autouse=True, scope="module")
-def one_thread():
-    before = ngs.GetNumThreads()
-    ngs.SetNumThreads(1)
-    yield
-    ngs.SetNumThreads(before)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def scene(dimension, blocks, bcs, physics=None, order=2, maxh=0.3, **extra):
