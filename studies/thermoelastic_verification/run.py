@@ -1,0 +1,165 @@
+"""Verification of thermo-elasticity: seed problem (P) (2.17)-(2.22) without contact, law (2.18)/(2.37), (2.38).
+
+Physics. (1) Thick-walled cylinder a = 1 < r < b = 2 m with free surfaces, steady temperature from the thermal
+solve (100 K at r = a, 0 at r = b, stress free at 0), E = 70 GPa, nu = 0.25, alpha = 8e-6 1/K, P2, against the
+closed forms (verification.md section 4): a plane strain quarter ring with symmetry conditions on its straight
+edges, an axisymmetric section 0 < z < 0.5 m with u_z = 0 on both ends (plane strain), and an axisymmetric
+free-ended cylinder 0 < z < 12 m (symmetry at z = 0) compared at z <= 1 m with the generalized plane strain
+closed form. Error: max over sample radii of |sigma_h - sigma| per component (r, theta, z), divided by
+max |sigma_theta| = 45.7 MPa. (2) Manufactured plane strain thermo-elasticity on the unit square split at
+x = 0.5 into an orthotropic (rotated) and a fully anisotropic region with anisotropic thermal expansion
+tensors, displacement and traction continuous across x = 0.5, temperature from the thermal solve of a
+manufactured T (same elements), exact body force (ElasticSetup.body_force) and Dirichlet data: L2/H1 orders of
+P1 and P2. (3) Near incompressibility: plane strain manufactured u = curl psi + (mu/lambda) grad phi at
+nu = 0.3 and 0.4999, P1 and P2: relative errors of u (L2, H1) and of the stress; P1 locks.
+
+Command: ``python studies/thermoelastic_verification/run.py --level 0 --out out/thermoelastic_verification``
+(writes ``results.json``; prints the tables).
+
+Cost on 2 cores (measured while other jobs shared them): level 0 8-14 s; level 1 (cylinders down to
+h = 0.025, manufactured and near incompressibility to h = 0.0125) about 26 s; level 2 (cylinders to
+h = 0.0125, free ends 1.07M dofs; manufactured and near incompressibility to h = 0.00625, 240k dofs) about
+5 min.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from pathlib import Path
+
+from ngs_geomech.io.atomic import write_json_atomic
+from ngs_geomech.verification import thermoelastic as te
+from ngs_geomech.verification.manufactured import observed_order
+
+STUDY = "thermoelastic_verification"
+LEVELS = {
+    0: {"cylinder": 0, "hs": (0.2, 0.1, 0.05, 0.025), "ni_hs": (0.2, 0.1, 0.05, 0.025)},
+    1: {"cylinder": 1, "hs": (0.2, 0.1, 0.05, 0.025, 0.0125), "ni_hs": (0.2, 0.1, 0.05, 0.025, 0.0125)},
+    2: {"cylinder": 2, "hs": (0.1, 0.05, 0.025, 0.0125, 0.00625), "ni_hs": (0.1, 0.05, 0.025, 0.0125, 0.00625)},
+}
+"""Per level: the cylinder level (mesh sizes in te.CYLINDER_LEVELS), mesh sizes (m) of the manufactured and
+near-incompressibility runs."""
+EXPECTED = {(1, "l2"): 2, (1, "h1"): 1, (1, "stress"): 1, (2, "l2"): 3, (2, "h1"): 2, (2, "stress"): 2}
+"""Expected orders of smooth, compressible problems (verification.md section 6)."""
+NUS = (0.3, 0.4999)
+
+
+def _entry(quantity: str, hs, dofs, errors, expected) -> dict:
+    return {"quantity": quantity, "h": [float(h) for h in hs], "dofs": [int(d) for d in dofs],
+            "errors": [float(e) for e in errors], "observed_order": observed_order(hs, errors),
+            "expected_order": expected}
+
+
+def _nu_tag(nu: float) -> str:
+    return f"nu{nu:g}".replace(".", "")
+
+
+def main(level: int = 0, out: str | Path | None = None) -> dict:
+    """Run the study at ``level`` (0 quick, 1, 2 finer); write ``out/results.json`` if ``out`` is given."""
+    result, _ = run(level)
+    if out is not None:
+        write_json_atomic(Path(out) / "results.json", result)
+    return result
+
+
+def run(level: int) -> tuple[dict, dict]:
+    """The results dict of ``level`` and the raw dicts of the verification functions."""
+    if level not in LEVELS:
+        raise ValueError(f"level must be one of {sorted(LEVELS)}, got {level}")
+    p = LEVELS[level]
+    t_start = time.perf_counter()
+    timing: dict[str, float] = {}
+    metrics: dict[str, float] = {}
+    convergence: list[dict] = []
+    tables: dict = {}
+
+    # (1) thick-walled cylinder against the closed forms
+    tic = time.perf_counter()
+    cyl = {case: te.cylinder(case, p["cylinder"]) for case in te.CYLINDER_CASES}
+    timing["cylinder_s"] = time.perf_counter() - tic
+    for case, res in cyl.items():
+        metrics[f"cylinder_max_rel_error_{case}"] = res["max_rel_error"]
+        for comp, v in res["errors"].items():
+            metrics[f"cylinder_{comp}_rel_error_{case}"] = v
+        metrics[f"cylinder_order_max_error_{case}"] = res["order_max_error"]
+        convergence.append(_entry(f"cylinder_{case}_max_stress_error_over_max_sigma_theta_P2", res["h"],
+                                  res["dofs"], res["max_rel_errors"], 2))
+    tables["cylinder"] = cyl
+
+    # (2) manufactured thermo-elasticity, two anisotropic regions
+    tic = time.perf_counter()
+    mms = {o: te.manufactured(o, p["hs"]) for o in (1, 2)}
+    timing["manufactured_s"] = time.perf_counter() - tic
+    for o, res in mms.items():
+        for norm, name in (("l2", "displacement_L2"), ("h1", "displacement_H1"), ("stress", "stress_L2")):
+            convergence.append(_entry(f"manufactured_{name}_error_P{o}", res["h"], res["dofs"], res[norm],
+                                      EXPECTED[(o, norm)]))
+            metrics[f"order_{norm}_p{o}"] = res[f"order_{norm}"]
+        convergence.append(_entry(f"manufactured_temperature_L2_error_P{o}", res["h"], res["dofs"],
+                                  res["thermal_l2"], o + 1))
+    jumps = mms[2]["interface_jumps"]
+    metrics["manufactured_traction_jump_rel"] = jumps["traction_jump"] / jumps["traction_max"]
+    tables["manufactured"] = mms
+
+    # (3) near incompressibility
+    tic = time.perf_counter()
+    ni = {(nu, o): te.near_incompressible(nu, o, p["ni_hs"]) for nu in NUS for o in (1, 2)}
+    timing["near_incompressible_s"] = time.perf_counter() - tic
+    for (nu, o), res in ni.items():
+        tag = _nu_tag(nu)
+        for norm, name in (("l2", "displacement_L2"), ("h1", "displacement_H1"), ("stress", "stress_L2")):
+            convergence.append(_entry(f"near_incompressible_{tag}_{name}_rel_error_P{o}", res["h"], res["dofs"],
+                                      res[f"{norm}_rel"], EXPECTED[(o, norm)]))
+            metrics[f"near_incompressible_{tag}_{norm}_rel_error_p{o}"] = res[f"{norm}_rel"][-1]
+            metrics[f"near_incompressible_{tag}_order_{norm}_p{o}"] = res[f"order_{norm}"]
+    for o in (1, 2):
+        metrics[f"near_incompressible_h1_error_ratio_p{o}"] = (ni[(0.4999, o)]["h1_rel"][-1]
+                                                               / ni[(0.3, o)]["h1_rel"][-1])
+    metrics["near_incompressible_h1_error_p2_over_p1_nu04999"] = (ni[(0.4999, 2)]["h1_rel"][-1]
+                                                                  / ni[(0.4999, 1)]["h1_rel"][-1])
+    tables["near_incompressible"] = ni
+
+    timing["total_s"] = time.perf_counter() - t_start
+    result = {"study": STUDY, "level": level, "metrics": metrics, "convergence": convergence, "timing_s": timing}
+    return result, tables
+
+
+def _rate_columns(hs, errors) -> list[str]:
+    out = ["-"]
+    for k in range(1, len(hs)):
+        out.append(f"{math.log(errors[k - 1] / errors[k]) / math.log(hs[k - 1] / hs[k]):5.2f}")
+    return out
+
+
+def report(result: dict) -> str:
+    """A plain-text report of a result dict: one table per convergence entry, then the metrics."""
+    lines = [f"study {result['study']}, level {result['level']}"]
+    for c in result["convergence"]:
+        lines.append("")
+        lines.append(f"{c['quantity']}: observed order {c['observed_order']:.2f} (expected {c['expected_order']})")
+        lines.append(f"{'h':>10} {'dofs':>7} {'error':>11} {'rate':>5}")
+        for h, d, e, r in zip(c["h"], c["dofs"], c["errors"], _rate_columns(c["h"], c["errors"])):
+            lines.append(f"{h:10.4g} {d:7d} {e:11.3e} {r:>5}")
+    lines.append("")
+    lines.append("metrics:")
+    for k, v in result["metrics"].items():
+        lines.append(f"  {k:50} {v:.4g}")
+    lines.append("timing (s): " + ", ".join(f"{k} {v:.1f}" for k, v in result["timing_s"].items()))
+    return "\n".join(lines)
+
+
+def _cli() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--level", type=int, default=0, help="0 quick, 1 and 2 finer")
+    parser.add_argument("--out", default=None, help="directory for results.json")
+    args = parser.parse_args()
+    result, _ = run(args.level)
+    if args.out is not None:
+        write_json_atomic(Path(args.out) / "results.json", result)
+    print(report(result))
+
+
+if __name__ == "__main__":
+    _cli()
