@@ -121,6 +121,14 @@ class ElasticForms:
         self.weight = ngs.x if setup.model == "axisymmetric" else ngs.CoefficientFunction(1.0)
         self._material_matrices()
         self.u_frozen = ngs.GridFunction(self.V)   # the last iterate u_n of the secant method
+        # one quadrature (order 2 order) for every integral of the energy, the secant form and its right-hand
+        # side: NGSolve's default orders differ between energies and linear forms (a P2 temperature in the
+        # thermal stress was integrated exactly by the linear form, not by the energy), so Newton and the
+        # secant method solved different discrete problems (1e-2 apart in H1 on a thermal P2 case)
+        order2 = 2 * setup.order
+        self.intrules = {et: ngs.IntegrationRule(et, order2) for et in (ngs.ET.TRIG, ngs.ET.QUAD, ngs.ET.TET,
+                                                                         ngs.ET.PRISM, ngs.ET.PYRAMID, ngs.ET.HEX)}
+        self.bnd_intrules = {et: ngs.IntegrationRule(et, order2) for et in (ngs.ET.SEGM, ngs.ET.TRIG, ngs.ET.QUAD)}
         self._build()
 
     # -- material data in the model's reduced Voigt form ----------------------------------------------------
@@ -206,16 +214,17 @@ class ElasticForms:
             for name, p in s.props.items():
                 if p.density:
                     g = ngs.CoefficientFunction(tuple(p.density * gi for gi in s.gravity[:self.dim]))
-                    terms.append(w * g * v * ngs.dx(definedon=self.mesh.Materials(name)))
+                    terms.append(w * g * v * ngs.dx(definedon=self.mesh.Materials(name), intrules=self.intrules))
         for name, comps in s.body_force.items():
             f = ngs.CoefficientFunction(tuple(fc(self.t) for fc in comps))
-            terms.append(w * f * v * ngs.dx(definedon=self.mesh.Materials(name)))
+            terms.append(w * f * v * ngs.dx(definedon=self.mesh.Materials(name), intrules=self.intrules))
         n = ngs.specialcf.normal(self.dim)
         for name, comps in s.traction.items():
             P = ngs.CoefficientFunction(tuple(f(self.t) for f in comps))
-            terms.append(w * P * v * ngs.ds(definedon=self.mesh.Boundaries(name)))
+            terms.append(w * P * v * ngs.ds(definedon=self.mesh.Boundaries(name), intrules=self.bnd_intrules))
         for name, f in s.pressure.items():
-            terms.append(-w * f(self.t) * (n * v) * ngs.ds(definedon=self.mesh.Boundaries(name)))
+            terms.append(-w * f(self.t) * (n * v)
+                         * ngs.ds(definedon=self.mesh.Boundaries(name), intrules=self.bnd_intrules))
         return terms
 
     def _build(self):
@@ -242,13 +251,13 @@ class ElasticForms:
             s0 = self._sigma0_vector()
             if s0 is not None:
                 W = W + ngs.InnerProduct(s0, e)
-            energy += w * W * ngs.dx(definedon=self.mesh.Materials(name))
+            energy += w * W * ngs.dx(definedon=self.mesh.Materials(name), intrules=self.intrules)
         for term in self._loads(u, -1.0):
             energy += term
         for k, (name, nvec) in enumerate(self.oblique):
             lam = trials[1 + k]
             nn = ngs.CoefficientFunction(tuple(float(c) for c in nvec[:self.dim]))
-            energy += w * lam * (nn * u) * ngs.ds(definedon=self.mesh.Boundaries(name))
+            energy += w * lam * (nn * u) * ngs.ds(definedon=self.mesh.Boundaries(name), intrules=self.bnd_intrules)
         self.newton_form = ngs.BilinearForm(self.X)
         self.newton_form += ngs.Variation(energy)
         # secant modules method: coefficients frozen at u_n (2.32)-(2.34) --------------------------------
@@ -257,7 +266,7 @@ class ElasticForms:
         for name in s.props:
             D = self._cf_matrix(self.D[name])
             fac = self.linear_switch + (1 - self.linear_switch) * self.factor(name, self.strain_vector(self.u_frozen))
-            mdx = ngs.dx(definedon=self.mesh.Materials(name))
+            mdx = ngs.dx(definedon=self.mesh.Materials(name), intrules=self.intrules)
             sec += w * fac * ngs.InnerProduct(D * self.strain_vector(u), self.strain_vector(v)) * mdx
             dT = self.delta_T(name)
             if dT is not None:
@@ -270,7 +279,8 @@ class ElasticForms:
         for k, (name, nvec) in enumerate(self.oblique):
             lam, mu = trials[1 + k], tests[1 + k]
             nn = ngs.CoefficientFunction(tuple(float(c) for c in nvec[:self.dim]))
-            sec += w * (lam * (nn * v) + mu * (nn * u)) * ngs.ds(definedon=self.mesh.Boundaries(name))
+            sec += (w * (lam * (nn * v) + mu * (nn * u))
+                    * ngs.ds(definedon=self.mesh.Boundaries(name), intrules=self.bnd_intrules))
         self.secant_form, self.secant_rhs = sec, rhs
 
     def dirichlet_values(self):
