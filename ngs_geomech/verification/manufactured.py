@@ -40,6 +40,7 @@ from ..scene.parse import scene_from_dict
 from ..scene.validate import validate
 from ..solvers.heat import HeatSolver
 from ..solvers.timesteps import schedule
+from .study import observed_order  # noqa: F401  (re-exported: studies and tests use it from here)
 
 K_LEFT = ((2.0, 0.5), (0.5, 1.0))
 """Conductivity of the region x < 0.5, W/(m K) (SPD, eigenvalues 0.79 and 2.21)."""
@@ -49,13 +50,6 @@ RHO_C = {"left": 1.0, "right": 2.5}
 """Volumetric heat capacities of the transient problem, J/(m^3 K)."""
 REGIONS = ("left", "right")
 INTERFACE = "mid"
-
-
-def observed_order(hs, errors) -> float:
-    """Least-squares slope of log(error) against log(h) (np.polyfit); NaN with fewer than two points."""
-    if len(hs) < 2:
-        return math.nan
-    return float(np.polyfit(np.log(np.asarray(hs, float)), np.log(np.asarray(errors, float)), 1)[0])
 
 
 # -- the manufactured solutions ---------------------------------------------------------------------------

@@ -21,14 +21,18 @@ run is 12 s; level 1 (one more refinement in h and dt) about 80 s (point source 
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
 from pathlib import Path
 
-from ngs_geomech.io.atomic import write_json_atomic
 from ngs_geomech.verification import manufactured as mms
 from ngs_geomech.verification.point_source import point_source_errors
+from ngs_geomech.verification.study import (
+    convergence_entry,
+    report,
+    study_cli,
+    study_main,
+)
 
 STUDY = "heat_convergence"
 LEVELS = {
@@ -41,20 +45,6 @@ LEVELS = {
 """Mesh sizes (m) of the steady runs, time steps (s) of the transient runs, slab mesh sizes (m) per level."""
 EXPECTED = {(1, "l2"): 2, (1, "h1"): 1, (2, "l2"): 3, (2, "h1"): 2}
 """Expected orders of smooth problems (verification.md section 6)."""
-
-
-def _entry(quantity: str, hs, dofs, errors, expected) -> dict:
-    return {"quantity": quantity, "h": [float(h) for h in hs], "dofs": [int(d) for d in dofs],
-            "errors": [float(e) for e in errors], "observed_order": mms.observed_order(hs, errors),
-            "expected_order": expected}
-
-
-def main(level: int = 0, out: str | Path | None = None) -> dict:
-    """Run the study at ``level`` (0 quick, 1, 2 finer); write ``out/results.json`` if ``out`` is given."""
-    result, _ = run(level)
-    if out is not None:
-        write_json_atomic(Path(out) / "results.json", result)
-    return result
 
 
 def run(level: int) -> tuple[dict, dict]:
@@ -75,7 +65,7 @@ def run(level: int) -> tuple[dict, dict]:
     for (o, it), res in steady.items():
         suffix = "" if it == "glued" else "_contact"
         for norm in ("l2", "h1"):
-            convergence.append(_entry(f"temperature_{norm.upper()}_error_P{o}_{it}", res["h"], res["ndofs"],
+            convergence.append(convergence_entry(f"temperature_{norm.upper()}_error_P{o}_{it}", res["h"], res["ndofs"],
                                       res[norm], EXPECTED[(o, norm)]))
             metrics[f"order_{norm}_p{o}{suffix}"] = res[f"order_{norm}"]
     ratios = {o: max(c / g for norm in ("l2", "h1")
@@ -99,7 +89,7 @@ def run(level: int) -> tuple[dict, dict]:
                  for s in ("backward_euler", "crank_nicolson") for it in ("glued", "contact")}
     timing["transient_s"] = time.perf_counter() - tic
     for (s, it), res in transient.items():
-        convergence.append(_entry(f"temperature_L2_error_at_t_end_vs_dt_{s}_{it}", res["dt"], res["ndofs"],
+        convergence.append(convergence_entry(f"temperature_L2_error_at_t_end_vs_dt_{s}_{it}", res["dt"], res["ndofs"],
                                   res["l2"], 1 if s == "backward_euler" else 2))
         metrics[f"order_time_{s}" + ("" if it == "glued" else "_contact")] = res["order"]
     tables["transient"] = transient
@@ -109,10 +99,10 @@ def run(level: int) -> tuple[dict, dict]:
     slabs = {o: mms.kirchhoff_slab(o, p["slab_hs"]) for o in (1, 2)}
     timing["kirchhoff_s"] = time.perf_counter() - tic
     for o, res in slabs.items():
-        convergence.append(_entry(f"kirchhoff_slab_L2_error_P{o}", res["h"], res["ndofs"], res["l2"], o + 1))
-        convergence.append(_entry(f"kirchhoff_slab_max_error_on_mid_line_P{o}", res["h"], res["ndofs"],
+        convergence.append(convergence_entry(f"kirchhoff_slab_L2_error_P{o}", res["h"], res["ndofs"], res["l2"], o + 1))
+        convergence.append(convergence_entry(f"kirchhoff_slab_max_error_on_mid_line_P{o}", res["h"], res["ndofs"],
                                   res["max_sampled"], o + 1))
-        convergence.append(_entry(f"kirchhoff_slab_max_nodal_error_P{o}", res["h"], res["ndofs"],
+        convergence.append(convergence_entry(f"kirchhoff_slab_max_nodal_error_P{o}", res["h"], res["ndofs"],
                                   res["max_nodal"], o + 1))
         metrics[f"kirchhoff_order_l2_p{o}"] = res["order_l2"]
         metrics[f"kirchhoff_max_nodal_error_p{o}"] = res["max_nodal"][-1]
@@ -136,47 +126,10 @@ def run(level: int) -> tuple[dict, dict]:
     return result, tables
 
 
-def _rate_columns(hs, errors) -> list[str]:
-    out = ["-"]
-    for k in range(1, len(hs)):
-        out.append(f"{math.log(errors[k - 1] / errors[k]) / math.log(hs[k - 1] / hs[k]):5.2f}")
-    return out
-
-
-def report(result: dict) -> str:
-    """A plain-text report of a result dict: one table per convergence entry, then the metrics."""
-    lines = [f"study {result['study']}, level {result['level']}"]
-    for c in result["convergence"]:
-        lines.append("")
-        lines.append(f"{c['quantity']}: observed order {c['observed_order']:.2f} (expected {c['expected_order']})")
-        lines.append(f"{'h or dt':>10} {'dofs':>7} {'error':>11} {'rate':>5}")
-        for h, d, e, r in zip(c["h"], c["dofs"], c["errors"], _rate_columns(c["h"], c["errors"])):
-            lines.append(f"{h:10.4g} {d:7d} {e:11.3e} {r:>5}")
-    lines.append("")
-    lines.append("metrics:")
-    for k, v in result["metrics"].items():
-        lines.append(f"  {k:45} {v:.4g}")
-    lines.append("timing (s): " + ", ".join(f"{k} {v:.1f}" for k, v in result["timing_s"].items()))
-    return "\n".join(lines)
-
-
-def _cli() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--level", type=int, default=0, help="0 quick, 1 and 2 finer")
-    parser.add_argument("--out", default=None, help="directory for results.json")
-    args = parser.parse_args()
-    result, tables = run(args.level)
-    if args.out is not None:
-        write_json_atomic(Path(args.out) / "results.json", result)
-    print(report(result))
-    ps = tables.get("point_source")
-    if ps is not None:
-        try:
-            from ngs_geomech.verification.point_source import error_table
-            print("\npoint source:\n" + error_table(ps))
-        except ImportError:
-            pass
+def main(level: int = 0, out: str | Path | None = None) -> dict:
+    """Run the study at ``level`` (0 quick, 1, 2 finer); write ``out/results.json`` if ``out`` is given."""
+    return study_main(run, level, out)
 
 
 if __name__ == "__main__":
-    _cli()
+    study_cli(__doc__, run, report)

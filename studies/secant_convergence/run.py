@@ -28,16 +28,14 @@ level 2 (h = 0.05 ... 0.00625, 53k dofs) not measured, expect well over 10 min.
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
 from pathlib import Path
 
 import ngsolve as ngs
 
-from ngs_geomech.io.atomic import write_json_atomic
 from ngs_geomech.verification import nonlinear_law as nl
-from ngs_geomech.verification.manufactured import observed_order
+from ngs_geomech.verification.study import convergence_entry, metrics_lines, study_cli, study_main
 
 STUDY = "secant_convergence"
 LEVELS = {
@@ -60,35 +58,6 @@ DEFAULT_DELTA = 1e-6
 
 def _tag(lam: float) -> str:
     return f"lam{lam:g}".replace(".", "p")
-
-
-def _finite(x):
-    """JSON-safe copy: non-finite floats become None (metrics are filtered separately)."""
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_finite(v) for v in x]
-    if isinstance(x, bool) or x is None or isinstance(x, (int, str)):
-        return x
-    if isinstance(x, float):
-        return float(x) if math.isfinite(x) else None
-    return x
-
-
-def _entry(quantity: str, hs, dofs, values, expected, **extra) -> dict:
-    vals = [float(v) for v in values]
-    ok = len(vals) >= 2 and all(v > 0 and math.isfinite(v) for v in vals)
-    order = observed_order(hs, vals) if ok else None
-    return {"quantity": quantity, "h": [float(h) for h in hs], "dofs": [int(d) for d in dofs], "errors": vals,
-            "observed_order": order, "expected_order": expected, **_finite(extra)}
-
-
-def main(level: int = 0, out: str | Path | None = None) -> dict:
-    """Run the study at ``level`` (0 quick, 1, 2 finer); write ``out/results.json`` if ``out`` is given."""
-    result, _ = run(level)
-    if out is not None:
-        write_json_atomic(Path(out) / "results.json", result)
-    return result
 
 
 def run(level: int) -> tuple[dict, dict]:
@@ -129,24 +98,25 @@ def _run(level: int) -> tuple[dict, dict]:
         timing[f"plate_{tag}_s"] = time.perf_counter() - tic
         hs, dofs = r["h"], r["ndof"]
         n = r["newton"]
-        convergence.append(_entry(f"newton_iterations_vs_h_{tag}", hs, dofs, n["iterations"], 0,
+        convergence.append(convergence_entry(f"newton_iterations_vs_h_{tag}", hs, dofs, n["iterations"], 0,
                                   wall_s=n["wall_s"], changes=n["changes"], residuals=n["residuals"],
                                   steps=n["steps"], tolerance=TOL))
         metrics[f"newton_iterations_{tag}"] = n["iterations"][-1]
         metrics[f"newton_wall_s_{tag}"] = n["wall_s"][-1]
         if "newton_exact_hessian" in r:
             ex = r["newton_exact_hessian"]
-            convergence.append(_entry(f"newton_exact_hessian_iterations_vs_h_{tag}", hs, dofs, ex["iterations"], 0,
+            convergence.append(convergence_entry(f"newton_exact_hessian_iterations_vs_h_{tag}", hs, dofs,
+                                                 ex["iterations"], 0,
                                       converged=ex["converged"], wall_s=ex["wall_s"], changes=ex["changes"]))
             metrics[f"newton_exact_hessian_iterations_{tag}"] = ex["iterations"][-1]
         s = half["secant"]
         sh, sd = half["h"], half["ndof"]
         if len(sh) >= 2:
-            convergence.append(_entry(f"secant_iterations_vs_h_{tag}", sh, sd, s["iterations"], 0,
+            convergence.append(convergence_entry(f"secant_iterations_vs_h_{tag}", sh, sd, s["iterations"], 0,
                                       converged=s["converged"], wall_s=s["wall_s"], rate=s["rate"],
                                       rate_theory=half["rate_optimal_relaxation"], changes=s["changes"],
                                       steps=s["steps"], tolerance=TOL))
-            convergence.append(_entry(f"secant_newton_difference_h1_{tag}", sh, sd, half["difference_h1"], 0,
+            convergence.append(convergence_entry(f"secant_newton_difference_h1_{tag}", sh, sd, half["difference_h1"], 0,
                                       note="||u_newton - u_secant||_1 / ||u_newton||_1: tolerance level, no order "
                                            "in h", reaction_newton=half["reaction_newton"],
                                       reaction_secant=half["reaction_secant"]))
@@ -163,7 +133,7 @@ def _run(level: int) -> tuple[dict, dict]:
         metrics[f"secant_contraction_rate_theory_{tag}"] = r["rate_optimal_relaxation"]
         if "secant_plain" in r:
             pl = r["secant_plain"]
-            convergence.append(_entry(f"secant_plain_iterations_vs_h_{tag}", hs, dofs, pl["iterations"], 0,
+            convergence.append(convergence_entry(f"secant_plain_iterations_vs_h_{tag}", hs, dofs, pl["iterations"], 0,
                                       converged=pl["converged"], rate=pl["rate"],
                                       rate_bound=r["rate_bound_plain"], changes=pl["changes"],
                                       iteration_limit=PLAIN_MAXIT))
@@ -220,7 +190,7 @@ def _run(level: int) -> tuple[dict, dict]:
                 rows[-1]["newton_exact_hessian_iterations"]
         deltas = [row["delta"] for row in rows[:-1]]
         dofs = [g["ndof"]] * len(deltas)
-        convergence.append(_entry(f"regularization_rel_h1_to_smallest_delta_{tag}", deltas, dofs,
+        convergence.append(convergence_entry(f"regularization_rel_h1_to_smallest_delta_{tag}", deltas, dofs,
                                   [row["rel_h1_to_smallest"] for row in rows[:-1]], 0.5 if lam == 0.5 else None,
                                   note="'h' holds delta; the smallest delta is the reference", rows=rows,
                                   mesh_h=p["reg_h"]))
@@ -288,24 +258,13 @@ def report(result: dict) -> str:
                          f"{row.get('newton_exact_hessian_iterations', '-')!s:>7} "
                          f"{row.get('secant_iterations', '-')!s:>6} {row['rel_h1_to_smallest']:9.2e} "
                          f"{row['reaction']:13.6e} {row['reaction_rel_change']:8.1e} {row['rigid_fraction']:6.3f}")
-    lines.append("")
-    lines.append("metrics:")
-    for k, v in m.items():
-        lines.append(f"  {k:60} {v:.4g}")
-    lines.append("timing (s): " + ", ".join(f"{k} {v:.1f}" for k, v in result["timing_s"].items()))
-    return "\n".join(lines)
+    return "\n".join(lines + metrics_lines(result, width=60))
 
 
-def _cli() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--level", type=int, default=0, help="0 quick, 1 and 2 finer")
-    parser.add_argument("--out", default=None, help="directory for results.json")
-    args = parser.parse_args()
-    result, _ = run(args.level)
-    if args.out is not None:
-        write_json_atomic(Path(args.out) / "results.json", result)
-    print(report(result))
+def main(level: int = 0, out: str | Path | None = None) -> dict:
+    """Run the study at ``level`` (0 quick, 1, 2 finer); write ``out/results.json`` if ``out`` is given."""
+    return study_main(run, level, out)
 
 
 if __name__ == "__main__":
-    _cli()
+    study_cli(__doc__, run, report)

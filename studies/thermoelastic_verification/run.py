@@ -24,14 +24,16 @@ h = 0.0125, free ends 1.07M dofs; manufactured and near incompressibility to h =
 
 from __future__ import annotations
 
-import argparse
-import math
 import time
 from pathlib import Path
 
-from ngs_geomech.io.atomic import write_json_atomic
 from ngs_geomech.verification import thermoelastic as te
-from ngs_geomech.verification.manufactured import observed_order
+from ngs_geomech.verification.study import (
+    convergence_entry,
+    report,
+    study_cli,
+    study_main,
+)
 
 STUDY = "thermoelastic_verification"
 LEVELS = {
@@ -46,22 +48,8 @@ EXPECTED = {(1, "l2"): 2, (1, "h1"): 1, (1, "stress"): 1, (2, "l2"): 3, (2, "h1"
 NUS = (0.3, 0.4999)
 
 
-def _entry(quantity: str, hs, dofs, errors, expected) -> dict:
-    return {"quantity": quantity, "h": [float(h) for h in hs], "dofs": [int(d) for d in dofs],
-            "errors": [float(e) for e in errors], "observed_order": observed_order(hs, errors),
-            "expected_order": expected}
-
-
 def _nu_tag(nu: float) -> str:
     return f"nu{nu:g}".replace(".", "")
-
-
-def main(level: int = 0, out: str | Path | None = None) -> dict:
-    """Run the study at ``level`` (0 quick, 1, 2 finer); write ``out/results.json`` if ``out`` is given."""
-    result, _ = run(level)
-    if out is not None:
-        write_json_atomic(Path(out) / "results.json", result)
-    return result
 
 
 def run(level: int) -> tuple[dict, dict]:
@@ -84,7 +72,7 @@ def run(level: int) -> tuple[dict, dict]:
         for comp, v in res["errors"].items():
             metrics[f"cylinder_{comp}_rel_error_{case}"] = v
         metrics[f"cylinder_order_max_error_{case}"] = res["order_max_error"]
-        convergence.append(_entry(f"cylinder_{case}_max_stress_error_over_max_sigma_theta_P2", res["h"],
+        convergence.append(convergence_entry(f"cylinder_{case}_max_stress_error_over_max_sigma_theta_P2", res["h"],
                                   res["dofs"], res["max_rel_errors"], 2))
     tables["cylinder"] = cyl
 
@@ -94,10 +82,10 @@ def run(level: int) -> tuple[dict, dict]:
     timing["manufactured_s"] = time.perf_counter() - tic
     for o, res in mms.items():
         for norm, name in (("l2", "displacement_L2"), ("h1", "displacement_H1"), ("stress", "stress_L2")):
-            convergence.append(_entry(f"manufactured_{name}_error_P{o}", res["h"], res["dofs"], res[norm],
+            convergence.append(convergence_entry(f"manufactured_{name}_error_P{o}", res["h"], res["dofs"], res[norm],
                                       EXPECTED[(o, norm)]))
             metrics[f"order_{norm}_p{o}"] = res[f"order_{norm}"]
-        convergence.append(_entry(f"manufactured_temperature_L2_error_P{o}", res["h"], res["dofs"],
+        convergence.append(convergence_entry(f"manufactured_temperature_L2_error_P{o}", res["h"], res["dofs"],
                                   res["thermal_l2"], o + 1))
     jumps = mms[2]["interface_jumps"]
     metrics["manufactured_traction_jump_rel"] = jumps["traction_jump"] / jumps["traction_max"]
@@ -110,7 +98,8 @@ def run(level: int) -> tuple[dict, dict]:
     for (nu, o), res in ni.items():
         tag = _nu_tag(nu)
         for norm, name in (("l2", "displacement_L2"), ("h1", "displacement_H1"), ("stress", "stress_L2")):
-            convergence.append(_entry(f"near_incompressible_{tag}_{name}_rel_error_P{o}", res["h"], res["dofs"],
+            convergence.append(convergence_entry(f"near_incompressible_{tag}_{name}_rel_error_P{o}", res["h"],
+                                                 res["dofs"],
                                       res[f"{norm}_rel"], EXPECTED[(o, norm)]))
             metrics[f"near_incompressible_{tag}_{norm}_rel_error_p{o}"] = res[f"{norm}_rel"][-1]
             metrics[f"near_incompressible_{tag}_order_{norm}_p{o}"] = res[f"order_{norm}"]
@@ -126,40 +115,10 @@ def run(level: int) -> tuple[dict, dict]:
     return result, tables
 
 
-def _rate_columns(hs, errors) -> list[str]:
-    out = ["-"]
-    for k in range(1, len(hs)):
-        out.append(f"{math.log(errors[k - 1] / errors[k]) / math.log(hs[k - 1] / hs[k]):5.2f}")
-    return out
-
-
-def report(result: dict) -> str:
-    """A plain-text report of a result dict: one table per convergence entry, then the metrics."""
-    lines = [f"study {result['study']}, level {result['level']}"]
-    for c in result["convergence"]:
-        lines.append("")
-        lines.append(f"{c['quantity']}: observed order {c['observed_order']:.2f} (expected {c['expected_order']})")
-        lines.append(f"{'h':>10} {'dofs':>7} {'error':>11} {'rate':>5}")
-        for h, d, e, r in zip(c["h"], c["dofs"], c["errors"], _rate_columns(c["h"], c["errors"])):
-            lines.append(f"{h:10.4g} {d:7d} {e:11.3e} {r:>5}")
-    lines.append("")
-    lines.append("metrics:")
-    for k, v in result["metrics"].items():
-        lines.append(f"  {k:50} {v:.4g}")
-    lines.append("timing (s): " + ", ".join(f"{k} {v:.1f}" for k, v in result["timing_s"].items()))
-    return "\n".join(lines)
-
-
-def _cli() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--level", type=int, default=0, help="0 quick, 1 and 2 finer")
-    parser.add_argument("--out", default=None, help="directory for results.json")
-    args = parser.parse_args()
-    result, _ = run(args.level)
-    if args.out is not None:
-        write_json_atomic(Path(args.out) / "results.json", result)
-    print(report(result))
+def main(level: int = 0, out: str | Path | None = None) -> dict:
+    """Run the study at ``level`` (0 quick, 1, 2 finer); write ``out/results.json`` if ``out`` is given."""
+    return study_main(run, level, out)
 
 
 if __name__ == "__main__":
-    _cli()
+    study_cli(__doc__, run, report)
