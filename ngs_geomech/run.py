@@ -190,7 +190,7 @@ class _Mechanics:
         self.setup = elastic_setup(scene, geo, mesh, temperature)
         self.forms = ElasticForms(mesh, self.setup)
         self.solver = ElasticSolver(self.forms, method=ms.nonlinear_solver, tol=ms.tolerance,
-                                    maxit=ms.max_iterations)
+                                    maxit=ms.max_iterations, relaxation=ms.secant_relaxation)
         self.warnings = mechanics_warnings(scene, self.setup)
         u = self.forms.displacement()
         sigma = self.forms.stress_tensor(u)

@@ -19,8 +19,8 @@ from typing import NamedTuple
 import numpy as np
 from matplotlib.colors import LinearSegmentedColormap
 from matplotlib.lines import Line2D
+from matplotlib.offsetbox import AnchoredOffsetbox, AuxTransformBox, HPacker, TextArea
 from matplotlib.tri import TrapezoidMapTriFinder, Triangulation
-from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
 from .figures import LineCollection, _save, plt
 from .meshdata import MeshArrays
@@ -69,8 +69,9 @@ def find_triangles(m: MeshArrays, xy) -> np.ndarray:
 
 def grid_samples(m: MeshArrays, spacing: float, window=None) -> Samples:
     """Points of a regular square grid of ``spacing`` that lie inside the triangulation (holes and the outside
-    are left out), with their triangles. The grid covers the mesh bounding box, or its intersection with
-    ``window`` = [xmin, xmax, ymin, ymax], and is centred in it (equal margins on both sides)."""
+    are left out), with their triangles. The grid fills the mesh bounding box, or its intersection with
+    ``window`` = [xmin, xmax, ymin, ymax], like cell centres: centred, at least ``spacing / 2`` from its
+    edges, so crosses of the default size stay inside it."""
     if not spacing > 0:
         raise ValueError(f"spacing must be positive, got {spacing!r}")
     lo = m.points.min(axis=0)
@@ -81,8 +82,8 @@ def grid_samples(m: MeshArrays, spacing: float, window=None) -> Samples:
     if np.any(hi < lo):
         return Samples(np.empty((0, 2)), np.empty(0, dtype=int), float(spacing))
     axes = []
-    for a, b in zip(lo, hi):
-        n = int(math.floor((b - a) / spacing + 1e-9)) + 1
+    for a, b in zip(lo, hi):  # cell centres: at least spacing / 2 from the box edges
+        n = max(1, int(math.floor((b - a) / spacing + 1e-9)))
         start = a + 0.5 * ((b - a) - (n - 1) * spacing)
         axes.append(start + spacing * np.arange(n))
     gx, gy = np.meshgrid(*axes)
@@ -228,11 +229,14 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
               frameon=False, borderaxespad=0.0)
     if smax > 0 and scale > 0:
         ref = _nice_below(smax / unit)
-        bar = AnchoredSizeBar(ax.transData, ref * unit * scale, f"{ref:g} {unit_name}", loc="upper right",
-                              bbox_to_anchor=(1.0, -0.09), bbox_transform=ax.transAxes, borderpad=0.0,
-                              pad=0.2, sep=3, frameon=False, color="k", size_vertical=0,
-                              fontproperties={"size": 8})
-        bar.set_in_layout(True)
-        ax.add_artist(bar)
+        length = ref * unit * scale
+        line = AuxTransformBox(ax.transData)  # drawn in data lengths (the offset is left out)
+        line.add_artist(Line2D([0.0, length], [0.0, 0.0], color="k", lw=linewidth, solid_capstyle="butt"))
+        box = HPacker(children=[TextArea(f"bar length {ref:g} {unit_name}:", textprops={"size": 8}), line],
+                      align="center", pad=0, sep=5)
+        anchored = AnchoredOffsetbox(loc="upper right", child=box, pad=0.2, borderpad=0.0, frameon=False,
+                                     bbox_to_anchor=(1.0, -0.09), bbox_transform=ax.transAxes)
+        anchored.set_in_layout(True)
+        ax.add_artist(anchored)
     fig.tight_layout()
     _save(fig, path)

@@ -226,6 +226,9 @@ class MechanicsSettings:
     nonlinear_solver: str = field(one_of("newton", "secant"), "newton",
                                   doc="for rheology_lambda != 1: Newton on W (line search) or the secant modules "
                                       "method (2.32)-(2.34)")
+    secant_relaxation: float | None = field(optional(number), None,
+                                            doc="secant method step: none (default) takes the energy-minimising "
+                                                "step along the secant direction; 1.0 is the plain method (2.32)")
     tolerance: float = field(number, 1e-8, doc="relative tolerance of the nonlinear iteration")
     max_iterations: int = field(integer, 100, doc="iteration limit of the nonlinear solver")
     regularization: float = field(number, 1e-6, doc="delta in (A1/A_ref + delta)^lambda (lambda < 1 is singular "

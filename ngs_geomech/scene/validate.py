@@ -84,6 +84,8 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem("mechanics.tolerance", f"must be positive, got {ms.tolerance}"))
         if ms.max_iterations < 1:
             problems.append(Problem("mechanics.max_iterations", f"must be >= 1, got {ms.max_iterations}"))
+        if ms.secant_relaxation is not None and not 0 < ms.secant_relaxation <= 2:
+            problems.append(Problem("mechanics.secant_relaxation", f"must be in (0, 2], got {ms.secant_relaxation}"))
         if ms.regularization < 0:
             problems.append(Problem("mechanics.regularization", f"must be >= 0, got {ms.regularization}"))
         softening = [n for n, m in scene.materials.items() if m.rheology_lambda < 1]
