@@ -190,3 +190,31 @@ def test_transient_heating_gives_a_displacement_history(capsys):
     ux = np.array(res.summary["probe_series"]["ux"])
     assert len(res.summary["probe_series"]["T_mid"]) == 21
     assert 0 <= ux[0] < ux[-1] / 3 and np.all(np.diff(ux) > 0)   # t = 0: only the boundary nodes are hot
+
+
+@pytest.mark.parametrize("solver,relaxation", [("newton", None), ("secant", None), ("secant", 1.0)])
+def test_lambda_law_solvers_from_the_scene(solver, relaxation):
+    """A bar under traction with lam = 1.25 (hardening) and a hole-free strain concentration from a stiff
+    inclusion; Newton, the secant method with line search and the plain secant modules method (2.32)
+    (relaxation 1) reach the same solution; the traction is carried: sigma_xx = P at the loaded end."""
+    blocks = [{"name": "rock", "shape": "rectangle", "origin": [0, 0], "size": [2, 1],
+               "boundaries": {"left": "xmin", "bottom": "ymin", "right": "xmax"}},
+              {"name": "stiff", "shape": "circle", "center": [1.0, 0.5], "radius": 0.25}]
+    mech = {"nonlinear_solver": solver, "tolerance": 1e-10}
+    if relaxation is not None:
+        mech["secant_relaxation"] = relaxation
+    d = {"scene": {"name": "lam"}, "physics": {"mechanics": "static"}, "mesh": {"maxh": 0.25, "order": 1},
+         "blocks": blocks, "interfaces": [{"name": "i", "blocks": ["rock", "stiff"]}],
+         "materials": {"rock": dict(ROCK, rheology_lambda=1.25), "stiff": dict(ROCK, youngs_modulus=3 * E)},
+         "boundary_conditions": {"left": {"symmetry": True}, "bottom": {"symmetry": True},
+                                 "right": {"traction": [2e8, 0]}},
+         "mechanics": mech, "output": {"vtk": False, "figures": False}}
+    res = run(scene_from_dict(d), None, progress=False)
+    info = res.mechanics.solver.history[-1]
+    u, sig = sample(res, [[1.999, 0.5]])[0]
+    print(f"\n{solver} (relaxation {relaxation}): {info.iterations} iterations, u_x(L) = {u[0]:.10e}")
+    assert info.iterations <= (10 if solver == "newton" else 60)
+    assert sig[0, 0] == pytest.approx(2e8, rel=2e-2)   # P1 stress near the end, smooth there
+    test_lambda_law_solvers_from_the_scene.ux = getattr(test_lambda_law_solvers_from_the_scene, "ux", []) + [u[0]]
+    assert max(test_lambda_law_solvers_from_the_scene.ux) - min(test_lambda_law_solvers_from_the_scene.ux) \
+        <= 1e-7 * abs(u[0])
