@@ -20,7 +20,8 @@ def validate_scene(scene: str | Path | Scene, overrides: list[str] | None = None
     geo = validate(sc)
     return (f"scene {sc.scene.name!r} is valid: {sc.scene.dimension}, {len(sc.blocks)} block(s) "
             f"{geo.regions}, boundaries {sorted(geo.boundaries)}, glued interfaces {sorted(geo.glued)}, "
-            f"contact interfaces {sorted(geo.contacts)}, physics thermal={sc.physics.thermal}")
+            f"contact interfaces {sorted(geo.contacts)}, physics thermal={sc.physics.thermal}, "
+            f"mechanics={sc.physics.mechanics}")
 
 
 def run(scene: str | Path | Scene, out: str | Path | None, *, overrides: list[str] | None = None,
