@@ -91,10 +91,10 @@ def test_newton_iterations(comparisons, lam):
     r = comparisons[lam]
     assert all(r["newton"]["converged"])
     if lam == 0.5:
-        # measured 12 and 15: the target of 10 is missed at lam = 1/2 on this problem, whose regularized
+        # measured 12 and 14: the target of 10 is missed at lam = 1/2 on this problem, whose regularized
         # law is rigid-perfectly plastic (the deformation localizes, ~65 % of the plate stays "rigid");
         # the exact Hessian needs 22 and 27 (and more as delta decreases, see test_regularization_effect)
-        assert max(r["newton"]["iterations"]) <= 16
+        assert max(r["newton"]["iterations"]) <= 14
         assert all(p < e for p, e in zip(r["newton"]["iterations"], r["newton_exact_hessian"]["iterations"]))
     else:
         assert max(r["newton"]["iterations"]) <= 10
