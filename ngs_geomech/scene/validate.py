@@ -15,7 +15,7 @@ from netgen import occ
 from ..elastic_materials import MaterialError, axisymmetric, elastic_properties
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel, build_geometry, scene_dim
-from ..geometry.shapes import cells
+from ..geometry.shapes import cells, sides
 from ..materials import conductivity_tensor, volumetric_heat_capacity
 from .model import Scene
 
@@ -244,6 +244,11 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
         elif name not in outer:
             problems.append(Problem(f"boundary_conditions.{name}", f"no boundary {name!r} in the geometry "
                                     f"(boundaries: {', '.join(sorted(outer))})"))
+    for name, bc in scene.boundary_conditions.items():
+        if bc.symmetry and name in outer and not _flat(geo, name):
+            problems.append(Problem(f"boundary_conditions.{name}.symmetry", f"boundary {name!r} is not "
+                                    f"{'straight' if geo.dim == 2 else 'planar'}: the symmetry condition u_n = 0 "
+                                    "(2.16) needs one normal direction"))
     for name in scene.mesh.boundary_maxh:
         if name not in geo.boundaries:
             problems.append(Problem(f"mesh.boundary_maxh.{name}", f"no boundary {name!r} in the geometry"))
@@ -288,6 +293,28 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
     for n in set(names):
         if names.count(n) > 1:
             problems.append(Problem("output.probes", f"probe name {n!r} is used twice"))
+
+
+def _flat(geo: GeometryModel, name: str) -> bool:
+    """Whether all sides called ``name`` are straight (2D) or planar (3D) with one normal direction (parallel
+    sides, e.g. both ends of a column, are fine: u_n = 0 is then one component)."""
+    normals = []
+    for side in sides(geo.shape, geo.dim):
+        if side.name != name:
+            continue
+        if geo.dim == 2:
+            a, b = np.array([side.start.x, side.start.y]), np.array([side.end.x, side.end.y])
+            if abs(np.linalg.norm(b - a) - side.mass) > 1e-9 * side.mass:
+                return False
+            t = (b - a) / np.linalg.norm(b - a)
+            normals.append(np.array([t[1], -t[0]]))
+        else:
+            inertia = np.array([[side.inertia[i, j] for j in range(3)] for i in range(3)])
+            ev, vec = np.linalg.eigh(0.5 * (inertia + inertia.T))
+            if abs(ev[2] - ev[0] - ev[1]) > 1e-9 * ev[2]:
+                return False
+            normals.append(vec[:, 2])
+    return all(abs(abs(float(np.dot(n, normals[0]))) - 1) < 1e-9 for n in normals)
 
 
 def _inside(geo: GeometryModel, point: list) -> bool:
