@@ -218,3 +218,14 @@ def test_lambda_law_solvers_from_the_scene(solver, relaxation):
     test_lambda_law_solvers_from_the_scene.ux = getattr(test_lambda_law_solvers_from_the_scene, "ux", []) + [u[0]]
     assert max(test_lambda_law_solvers_from_the_scene.ux) - min(test_lambda_law_solvers_from_the_scene.ux) \
         <= 1e-7 * abs(u[0])
+
+
+def test_warning_for_non_monotone_lambda_law():
+    blocks = [{"name": "rock", "shape": "rectangle", "origin": [0, 0], "size": [1, 1],
+               "boundaries": {"left": "xmin", "right": "xmax"}}]
+    d = {"scene": {"name": "soft"}, "physics": {"mechanics": "static"}, "mesh": {"maxh": 0.5, "order": 2},
+         "blocks": blocks, "materials": {"rock": dict(ROCK, rheology_lambda=0.4)},
+         "boundary_conditions": {"left": {"displacement": [0, 0]}, "right": {"displacement": [1e-4, 0]}},
+         "output": {"vtk": False, "figures": False}}
+    res = run(scene_from_dict(d), None, progress=False)
+    assert any("non-monotone" in w for w in res.summary["warnings"])

@@ -66,4 +66,8 @@ def mechanics_warnings(scene: Scene, setup: ElasticSetup) -> list[str]:
             if nu is not None and nu > 0.49:
                 out.append(f"materials.{name}: Poisson ratio {nu:.4f} > 0.49 with P1 elements locks "
                            "(stresses and displacements far too small); use mesh.order = 2 or higher")
+    for name, p in setup.props.items():
+        if p.lam < 0.5:
+            out.append(f"materials.{name}: rheology_lambda {p.lam:g} < 0.5 makes the stress-strain law non-monotone "
+                       "(the energy is not convex): solutions may localize or not be unique")
     return out
