@@ -295,7 +295,8 @@ class ElasticForms:
     # -- post-processing --------------------------------------------------------------------------------------
     def stress_tensor(self, u=None):
         """The full 3x3 stress tensor (Pa) as one CoefficientFunction over all regions: plane strain with
-        sigma_zz, plane stress with sigma_zz = 0, axisymmetric in (r, z, theta) axes."""
+        sigma_zz (without an initial-stress part: sigma0 is given in-plane), plane stress with sigma_zz = 0,
+        axisymmetric in (r, z, theta) axes."""
         u = u if u is not None else self.displacement()
         per_region = {}
         for name in self.setup.props:
@@ -313,9 +314,6 @@ class ElasticForms:
                     dT = self.delta_T(name)
                     if dT is not None:
                         szz = szz - dT * float(bz)
-                    s0 = self.setup.initial_stress
-                    if s0 is not None:
-                        szz = szz + 0  # the out-of-plane initial stress is not modelled
                 else:
                     szz = 0
                 comps = (sv[0], sv[2], 0, sv[2], sv[1], 0, 0, 0, szz)
