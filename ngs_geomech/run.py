@@ -13,6 +13,7 @@ from pathlib import Path
 import ngsolve as ngs
 import numpy as np
 
+from .errors import Problem, SceneError
 from .geometry.assemble import GeometryModel
 from .geometry.mesh import make_mesh
 from .io import figures, stress_figures
@@ -191,6 +192,11 @@ class _Mechanics:
         self.forms = ElasticForms(mesh, self.setup)
         self.solver = ElasticSolver(self.forms, method=ms.nonlinear_solver, tol=ms.tolerance,
                                     maxit=ms.max_iterations, relaxation=ms.secant_relaxation)
+        free = self.forms.unheld_rigid_motions()
+        if free:
+            raise SceneError([Problem("boundary_conditions", f"the bodies are not held against {', '.join(free)}: "
+                                      "add displacement or symmetry conditions that stop it (contact support "
+                                      "comes with contact mechanics)")], source=f"scene {scene.scene.name!r}")
         self.warnings = mechanics_warnings(scene, self.setup)
         u = self.forms.displacement()
         sigma = self.forms.stress_tensor(u)

@@ -229,3 +229,36 @@ def test_warning_for_non_monotone_lambda_law():
          "output": {"vtk": False, "figures": False}}
     res = run(scene_from_dict(d), None, progress=False)
     assert any("non-monotone" in w for w in res.summary["warnings"])
+
+
+def test_unheld_rigid_motion_stops_with_a_diagnosis(tmp_path):
+    """Only a roller at the base: the body can slide along x. The run stops before solving with an error that
+    names the free rigid motion (never an NGSolve exception, NaN or a huge displacement) and writes no output."""
+    blocks = [{"name": "rock", "shape": "rectangle", "origin": [0, 0], "size": [1, 1],
+               "boundaries": {"bottom": "ymin", "top": "ymax"}}]
+    d = {"scene": {"name": "slide"}, "physics": {"mechanics": "static"}, "mesh": {"maxh": 0.5, "order": 1},
+         "blocks": blocks, "materials": {"rock": ROCK},
+         "boundary_conditions": {"bottom": {"symmetry": True}, "top": {"pressure": 1e6}}}
+    with pytest.raises(SceneError) as err:
+        run(scene_from_dict(d), tmp_path / "out", progress=False)
+    assert "not held against translation along x" in str(err.value)
+    assert not (tmp_path / "out").exists() and not list(tmp_path.glob(".out.partial-*"))
+
+
+@pytest.mark.parametrize("bcs,free", [
+    ({"left": {"symmetry": True}, "right": {"symmetry": True}}, "translation along y"),
+    ({"left": {"symmetry": True}, "bottom": {"symmetry": True}}, None),
+    ({"left": {"displacement": ["free", 0]}}, "rotation about z"),
+])
+def test_rigid_motion_analysis(bcs, free):
+    blocks = [{"name": "rock", "shape": "rectangle", "origin": [0, 0], "size": [1, 1],
+               "boundaries": {"left": "xmin", "right": "xmax", "bottom": "ymin"}}]
+    d = {"scene": {"name": "rm"}, "physics": {"mechanics": "static"}, "mesh": {"maxh": 0.5, "order": 2},
+         "blocks": blocks, "materials": {"rock": ROCK}, "boundary_conditions": bcs,
+         "output": {"vtk": False, "figures": False}}
+    if free is None:
+        run(scene_from_dict(d), None, progress=False)
+    else:
+        with pytest.raises(SceneError) as err:
+            run(scene_from_dict(d), None, progress=False)
+        assert f"not held against {free}" in str(err.value)

@@ -283,6 +283,52 @@ class ElasticForms:
                     * ngs.ds(definedon=self.mesh.Boundaries(name), intrules=self.bnd_intrules))
         self.secant_form, self.secant_rhs = sec, rhs
 
+    def unheld_rigid_motions(self) -> list[str]:
+        """The rigid motions the displacement and symmetry conditions do not hold (empty: all held).
+
+        Each rigid motion of the model (plane: 2 translations and the rotation; axisymmetric: the axial
+        translation; 3D: 3 translations and 3 rotations) is evaluated on the constrained dofs and, for oblique
+        symmetry boundaries, as u.n there; the combinations vanishing on all of them are free.
+        """
+        m = self.setup.model
+        x, y, z = ngs.x, ngs.y, ngs.z
+        if m == "axisymmetric":
+            modes = {"translation along z": (0, 1)}
+        elif m == "3d":
+            modes = {"translation along x": (1, 0, 0), "translation along y": (0, 1, 0),
+                     "translation along z": (0, 0, 1), "rotation about x": (0, -z, y),
+                     "rotation about y": (z, 0, -x), "rotation about z": (-y, x, 0)}
+        else:
+            modes = {"translation along x": (1, 0), "translation along y": (0, 1), "rotation about z": (-y, x)}
+        fixed = ~np.array(list(self.V.FreeDofs()), dtype=bool)
+        g = ngs.GridFunction(self.V)
+        oblique_points = []
+        for name, nvec in self.oblique:
+            pts = {v.nr: np.array(self.mesh[v].point) for el in self.mesh.Boundaries(name).Elements()
+                   for v in el.vertices}
+            oblique_points += [(p, nvec[:self.dim]) for p in pts.values()]
+        columns = []
+        for comps in modes.values():
+            cf = ngs.CoefficientFunction(comps)
+            g.Set(cf)
+            col = list(g.vec.FV().NumPy()[fixed])
+            for p, nvec in oblique_points:   # u.n = 0 at the vertices of oblique symmetry boundaries
+                col.append(float(np.dot(np.array(cf(self.mesh(*p))).ravel(), nvec)))
+            columns.append(col)
+        A = np.array(columns, dtype=float).T
+        if A.size == 0:
+            return list(modes)
+        scale = max(1.0, float(np.abs(A).max()))
+        _, sv, vt = np.linalg.svd(A, full_matrices=True)
+        rank = int(np.sum(sv > 1e-10 * scale))
+        free = vt[rank:]
+        out = []
+        for v in free:
+            k = int(np.argmax(np.abs(v)))
+            out.append(list(modes)[k] if np.count_nonzero(np.abs(v) > 1e-8) == 1
+                       else " + ".join(f"{c:.2g} x ({n})" for c, n in zip(v, modes) if abs(c) > 1e-8))
+        return out
+
     def dirichlet_values(self):
         """Vector boundary CF of the prescribed displacements at the current time (free components 0)."""
         vals = {}

@@ -45,7 +45,11 @@ from scipy.optimize import brentq
 from ..errors import SolverError
 from ..physics.coefficients import regions_regex
 from ..physics.elasticity import ElasticForms
-from .linear import check_finite
+from .linear import check_finite, inverse
+
+_SINGULAR_HINT = ("a body without enough displacement or symmetry conditions has a rigid motion; with "
+                  "rheology_lambda <= 0.5 the load may exceed what the law can carry (the stress of the lambda "
+                  "law is bounded for lam <= 1/2).")
 
 
 @dataclass
@@ -114,7 +118,8 @@ class ElasticSolver:
         f = self.f
         if not (reuse and self._linear_inverse is not None):
             f.secant_form.Assemble()
-            self._linear_inverse = f.secant_form.mat.Inverse(f.X.FreeDofs(), inverse="umfpack")
+            self._linear_inverse = inverse(f.secant_form.mat, f.X.FreeDofs(), False, f"elastic solve at {where}",
+                                           _SINGULAR_HINT)
             self.factorizations += 1
         f.secant_rhs.Assemble()
         r = f.secant_rhs.vec.CreateVector()
@@ -265,7 +270,7 @@ class ElasticSolver:
         r0 = max(float(ngs.Norm(res)), 1e-300)
         for it in range(1, self.maxit + 1):
             mat = pd.assemble() if pd is not None else _assembled_hessian(f, x)
-            inv = mat.Inverse(f.X.FreeDofs(), inverse="umfpack")
+            inv = inverse(mat, f.X.FreeDofs(), False, f"elastic Newton at {where}", _SINGULAR_HINT)
             self.factorizations += 1
             d.data = -1.0 * (inv * res)
             g0 = float(ngs.InnerProduct(res, d))
