@@ -19,6 +19,8 @@ NGSolve's own finite elements (``GetFE(...).CalcShape``) and element transformat
 
 from __future__ import annotations
 
+import math
+
 import ngsolve as ngs
 import numpy as np
 
@@ -127,6 +129,124 @@ def mortar_coupling_2d(mesh, V, L, master: str, minion: str, *, axisymmetric: bo
                         rows.append(di)
                         cols.append(dk)
                         vals.append(-wt * mu[i] * ts[k])
+    if total > 0 and abs(covered - total) > 1e-3 * total:
+        raise ValueError(f"contact interface {master!r}: only {covered / total:.1%} of the master side lies "
+                         f"opposite the minion side {minion!r}")
+    return np.array(rows, dtype=int), np.array(cols, dtype=int), np.array(vals)
+
+
+class _Triangle:
+    """One (flat) boundary triangle: dofs, finite element, the affine map from reference coordinates."""
+
+    def __init__(self, mesh, space, nr: int):
+        self.ei = ngs.ElementId(ngs.BND, nr)
+        trafo = mesh.GetTrafo(self.ei)
+        pts = []
+        for ref in ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)):
+            mip = trafo(*ref)
+            pts.append([ngs.x(mip), ngs.y(mip), ngs.z(mip)])
+        self.p0 = np.array(pts[0])
+        self.J = np.column_stack([np.array(pts[1]) - self.p0, np.array(pts[2]) - self.p0])   # 3 x 2
+        self.fe = space.GetFE(self.ei)
+        self.dofs = list(space.GetDofNrs(self.ei))
+        self.corners = np.array([self.p0, pts[1], pts[2]])
+        n = np.cross(self.J[:, 0], self.J[:, 1])
+        self.area2 = float(np.linalg.norm(n))
+        self.normal = n / self.area2
+
+    def reference(self, p: np.ndarray) -> np.ndarray:
+        """Reference coordinates of the projection of p onto the triangle's plane."""
+        return np.linalg.lstsq(self.J, p - self.p0, rcond=None)[0]
+
+
+def _clip(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
+    """Sutherland-Hodgman: the part of polygon ``poly`` inside the convex counter-clockwise polygon ``clip``
+    (both as (n, 2) arrays in one plane)."""
+    out = poly
+    for i in range(len(clip)):
+        a, b = clip[i], clip[(i + 1) % len(clip)]
+        edge = b - a
+        inp, out = out, []
+        if len(inp) == 0:
+            break
+
+        def side(p):
+            return edge[0] * (p[1] - a[1]) - edge[1] * (p[0] - a[0])
+        for j in range(len(inp)):
+            cur, prev = inp[j], inp[j - 1]
+            sc, sp = side(cur), side(prev)
+            if sc >= 0:
+                if sp < 0:
+                    out.append(prev + (cur - prev) * (sp / (sp - sc)))
+                out.append(cur)
+            elif sp >= 0:
+                out.append(prev + (cur - prev) * (sp / (sp - sc)))
+        out = np.array(out) if out else np.empty((0, 2))
+    return out
+
+
+def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int, removed=frozenset()):
+    """COO entries (rows, cols, values) of b(mu, T) = int mu (T_m - T_s) over the master surface, integrated
+    segment-based: each master triangle is intersected with the minion triangles opposite (projected onto its
+    plane, Sutherland-Hodgman clipping), and every piece is integrated with a Gauss rule exact for the
+    polynomial integrand. Flat triangles are assumed (curved interfaces: an O(h^2) geometry error).
+    ``removed`` multiplier dofs get no row."""
+    masters = [_Triangle(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
+    minions = [_Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+    if not masters or not minions:
+        raise ValueError(f"contact interface sides {master!r} / {minion!r} have no boundary elements")
+    lfe = {el.nr: (L.GetFE(ngs.ElementId(ngs.BND, el.nr)), list(L.GetDofNrs(ngs.ElementId(ngs.BND, el.nr))))
+           for el in mesh.Boundaries(master).Elements()}
+    ir = ngs.IntegrationRule(ngs.TRIG, 2 * order + 2)
+    qp = np.array([(p[0], p[1]) for p in ir.points])
+    qw = np.array(list(ir.weights))
+    mins = np.array([t.corners.min(axis=0) for t in minions])
+    maxs = np.array([t.corners.max(axis=0) for t in minions])
+    rows, cols, vals = [], [], []
+    covered = total = 0.0
+    for tm in masters:
+        lo, hi = tm.corners.min(axis=0), tm.corners.max(axis=0)
+        pad = 0.1 * math.sqrt(tm.area2)
+        total += tm.area2 / 2
+        cand = np.where(np.all(mins <= hi + pad, axis=1) & np.all(maxs >= lo - pad, axis=1))[0]
+        ref_m = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])      # the master triangle in its own coordinates
+        lshape_fe, ldofs = lfe[tm.ei.nr]
+        for j in cand:
+            ts = minions[j]
+            if abs(float(np.dot(ts.normal, tm.normal))) < 0.5:
+                continue  # not opposite (another face of the interface)
+            poly = np.array([tm.reference(c) for c in ts.corners])
+            if (poly[1, 0] - poly[0, 0]) * (poly[2, 1] - poly[0, 1]) - \
+                    (poly[1, 1] - poly[0, 1]) * (poly[2, 0] - poly[0, 0]) < 0:
+                poly = poly[::-1]
+            piece = _clip(poly, ref_m)
+            if len(piece) < 3:
+                continue
+            for k in range(1, len(piece) - 1):   # fan triangulation of the convex piece
+                a, b, c = piece[0], piece[k], piece[k + 1]
+                jac = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+                if abs(jac) < 1e-14:
+                    continue
+                for (s, t), w in zip(qp, qw):
+                    ref = a + s * (b - a) + t * (c - a)
+                    p = tm.p0 + tm.J @ ref
+                    wt = w * abs(jac) * tm.area2
+                    covered += wt
+                    rs = ts.reference(p)
+                    mu = np.array(lshape_fe.CalcShape(ref[0], ref[1]))
+                    sm = np.array(tm.fe.CalcShape(ref[0], ref[1]))
+                    ss = np.array(ts.fe.CalcShape(rs[0], rs[1]))
+                    for i, di in enumerate(ldofs):
+                        if mu[i] == 0.0 or di in removed:
+                            continue
+                        for kk, dk in enumerate(tm.dofs):
+                            rows.append(di)
+                            cols.append(dk)
+                            vals.append(wt * mu[i] * sm[kk])
+                        for kk, dk in enumerate(ts.dofs):
+                            rows.append(di)
+                            cols.append(dk)
+                            vals.append(-wt * mu[i] * ss[kk])
     if total > 0 and abs(covered - total) > 1e-3 * total:
         raise ValueError(f"contact interface {master!r}: only {covered / total:.1%} of the master side lies "
                          f"opposite the minion side {minion!r}")

@@ -19,9 +19,8 @@ heat flux -kappa dT/dn_m, W/m^2) in the trace space of order p, and
 
     c((T, lambda), (v, mu)) = <lambda, v_m - v_s> + <mu, T_m - T_s>   on Gamma_m,
 
-with T_s the minion trace opposite. In 2D the integrals are split at the nodes of both sides
-(segment-based, :mod:`ngs_geomech.physics.mortar`); in 3D NGSolve's ContactBoundary (closest point,
-``Other()``) integrates with a Gauss rule on master elements. The
+with T_s the minion trace opposite. The integrals are split where the two sides' elements overlap
+(segment-based, :mod:`ngs_geomech.physics.mortar`), so they are exact on non-matching meshes. The
 coupling is taken implicitly (at t1), so that T_m = T_s holds weakly at every step; with Crank-Nicolson
 lambda is then the step's average flux. Multiplier dofs at interface ends on Dirichlet boundaries are
 reduced as in the standard modified mortar space (see ``HeatForms._free_dofs``); otherwise the
@@ -37,7 +36,7 @@ import numpy as np
 
 from ..materials import ThermalProperties
 from .coefficients import Separable, TimeFunction, boundary_cf, region_cf, regions_regex
-from .mortar import mortar_coupling_2d
+from .mortar import mortar_coupling_2d, mortar_coupling_3d
 
 
 @dataclass
@@ -253,13 +252,6 @@ class HeatForms:
         for name, (h, _) in s.robin.items():
             form += th * w * h * T * v * ngs.ds(definedon=self.mesh.Boundaries(name))
         lhs += form
-        self.contact_boundaries = []
-        if self.mesh.dim == 3:  # element-based ContactBoundary integrators (see update_contact_pairs)
-            for k, (master, minion) in enumerate(s.contacts):
-                lam, mu = trials[1 + k], tests[1 + k]
-                cb = ngs.ContactBoundary(self.mesh.Boundaries(master), self.mesh.Boundaries(minion))
-                cb.AddIntegrator(w * (lam * (v - v.Other()) + mu * (T - T.Other())))
-                self.contact_boundaries.append(cb)
         self._build_loads(v)
         self.lhs = lhs
         # old-state terms: matrices for linear problems (mass and stiffness, the same quadrature as lhs),
@@ -282,43 +274,31 @@ class HeatForms:
             self.old_state = ngs.LinearForm(X)
             self.old_state += old
         self._matrices_assembled = False
-        self._pairing_gf = None
 
     def update_contact_pairs(self) -> None:
-        """(Re)build the contact coupling (after creating the forms and after every mesh change).
-
-        2D: the segment-based mortar matrix ``self.coupling`` (exact integration, see
-        :mod:`ngs_geomech.physics.mortar`). 3D: NGSolve ContactBoundary elements added to ``lhs``
-        (Gauss rule on master elements: exact for matching interface meshes, a consistency error otherwise).
-        """
+        """(Re)build the mortar coupling matrix ``self.coupling`` of the contact interfaces (after creating the
+        forms and after every mesh change), integrated segment-based so that it is exact on non-matching
+        meshes (:mod:`ngs_geomech.physics.mortar`; 2D: master segments cut at the minion nodes, 3D: master
+        triangles clipped against the minion triangles)."""
         self.coupling = None
         if not self.setup.contacts:
             return
-        if self.mesh.dim == 2:
-            rows, cols, vals = [], [], []
-            offset = self.V.ndof
-            for (master, minion), L, merge in zip(self.setup.contacts, self.multiplier_spaces, self.merge):
+        rows, cols, vals = [], [], []
+        offset = self.V.ndof
+        for (master, minion), L, merge in zip(self.setup.contacts, self.multiplier_spaces, self.merge):
+            if self.mesh.dim == 2:
                 r, c, v = mortar_coupling_2d(self.mesh, self.V, L, master, minion, merge=merge,
                                              axisymmetric=self.setup.axisymmetric, order=2 * self.setup.order)
-                rows += [r + offset, c]
-                cols += [c, r + offset]
-                vals += [v, v]
-                offset += L.ndof
-            n = self.X.ndof
-            self.coupling = ngs.la.SparseMatrixd.CreateFromCOO(
-                list(map(int, np.concatenate(rows))), list(map(int, np.concatenate(cols))),
-                list(map(float, np.concatenate(vals))), n, n)
-            return
-        if self._pairing_gf is None:
-            self._pairing_gf = ngs.GridFunction(ngs.VectorH1(self.mesh, order=1))
-        for cb in self.contact_boundaries:
-            cb.Update(self._pairing_gf, self.lhs, intorder=2 * self.setup.order + 2, maxdist=self._maxdist())
-
-    def _maxdist(self) -> float:
-        """Search radius of the closest-point pairing: the domain size (only the minion side of the same
-        interface is searched, so a large radius cannot pair wrong sides)."""
-        pts = np.array([p.p for p in self.mesh.ngmesh.Points()])
-        return float(np.max(pts.max(axis=0) - pts.min(axis=0)))
+            else:
+                r, c, v = mortar_coupling_3d(self.mesh, self.V, L, master, minion, order=self.setup.order)
+            rows += [r + offset, c]
+            cols += [c, r + offset]
+            vals += [v, v]
+            offset += L.ndof
+        n = self.X.ndof
+        self.coupling = ngs.la.SparseMatrixd.CreateFromCOO(
+            list(map(int, np.concatenate(rows))), list(map(int, np.concatenate(cols))),
+            list(map(float, np.concatenate(vals))), n, n)
 
     def right_hand_side(self):
         """The right-hand side of the step from t_old to t_new (see the module docstring), W."""
