@@ -14,7 +14,8 @@ where one minion element lies opposite), so each piece integrates polynomials an
 geometry of curved elements.
 
 NGSolve has no segment-based mortar assembly, hence this module: it only computes matrix entries with
-NGSolve's own finite elements (``GetFE(...).CalcShape``) and element transformations.
+NGSolve's own finite elements (``GetFE(...).CalcShape``) and element transformations. In 3D the master
+triangles are clipped against the minion triangles projected onto their plane (Sutherland-Hodgman).
 """
 
 from __future__ import annotations
@@ -185,12 +186,11 @@ def _clip(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
     return out
 
 
-def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int, removed=frozenset()):
+def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):
     """COO entries (rows, cols, values) of b(mu, T) = int mu (T_m - T_s) over the master surface, integrated
     segment-based: each master triangle is intersected with the minion triangles opposite (projected onto its
     plane, Sutherland-Hodgman clipping), and every piece is integrated with a Gauss rule exact for the
-    polynomial integrand. Flat triangles are assumed (curved interfaces: an O(h^2) geometry error).
-    ``removed`` multiplier dofs get no row."""
+    polynomial integrand. Flat triangles are assumed (curved interfaces: an O(h^2) geometry error)."""
     masters = [_Triangle(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
     minions = [_Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
     if not masters or not minions:
@@ -237,7 +237,7 @@ def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int, remo
                     sm = np.array(tm.fe.CalcShape(ref[0], ref[1]))
                     ss = np.array(ts.fe.CalcShape(rs[0], rs[1]))
                     for i, di in enumerate(ldofs):
-                        if mu[i] == 0.0 or di in removed:
+                        if mu[i] == 0.0:
                             continue
                         for kk, dk in enumerate(tm.dofs):
                             rows.append(di)
