@@ -90,7 +90,7 @@ def mortar_coupling_2d(mesh, V, L, master: str, minion: str, *, axisymmetric: bo
     ss_len = [float(np.linalg.norm(s.p1 - s.p0)) for s in minions]
     mins = np.array([np.minimum(s.p0, s.p1) for s in minions])
     maxs = np.array([np.maximum(s.p0, s.p1) for s in minions])
-    rows, cols, vals = [], [], []
+    entries = ([], [], [])
     covered = 0.0
     total = 0.0
     for sm in masters:
@@ -115,24 +115,27 @@ def mortar_coupling_2d(mesh, V, L, master: str, minion: str, *, axisymmetric: bo
                     continue
                 wt = wq * (b - a) * sm.speed(s) * (p[0] if axisymmetric else 1.0)
                 covered += wq * (b - a) * sm.speed(s)
-                mu = np.array(lshape_fe.CalcShape(s))
-                tm = sm.shape(s)
-                ts = ss.shape(t)
-                for i, di in enumerate(ldofs):
-                    if mu[i] == 0.0:
-                        continue
-                    di = merge.get(di, di)
-                    for k, dk in enumerate(sm.dofs):
-                        rows.append(di)
-                        cols.append(dk)
-                        vals.append(wt * mu[i] * tm[k])
-                    for k, dk in enumerate(ss.dofs):
-                        rows.append(di)
-                        cols.append(dk)
-                        vals.append(-wt * mu[i] * ts[k])
+                _add_point(entries, wt, np.array(lshape_fe.CalcShape(s)), [merge.get(d, d) for d in ldofs],
+                           sm.shape(s), sm.dofs, ss.shape(t), ss.dofs)
+    return _finish(entries, covered, total, master, minion)
+
+
+def _add_point(entries, wt, mu, ldofs, tm, mdofs, ts, sdofs) -> None:
+    """Add one quadrature point's contribution wt mu_i (T_m - T_s) to the COO lists ``entries``."""
+    rows, cols, vals = entries
+    for i, di in enumerate(ldofs):
+        if mu[i] == 0.0:
+            continue
+        rows += [di] * (len(mdofs) + len(sdofs))
+        cols += list(mdofs) + list(sdofs)
+        vals += list(wt * mu[i] * np.asarray(tm)) + list(-wt * mu[i] * np.asarray(ts))
+
+
+def _finish(entries, covered: float, total: float, master: str, minion: str):
     if total > 0 and abs(covered - total) > 1e-3 * total:
         raise ValueError(f"contact interface {master!r}: only {covered / total:.1%} of the master side lies "
                          f"opposite the minion side {minion!r}")
+    rows, cols, vals = entries
     return np.array(rows, dtype=int), np.array(cols, dtype=int), np.array(vals)
 
 
@@ -202,7 +205,7 @@ def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):
     qw = np.array(list(ir.weights))
     mins = np.array([t.corners.min(axis=0) for t in minions])
     maxs = np.array([t.corners.max(axis=0) for t in minions])
-    rows, cols, vals = [], [], []
+    entries = ([], [], [])
     covered = total = 0.0
     for tm in masters:
         lo, hi = tm.corners.min(axis=0), tm.corners.max(axis=0)
@@ -233,21 +236,7 @@ def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):
                     wt = w * abs(jac) * tm.area2
                     covered += wt
                     rs = ts.reference(p)
-                    mu = np.array(lshape_fe.CalcShape(ref[0], ref[1]))
-                    sm = np.array(tm.fe.CalcShape(ref[0], ref[1]))
-                    ss = np.array(ts.fe.CalcShape(rs[0], rs[1]))
-                    for i, di in enumerate(ldofs):
-                        if mu[i] == 0.0:
-                            continue
-                        for kk, dk in enumerate(tm.dofs):
-                            rows.append(di)
-                            cols.append(dk)
-                            vals.append(wt * mu[i] * sm[kk])
-                        for kk, dk in enumerate(ts.dofs):
-                            rows.append(di)
-                            cols.append(dk)
-                            vals.append(-wt * mu[i] * ss[kk])
-    if total > 0 and abs(covered - total) > 1e-3 * total:
-        raise ValueError(f"contact interface {master!r}: only {covered / total:.1%} of the master side lies "
-                         f"opposite the minion side {minion!r}")
-    return np.array(rows, dtype=int), np.array(cols, dtype=int), np.array(vals)
+                    _add_point(entries, wt, np.array(lshape_fe.CalcShape(ref[0], ref[1])), ldofs,
+                               np.array(tm.fe.CalcShape(ref[0], ref[1])), tm.dofs,
+                               np.array(ts.fe.CalcShape(rs[0], rs[1])), ts.dofs)
+    return _finish(entries, covered, total, master, minion)
