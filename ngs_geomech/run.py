@@ -304,7 +304,6 @@ def _mechanics_figures(scene: Scene, mesh, arrays, mech, directory: Path, labels
 
 def _vertex_average(mesh, cf) -> np.ndarray:
     """Vertex values of a (possibly discontinuous) scalar CF: its L2 projection onto P1, vertex dofs."""
-    V = ngs.H1(mesh, order=1)
-    g = ngs.GridFunction(V)
+    g = ngs.GridFunction(ngs.H1(mesh, order=1))
     g.Set(cf)
-    return np.array(g.vec.FV().NumPy()[:mesh.nv], copy=True)
+    return vertex_values(g)

@@ -192,8 +192,11 @@ class ElasticForms:
         p = self.setup.props[name]
         if p.lam == 1.0:
             return ngs.CoefficientFunction(1.0)
-        A1 = ngs.InnerProduct(e, self._cf_matrix(self.D[name]) * e)
-        return p.lam * (A1 / p.A_ref + self.setup.regularization) ** (p.lam - 1)
+        return p.secant_factor(self.A1(name, e), self.setup.regularization)
+
+    def A1(self, name: str, e):
+        """A1 = e : c : e (Pa) of region ``name`` for the reduced strain vector e (2.2)."""
+        return ngs.InnerProduct(e, self._cf_matrix(self.D[name]) * e)
 
     def stress_vector(self, name: str, u):
         """Reduced Voigt stress of region ``name`` (Pa), the law (2.18) with the lambda factor."""
@@ -238,13 +241,7 @@ class ElasticForms:
         energy = 0
         for name, p in s.props.items():
             e = self.strain_vector(u)
-            D = self._cf_matrix(self.D[name])
-            A1 = ngs.InnerProduct(e, D * e)
-            if p.lam == 1.0:
-                W = 0.5 * A1
-            else:
-                d = s.regularization
-                W = 0.5 * p.A_ref * ((A1 / p.A_ref + d) ** p.lam - d ** p.lam)
+            W = p.energy(self.A1(name, e), s.regularization)
             dT = self.delta_T(name)
             if dT is not None:
                 W = W - dT * ngs.InnerProduct(self._cf_vector(self.b[name]), e)
@@ -372,10 +369,7 @@ class ElasticForms:
         u = u if u is not None else self.displacement()
         vals = {}
         for name, p in self.setup.props.items():
-            e = self.strain_vector(u)
-            A1 = ngs.InnerProduct(e, self._cf_matrix(self.D[name]) * e)
-            d = self.setup.regularization
-            vals[name] = 0.5 * A1 if p.lam == 1.0 else 0.5 * p.A_ref * ((A1 / p.A_ref + d) ** p.lam - d ** p.lam)
+            vals[name] = p.energy(self.A1(name, self.strain_vector(u)), self.setup.regularization)
         return self.mesh.MaterialCF(vals, default=0.0)
 
 
