@@ -361,7 +361,7 @@ class _PrimalDual:
             De = D * e
             A1 = ngs.InnerProduct(e, De)
             base = A1 / p.A_ref + delta
-            fac = p.lam * base ** (p.lam - 1)
+            fac = p.secant_factor(A1, delta)
             c = 2 * (1 - p.lam) * base ** (-p.lam) / p.A_ref
             dual = sig if p.lam < 1 else fac * De
             mdx = ngs.dx(definedon=mesh.Materials(name), intrules=self.intrules)
