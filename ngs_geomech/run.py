@@ -6,6 +6,7 @@ Output (into ``out``, written completely or not at all): ``<scene>.pvd`` + ``<sc
 
 from __future__ import annotations
 
+import math
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -226,7 +227,7 @@ class _Mechanics:
 
 def _interface_flows(forms: HeatForms, history: dict, axi: bool) -> None:
     """Heat flow through each contact interface (W; W per m of depth in plane scenes), master -> minion."""
-    w = 2 * 3.141592653589793 * ngs.x if axi else 1.0
+    w = 2 * math.pi * ngs.x if axi else 1.0
     for (master, _), lam in zip(forms.setup.contacts, forms.multipliers()):
         q = float(ngs.Integrate(w * lam * ngs.ds(definedon=forms.mesh.Boundaries(master)), forms.mesh))
         history["interface_heat_flow_W"].setdefault(master, []).append(q)

@@ -31,7 +31,7 @@ class HeatSolver:
         self.f = forms
         self.newton_tol = newton_tol
         self.newton_maxit = newton_maxit
-        self._cache: dict[float, object] = {}
+        self._cache: dict[str, tuple] = {}
         self._tmp = ngs.GridFunction(forms.V)
         self._fixed = ngs.Projector(forms.V.FreeDofs(), False)   # onto the Dirichlet dofs
         self._dirichlet_ready = False
