@@ -1,0 +1,298 @@
+"""Frictional contact solves of problem (P): (2.17)-(2.27) with the discrete operators of
+:mod:`ngs_geomech.physics.contact`.
+
+Default method: a primal-dual active set method, i.e. a semi-smooth Newton method on the nodal
+complementarity functions of the augmented Lagrangian (Alart-Curnier type; Hueber, Stadler and Wohlmuth,
+SIAM J. Sci. Comput. 30 (2008) for the friction part)
+
+    C_n = lam_n - max(0, lam_n - c g~),                      g~ = g_j / weight_j (nodal gap, m),
+    C_t = max(b, |z|) lam_t - b z,    z = lam_t - c s~,      b = g_c (Tresca) or F_c max(0, lam_n - c g~),
+
+c the augmentation (Pa/m; default E_max / h_j). Each step takes the sets A = {lam_n - c g~ > 0} (in contact),
+of the active nodes the stick set {|z| < b} and the slip set, and solves the saddle-point system
+
+    K u - Bn^T lam_n - Bt^T lam_t = f,
+    g_j = 0 (A),  lam_n,j = 0 (not A),  s_j = 0 (stick),  lam_t,j = b_j sign(z_j) (slip),  lam_t,j = 0 (not A)
+
+(Coulomb slip: lam_t,j - F_c sign(z_j) lam_n,j = 0) by one sparse factorization (UMFPACK); it stops when
+the sets repeat, which for these piecewise linear conditions means the step solved them exactly. The
+iteration count does not grow with refinement in the measurements of studies/contact_performance. Friction
+acts on nodes in contact only (an open node carries no traction).
+
+Units: u m, multipliers Pa (nodal values of the contact pressure and tangential traction).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import ngsolve as ngs
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import SolverError
+from ..physics.contact import ContactOperator
+
+LAWS = ("frictionless", "tresca", "coulomb")
+
+
+@dataclass
+class ContactLaw:
+    """The law of one interface: ``kind`` in :data:`LAWS`; ``slip_bound`` g_c per node (Pa, Tresca);
+    ``friction`` F_c (Coulomb); ``augmentation`` c (Pa/m, None: E_max / nodal size)."""
+
+    kind: str = "frictionless"
+    slip_bound: np.ndarray | float | None = None
+    friction: float = 0.0
+    augmentation: float | None = None
+
+    def __post_init__(self):
+        if self.kind not in LAWS:
+            raise ValueError(f"unknown contact law {self.kind!r}; choose one of {', '.join(LAWS)}")
+        if self.kind == "tresca" and self.slip_bound is None:
+            raise ValueError("Tresca friction needs a slip bound g_c (Pa)")
+        if self.kind == "coulomb" and not self.friction > 0:
+            raise ValueError(f"Coulomb friction needs a positive coefficient, got {self.friction}")
+
+
+@dataclass
+class ContactInfo:
+    """History of one contact solve: per iteration the numbers of nodes in contact, sticking and slipping
+    and of set changes; the final complementarity residuals; wall time and factorizations."""
+
+    iterations: int = 0
+    active: list = field(default_factory=list)
+    stick: list = field(default_factory=list)
+    slip: list = field(default_factory=list)
+    changes: list = field(default_factory=list)
+    max_penetration: float = 0.0
+    min_pressure: float = 0.0
+    wall_s: float = 0.0
+    factorizations: int = 0
+    penalty_iterations: int = 0
+
+
+class _Interface:
+    """One interface's operator, law and current sets inside the solver."""
+
+    def __init__(self, op: ContactOperator, law: ContactLaw, c_scale: float, offset: int, ndof: int):
+        self.op, self.law = op, law
+        keep = op.coverage > 1.0 - 1e-6     # dual multipliers need the whole support projected
+        self.keep = keep
+        m = op.size
+        self.offset = offset               # first multiplier index (normal block; tangential at offset + m)
+        pad = sp.csr_matrix((m, ndof - op.Bn.shape[1]))
+        self.Bn = sp.hstack([op.Bn, pad]).tocsr()
+        self.Bt = sp.hstack([op.Bt, pad]).tocsr()
+        h = np.maximum(op.weight, 1e-300)
+        if law.augmentation is not None:
+            self.c = np.full(m, float(law.augmentation))
+        else:
+            self.c = c_scale / np.maximum(op.length, 1e-300)
+        # tangential augmentation: the modulus over the extent of the side (E/h cycled between stick and
+        # slip in the Tresca block test; E/L converged in 5-6 iterations)
+        extent = float(np.max(np.ptp(op.coords, axis=0))) if m > 1 else 1.0
+        self.ct = (np.full(m, float(law.augmentation)) if law.augmentation is not None
+                   else np.full(m, c_scale / max(extent, 1e-300)))
+        self.h = h
+        if law.kind == "tresca":
+            self.bound0 = np.broadcast_to(np.asarray(law.slip_bound, dtype=float), (m,)).copy()
+        else:
+            self.bound0 = np.zeros(m)
+        gap = op.g0 / h
+        # start: the nodes touching first (smallest nodal gap, or in initial overlap)
+        gmin = float(np.min(gap[keep])) if keep.any() else 0.0
+        self.active = keep & (gap <= max(gmin, 0.0) + 1e-3 * op.length)
+        self.stick = self.active & (law.kind != "frictionless")
+        self.slip = np.zeros(m, dtype=bool)
+        self.sign = np.zeros(m)
+
+    @property
+    def m(self) -> int:
+        return self.op.size
+
+
+class ContactSolver:
+    """Solves K u = f + B^T lam with the complementarity conditions of the interfaces for the current
+    elastic data. ``matrix`` and ``rhs`` are the assembled bulk operator (X x X) and load (X), ``free`` the
+    free dofs of X (numpy bool), ``x0`` a vector of X holding the prescribed (Dirichlet) values."""
+
+    def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float,
+                 maxit: int = 50, axisymmetric: bool = False, method: str = "ssn"):
+        self.items = interfaces
+        self.modulus = float(modulus)
+        self.maxit = maxit
+        if method not in ("ssn", "penalty"):
+            raise ValueError(f"unknown contact method {method!r}")
+        self.method = method
+        self.axisymmetric = axisymmetric
+        self.infos: list[ContactInfo] = []
+        self._state: list[_Interface] | None = None
+        self.multipliers: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def _interfaces(self, ndof: int) -> list[_Interface]:
+        if self._state is None:
+            out, off = [], ndof
+            for op, law in self.items:
+                out.append(_Interface(op, law, self.modulus, off, ndof))
+                off += 2 * op.size
+            self._state = out
+        return self._state
+
+    def solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str = "") -> tuple[np.ndarray, ContactInfo]:
+        """The displacement vector (X) and the history; the multipliers per interface in
+        ``self.multipliers`` [(lam_n, lam_t)] (Pa)."""
+        tic = time.perf_counter()
+        n = len(x0)
+        ifs = self._interfaces(n)
+        N = n + sum(2 * it.m for it in ifs)
+        kr, kc, kv = (np.asarray(a) for a in matrix.COO())
+        kr, kc = kr.astype(np.int64), kc.astype(np.int64)
+        f = np.asarray(rhs, dtype=float)
+        info = ContactInfo()
+        x = np.zeros(N)
+        x[:n] = x0
+        lam_n = [np.zeros(it.m) for it in ifs]
+        lam_t = [np.zeros(it.m) for it in ifs]
+        penalty = True     # the first phase (and the whole solve of method 'penalty')
+        for it_nr in range(1, self.maxit + 1):
+            rows, cols, vals = [kr], [kc], [kv]
+            b = np.zeros(N)
+            b[:n] = f
+            fixed_mult = np.zeros(N, dtype=bool)
+            for it in ifs:
+                on, ot = it.offset, it.offset + it.m
+                # equilibrium rows: - Bn^T lam_n - Bt^T lam_t
+                for B, o in ((it.Bn, on), (it.Bt, ot)):
+                    C = B.tocoo()
+                    rows.append(C.col.astype(np.int64))
+                    cols.append(C.row.astype(np.int64) + o)
+                    vals.append(-C.data)
+                # constraint rows
+                A = it.active & it.keep
+                idx = np.where(A)[0]
+                Cn = it.Bn[idx].tocoo()
+                rows.append(on + idx[Cn.row].astype(np.int64))
+                cols.append(Cn.col.astype(np.int64))
+                vals.append(-Cn.data)
+                b[on + idx] = it.op.g0[idx]          # -Bn u = g0  (g = 0)
+                if penalty:                          # -Bn u - (weight / c) lam_n = g0  (lam_n = -c g~)
+                    rows.append(on + idx)
+                    cols.append(on + idx)
+                    vals.append(-it.h[idx] / it.c[idx])
+                fixed_mult[on + np.where(~A)[0]] = True
+                x[on + np.where(~A)[0]] = 0.0
+                if it.law.kind == "frictionless":
+                    fixed_mult[ot:ot + it.m] = True
+                    x[ot:ot + it.m] = 0.0
+                else:
+                    st = np.where(A & it.stick)[0]
+                    Ct = it.Bt[st].tocoo()
+                    rows.append(ot + st[Ct.row].astype(np.int64))
+                    cols.append(Ct.col.astype(np.int64))
+                    vals.append(-Ct.data)
+                    if penalty:
+                        rows.append(ot + st)
+                        cols.append(ot + st)
+                        vals.append(-it.h[st] / it.ct[st])
+                    sl = np.where(A & it.slip)[0]
+                    if it.law.kind == "tresca":
+                        fixed_mult[ot + sl] = True
+                        x[ot + sl] = it.bound0[sl] * it.sign[sl]
+                    else:   # Coulomb: lam_t - F sign lam_n = 0
+                        rows += [ot + sl, ot + sl]
+                        cols += [ot + sl, on + sl]
+                        vals += [np.ones(len(sl)), -it.law.friction * it.sign[sl]]
+                    off = np.where(~A)[0]
+                    fixed_mult[ot + off] = True
+                    x[ot + off] = 0.0
+            R = np.concatenate(rows)
+            Cc = np.concatenate(cols)
+            Vv = np.concatenate(vals)
+            mat = ngs.la.SparseMatrixd.CreateFromCOO(list(R), list(Cc), list(Vv), N, N)
+            freemask = np.zeros(N, dtype=bool)
+            freemask[:n] = free
+            freemask[n:] = ~fixed_mult[n:]
+            ba = ngs.BitArray(N)
+            ba.Clear()
+            for i in np.where(freemask)[0]:
+                ba.Set(int(i))
+            try:
+                inv = mat.Inverse(ba, inverse="umfpack")
+            except Exception as exc:
+                raise SolverError(f"contact solve{' at ' + where if where else ''}, iteration {it_nr}: the "
+                                  f"factorization failed ({exc}): a body is not held by its supports and the "
+                                  "contacts in contact now") from None
+            info.factorizations += 1
+            xv = mat.CreateColVector()
+            xv.FV().NumPy()[:] = x
+            r = mat.CreateColVector()
+            r.FV().NumPy()[:] = b
+            r.data -= mat * xv
+            r.FV().NumPy()[~freemask] = 0.0
+            xv.data += inv * r
+            x = np.array(xv.FV().NumPy())
+            if not np.all(np.isfinite(x)):
+                raise SolverError(f"contact solve{' at ' + where if where else ''}: NaN or Inf in the solution "
+                                  f"at iteration {it_nr}")
+            # new sets
+            changes = 0
+            n_act = n_stick = n_slip = 0
+            u = x[:n]
+            for k, it in enumerate(ifs):
+                on, ot = it.offset, it.offset + it.m
+                lam_n[k] = x[on:on + it.m].copy()
+                lam_t[k] = x[ot:ot + it.m].copy()
+                gap = (it.op.g0 + it.Bn @ u) / it.h
+                zn = lam_n[k] - it.c * gap
+                act = (zn > 0) & it.keep
+                stick = np.zeros(it.m, dtype=bool)
+                slip = np.zeros(it.m, dtype=bool)
+                sign = it.sign.copy()
+                if it.law.kind != "frictionless":
+                    sl = (it.Bt @ u) / it.h
+                    z = lam_t[k] - it.ct * sl
+                    bound = it.bound0 if it.law.kind == "tresca" else it.law.friction * np.maximum(zn, 0.0)
+                    stick = act & (np.abs(z) < bound)
+                    slip = act & ~stick
+                    sign = np.where(slip, np.sign(z), 0.0)
+                    sign[slip & (sign == 0)] = 1.0
+                changes += int(np.sum(act != (it.active & it.keep)) + np.sum(stick != (it.stick & it.active))
+                               + np.sum(slip & (sign != it.sign)) + np.sum(slip != (it.slip & it.active)))
+                it.active, it.stick, it.slip, it.sign = act, stick, slip, sign
+                n_act += int(act.sum())
+                n_stick += int(stick.sum())
+                n_slip += int(slip.sum())
+            info.iterations = it_nr
+            info.active.append(n_act)
+            info.stick.append(n_stick)
+            info.slip.append(n_slip)
+            info.changes.append(changes)
+            if changes == 0:
+                if penalty and self.method == "ssn":
+                    penalty = False
+                    info.penalty_iterations = it_nr
+                    continue
+                break
+        else:
+            raise SolverError(f"contact solve{' at ' + where if where else ''}: the active sets still change after "
+                              f"{self.maxit} iterations ({info.changes[-1]} changes in the last one): the contact "
+                              "state cycles; refine the mesh or change the augmentation")
+        u = x[:n]
+        pen, minp = 0.0, 0.0
+        for k, it in enumerate(ifs):
+            gap = (it.op.g0 + it.Bn @ u) / it.h
+            pen = max(pen, float(np.max(-gap[it.keep], initial=0.0)))
+            minp = min(minp, float(np.min(lam_n[k], initial=0.0)))
+        info.max_penetration, info.min_pressure = pen, minp
+        info.wall_s = time.perf_counter() - tic
+        self.multipliers = list(zip(lam_n, lam_t))
+        self.infos.append(info)
+        return u, info
+
+
+def nodal_modulus(props) -> float:
+    """A modulus scale (Pa) for the default augmentation: the largest diagonal entry of the stiffnesses."""
+    return max(float(np.max(np.diag(p.C))) for p in props.values())
+
