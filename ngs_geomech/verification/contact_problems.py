@@ -5,9 +5,9 @@ by :class:`ngs_geomech.solvers.contact.ContactSolver` on the operators of :mod:`
   pressed on a rigid flat by P per unit length, plane strain, frictionless: p0, the contact half width a and
   the pressure profile against the closed form. R = 1 m, E = 200 GPa, nu = 0.3 and P chosen so that
   a = R/50 (the note's R/a >~ 50); the contact arc is meshed with size ``h_contact``.
-* :func:`tresca_block`: a block (L x H) on a rigid foundation under a top pressure, pushed sideways: by a
-  traction below the Tresca capacity g_c L (it sticks, the friction force balances the push) or by a
-  displacement (it slides, the friction force is g_c L).
+* :func:`friction_block`: a block (L x H) on a rigid foundation under a top pressure, pushed sideways: by a
+  traction below the friction capacity (Tresca g_c L, Coulomb F_c P) it sticks (the friction force balances
+  the push), by a displacement it slides (the friction force is the capacity).
 * :func:`patch_test`: two blocks with non-matching meshes, frictionless, under a uniform top pressure p: the
   exact solution is a uniform stress, so the contact pressure must be p at every node.
 
@@ -126,20 +126,23 @@ def _foundation_block(L: float, H: float, h: float, order: int):
     return mesh
 
 
-def tresca_block(push: str, *, g_c: float = 1e6, p_top: float = 5e6, ratio: float = 0.5, L: float = 1.0,
-                 H: float = 0.5, h: float = 0.1, order: int = 1, E: float = 10e9, nu: float = 0.25) -> dict:
-    """A block on a rigid foundation (Tresca slip bound ``g_c``, Pa) under the top pressure ``p_top``;
-    ``push`` = "traction": a left-side traction with the resultant ``ratio`` g_c L (it sticks);
+def friction_block(push: str, *, law: str = "tresca", g_c: float = 1e6, friction: float = 0.3,
+                   p_top: float = 5e6, ratio: float = 0.5, L: float = 1.0, H: float = 0.5, h: float = 0.1,
+                   order: int = 1, E: float = 10e9, nu: float = 0.25) -> dict:
+    """A block on a rigid foundation under the top pressure ``p_top`` with Tresca (slip bound ``g_c``, Pa)
+    or Coulomb (coefficient ``friction``) friction; the capacity is g_c L or F_c p_top L. ``push`` =
+    "traction": a left-side traction with the resultant ``ratio`` x capacity (it sticks, at least in part);
     "displacement": u_x = 1e-3 L on the left side (it slides). Returns {"friction_force" (int q ds, N/m),
-    "capacity" (g_c L), "applied" (traction resultant, traction case), "normal_force" (int p ds),
-    "stick", "slip" (node counts), "iterations", "max_penetration"}."""
+    "capacity", "applied" (traction resultant, traction case), "normal_force" (int p ds), "stick", "slip"
+    (node counts), "iterations", "max_penetration"}."""
     mesh = _foundation_block(L, H, h, order)
     props = _props(E, nu, ["block"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order)
     setup.pressure["top"] = expression_function(p_top)
     applied = None
+    capacity = g_c * L if law == "tresca" else friction * p_top * L
     if push == "traction":
-        applied = ratio * g_c * L
+        applied = ratio * capacity
         setup.traction["left"] = [expression_function(applied / H), expression_function(0.0)]
     elif push == "displacement":
         setup.dirichlet["left"] = [expression_function(1e-3 * L), None]
@@ -148,10 +151,11 @@ def tresca_block(push: str, *, g_c: float = 1e6, p_top: float = 5e6, ratio: floa
     forms, K, f, free, x0 = _system(mesh, setup)
     op = contact_operator_2d(mesh, forms.V, "foundation", "bottom", None, axisymmetric=False,
                              obstacle=((0.0, 0.0), (0.0, 1.0)))
-    solver = ContactSolver([(op, ContactLaw("tresca", slip_bound=g_c))], modulus=nodal_modulus(props))
-    u, info = solver.solve(K, f, free, x0, "tresca block")
+    claw = ContactLaw("tresca", slip_bound=g_c) if law == "tresca" else ContactLaw("coulomb", friction=friction)
+    solver = ContactSolver([(op, claw)], modulus=nodal_modulus(props))
+    u, info = solver.solve(K, f, free, x0, f"{law} block")
     lam_n, lam_t = solver.multipliers[0]
-    return {"friction_force": float(np.dot(op.weight, lam_t)), "capacity": g_c * L, "applied": applied,
+    return {"friction_force": float(np.dot(op.weight, lam_t)), "capacity": capacity, "applied": applied,
             "normal_force": float(np.dot(op.weight, lam_n)), "load": p_top * L, "stick": info.stick[-1],
             "slip": info.slip[-1], "iterations": info.iterations, "max_penetration": info.max_penetration}
 
