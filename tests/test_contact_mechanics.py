@@ -55,3 +55,23 @@ def test_friction_block_slides_at_capacity(one_thread, law):
     assert r["stick"] == 0 and r["slip"] > 0
     assert r["friction_force"] == pytest.approx(r["capacity"], rel=1e-8)
     assert r["normal_force"] == pytest.approx(r["load"], rel=1e-8)
+
+
+def test_floating_block_held_by_contact_alone(one_thread):
+    """No displacement condition: the frictionless block is held by the foundation (its sideways translation
+    is free but unloaded, fixed at the regularization's minimum value)."""
+    r = cp.friction_block("none", law="frictionless")
+    print(f"\nfloating frictionless block: normal force {r['normal_force']:.6e} N/m (load {r['load']:.6e}), "
+          f"{r['iterations']} iterations")
+    assert r["normal_force"] == pytest.approx(r["load"], rel=1e-8)
+
+
+@pytest.mark.parametrize("kw,expect", [
+    (dict(push="none", law="frictionless", p_top=-1e6), "translation along y is not held"),
+    (dict(push="traction", law="coulomb", ratio=1.5), "translation along x is not held"),
+    (dict(push="traction", law="tresca", ratio=1.1), "translation along x is not held"),
+])
+def test_unsolvable_floating_block_names_body_and_motion(one_thread, kw, expect):
+    from ngs_geomech.errors import SolverError
+    with pytest.raises(SolverError, match="body block: " + expect):
+        cp.friction_block(**kw)

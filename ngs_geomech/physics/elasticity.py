@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import ngsolve as ngs
 import numpy as np
+import scipy.sparse as sp
 
 from ..elastic_materials import ElasticProperties, axisymmetric, plane_strain, plane_stress, to_voigt_stress
 from .coefficients import TimeFunction, regions_regex
@@ -58,6 +59,17 @@ class ElasticSetup:
     @property
     def nonlinear(self) -> bool:
         return any(p.lam != 1.0 for p in self.props.values())
+
+
+@dataclass
+class FloatingBody:
+    """A body with rigid motions no displacement or symmetry condition holds (see
+    :meth:`ElasticForms.floating_bodies`): its ``regions``, the ``names`` of the free motions and their
+    coefficient vectors as the columns of ``modes`` (X-sized; translations in m per m, rotations in rad)."""
+
+    regions: list
+    names: list
+    modes: np.ndarray
 
 
 def _axis_aligned_normal(mesh, name: str) -> tuple[int, np.ndarray] | None:
@@ -324,6 +336,72 @@ class ElasticForms:
             k = int(np.argmax(np.abs(v)))
             out.append(list(modes)[k] if np.count_nonzero(np.abs(v) > 1e-8) == 1
                        else " + ".join(f"{c:.2g} x ({n})" for c, n in zip(v, modes) if abs(c) > 1e-8))
+        return out
+
+    def floating_bodies(self) -> list[FloatingBody]:
+        """The bodies (connected parts of the mesh: blocks joined by glued interfaces) with rigid motions the
+        displacement and symmetry conditions do not hold: semi-coercive bodies that only contact can hold.
+
+        Per body its regions, the names of its free rigid motions (rotations about the body's centroid) and
+        their coefficient vectors in X (columns of ``modes``, zero outside the body)."""
+        from scipy.sparse.csgraph import connected_components
+        mesh, dim = self.mesh, self.dim
+        els = list(mesh.Elements(ngs.VOL))
+        rows = [el.nr for el in els for _ in el.vertices]
+        cols = [v.nr for el in els for v in el.vertices]
+        inc = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(mesh.ne, mesh.nv))
+        ncomp, labels = connected_components(inc.T @ inc, directed=False)
+        if ncomp == 1 and not self.unheld_rigid_motions():
+            return []
+        fixed = ~np.array(list(self.V.FreeDofs()), dtype=bool)
+        pts = np.array([mesh[ngs.NodeId(ngs.VERTEX, k)].point[:dim] for k in range(mesh.nv)])
+        obl = [(k, nvec[:dim]) for name, nvec in self.oblique
+               for k in {v.nr for el in mesh.Boundaries(name).Elements() for v in el.vertices}]
+        g = ngs.GridFunction(self.V)
+        out = []
+        for b in range(ncomp):
+            body_els = [el for el in els if labels[el.vertices[0].nr] == b]
+            dofs = np.unique([d for el in body_els for d in self.V.GetDofNrs(el) if d >= 0])
+            regions = sorted({el.mat for el in body_els})
+            where = self.mesh.Materials(regions_regex(set(regions)))
+            vol = ngs.Integrate(ngs.CoefficientFunction(1.0), self.mesh, definedon=where)
+            c = np.array([ngs.Integrate(cx, self.mesh, definedon=where) / vol
+                          for cx in (ngs.x, ngs.y, ngs.z)[:dim]])    # the centroid (moments about it)
+            x, y, z = ngs.x - c[0], ngs.y - c[1], (ngs.z - c[2]) if dim == 3 else 0
+            if self.setup.model == "axisymmetric":
+                modes = {"translation along z": (0, 1)}
+            elif dim == 3:
+                modes = {"translation along x": (1, 0, 0), "translation along y": (0, 1, 0),
+                         "translation along z": (0, 0, 1), "rotation about x": (0, -z, y),
+                         "rotation about y": (z, 0, -x), "rotation about z": (-y, x, 0)}
+            else:
+                modes = {"translation along x": (1, 0), "translation along y": (0, 1), "rotation about z": (-y, x)}
+            vecs, cons = [], []
+            bfixed = dofs[fixed[dofs]]
+            for comps in modes.values():
+                cf = ngs.CoefficientFunction(comps)
+                g.Set(cf)
+                v = np.zeros(self.X.ndof)
+                v[dofs] = g.vec.FV().NumPy()[dofs]
+                vecs.append(v)
+                col = list(v[bfixed])
+                for k, nvec in obl:
+                    if labels[k] == b:
+                        col.append(float(np.dot(np.array(cf(mesh(*pts[k]))).ravel(), nvec)))
+                cons.append(col)
+            A = np.array(cons, dtype=float).T
+            if A.size:
+                _, sv, vt = np.linalg.svd(A, full_matrices=True)
+                rank = int(np.sum(sv > 1e-10 * max(1.0, float(np.abs(A).max()))))
+                null = vt[rank:]
+            else:
+                null = np.eye(len(modes))
+            if len(null) == 0:
+                continue
+            names = [list(modes)[int(np.argmax(np.abs(v)))] if np.count_nonzero(np.abs(v) > 1e-8) == 1
+                     else " + ".join(f"{cv:.2g} x ({n})" for cv, n in zip(v, modes) if abs(cv) > 1e-8) for v in null]
+            R = np.array(vecs).T @ null.T
+            out.append(FloatingBody(regions, names, R))
         return out
 
     def dirichlet_values(self):

@@ -71,6 +71,7 @@ class ContactInfo:
     wall_s: float = 0.0
     factorizations: int = 0
     penalty_iterations: int = 0
+    unheld_sets: int = 0
 
 
 class _Interface:
@@ -119,10 +120,16 @@ class ContactSolver:
     free dofs of X (numpy bool), ``x0`` a vector of X holding the prescribed (Dirichlet) values."""
 
     def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float,
-                 maxit: int = 50, axisymmetric: bool = False, method: str = "ssn"):
+                 maxit: int = 50, axisymmetric: bool = False, method: str = "ssn", floating=()):
+        """``floating``: the semi-coercive bodies (:meth:`ElasticForms.floating_bodies`): their load is
+        checked for solvability before any factorization, and their free dofs get a tiny diagonal shift in the
+        factorization (the residual is always that of the exact system, so the converged solution is exact;
+        a motion no contact holds, e.g. the sliding of a frictionless body under a balanced load, is fixed
+        at the shift's minimum-norm value)."""
         self.items = interfaces
         self.modulus = float(modulus)
         self.maxit = maxit
+        self.floating = list(floating)
         if method not in ("ssn", "penalty"):
             raise ValueError(f"unknown contact method {method!r}")
         self.method = method
@@ -151,13 +158,26 @@ class ContactSolver:
         kr, kc = kr.astype(np.int64), kc.astype(np.int64)
         f = np.asarray(rhs, dtype=float)
         info = ContactInfo()
+        if self.floating:
+            self._check_solvable(ifs, f, where)
+        reg_dofs = np.zeros(0, dtype=np.int64)
+        eps = 0.0
+        if self.floating:
+            mask = np.zeros(n, dtype=bool)
+            for body in self.floating:
+                mask |= np.any(np.abs(body.modes) > 0, axis=1)
+            reg_dofs = np.where(mask & free)[0].astype(np.int64)
+            diag = np.zeros(n)
+            np.add.at(diag, kr[kr == kc], kv[kr == kc])
+            eps = 1e-10 * float(np.mean(np.abs(diag[reg_dofs]))) if len(reg_dofs) else 0.0
+        rigid = np.hstack([bd.modes[:n] for bd in self.floating]) if self.floating else np.zeros((n, 0))
         x = np.zeros(N)
         x[:n] = x0
         lam_n = [np.zeros(it.m) for it in ifs]
         lam_t = [np.zeros(it.m) for it in ifs]
         penalty = True     # the first phase (and the whole solve of method 'penalty')
         for it_nr in range(1, self.maxit + 1):
-            rows, cols, vals = [kr], [kc], [kv]
+            rows, cols, vals = [kr, reg_dofs], [kc, reg_dofs], [kv, np.full(len(reg_dofs), eps)]
             b = np.zeros(N)
             b[:n] = f
             fixed_mult = np.zeros(N, dtype=bool)
@@ -228,11 +248,52 @@ class ContactSolver:
             xv = mat.CreateColVector()
             xv.FV().NumPy()[:] = x
             r = mat.CreateColVector()
-            r.FV().NumPy()[:] = b
-            r.data -= mat * xv
-            r.FV().NumPy()[~freemask] = 0.0
-            xv.data += inv * r
+            held = True
+            dx = mat.CreateColVector()
+            for _ in range(20):   # refinement with the residual of the exact system (without the shift eps)
+                r.data = mat * xv
+                ra = r.FV().NumPy()
+                ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
+                ra[:] = b - ra
+                ra[~freemask] = 0.0
+                dx.data = inv * r
+                xv.data += dx
+                if not len(reg_dofs):
+                    break
+                # the correction relative to the solution (the residual mixes forces and lengths), without its
+                # rigid-motion part: a free motion without load (a frictionless body sliding sideways) is
+                # left at the small value the shift gives it
+                d = dx.FV().NumPy()[:n]
+                d = d - rigid @ np.linalg.lstsq(rigid, d, rcond=None)[0]
+                if float(np.linalg.norm(d)) <= 1e-10 * max(float(np.linalg.norm(xv.FV().NumPy()[:n])), 1e-300):
+                    break
+            else:
+                held = False
+            if held and rigid.shape[1]:   # the loaded rigid motions must be balanced by the contact forces
+                r.data = mat * xv
+                ra = r.FV().NumPy()
+                ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
+                ru = (b - ra)[:n] * free
+                scale = float(np.linalg.norm(b[:n] * free)) * float(np.max(np.linalg.norm(rigid, axis=0)))
+                held = float(np.max(np.abs(rigid.T @ ru))) <= 1e-8 * max(scale, 1e-300)
             x = np.array(xv.FV().NumPy())
+            if not held:
+                # these sets leave a floating body free along a loaded rigid motion (e.g. every node slipping
+                # while the friction cannot balance the load): retry with the active nodes sticking
+                info.unheld_sets += 1
+                if info.unheld_sets > 3 or all(not (it.slip & it.active).any() for it in ifs):
+                    raise SolverError(f"contact solve{' at ' + where if where else ''}, iteration {it_nr}: the "
+                                      "bodies in contact are not held by the active contact set (the linear system "
+                                      "is singular along a loaded rigid motion)")
+                for it in ifs:
+                    if it.law.kind != "frictionless":
+                        it.stick, it.slip = it.active.copy(), np.zeros(it.m, dtype=bool)
+                info.iterations = it_nr
+                info.changes.append(-1)
+                info.active.append(int(sum(it.active.sum() for it in ifs)))
+                info.stick.append(int(sum(it.stick.sum() for it in ifs)))
+                info.slip.append(0)
+                continue
             if not np.all(np.isfinite(x)):
                 raise SolverError(f"contact solve{' at ' + where if where else ''}: NaN or Inf in the solution "
                                   f"at iteration {it_nr}")
@@ -290,6 +351,68 @@ class ContactSolver:
         self.multipliers = list(zip(lam_n, lam_t))
         self.infos.append(info)
         return u, info
+
+
+    def _check_solvable(self, ifs: list[_Interface], f: np.ndarray, where: str) -> None:
+        """Stop with a SolverError naming the body and the rigid motion when no admissible contact forces
+        balance the load on the free rigid motions of the floating bodies: an LP for lam_n >= 0,
+        |lam_t| <= g_c (Tresca) or F_c lam_n (Coulomb), lam_t = 0 (frictionless) with
+        R^T (f + Bn^T lam_n + Bt^T lam_t) = 0 (a necessary condition of (P))."""
+        from scipy.optimize import linprog
+        R = np.hstack([b.modes for b in self.floating])
+        labels = [(b, nm) for b in self.floating for nm in b.names]
+        cols_eq, bounds, ub_rows = [], [], []
+        nvar = 0
+        for it in ifs:
+            kidx = np.where(it.keep)[0]
+            cols_eq.append((it.Bn[kidx] @ R).T)
+            bounds += [(0, None)] * len(kidx)
+            jn = np.arange(nvar, nvar + len(kidx))
+            nvar += len(kidx)
+            if it.law.kind == "tresca":
+                cols_eq.append((it.Bt[kidx] @ R).T)
+                bounds += [(-float(g), float(g)) for g in it.bound0[kidx]]
+                nvar += len(kidx)
+            elif it.law.kind == "coulomb":
+                cols_eq.append((it.Bt[kidx] @ R).T)
+                bounds += [(None, None)] * len(kidx)
+                jt = np.arange(nvar, nvar + len(kidx))
+                nvar += len(kidx)
+                ub_rows += [(a, b_, it.law.friction) for a, b_ in zip(jt, jn)]
+        Aeq = np.hstack(cols_eq) if cols_eq else np.zeros((R.shape[1], 0))
+        beq = -(R.T @ f)
+        scale = max(float(np.max(np.abs(beq))), float(np.max(np.abs(Aeq), initial=0.0)), 1e-300)
+        Aub = None
+        if ub_rows:
+            Aub = np.zeros((2 * len(ub_rows), nvar))
+            for k, (jt_, jn_, F) in enumerate(ub_rows):      # lam_t - F lam_n <= 0, -lam_t - F lam_n <= 0
+                Aub[2 * k, jt_], Aub[2 * k, jn_] = 1.0, -F
+                Aub[2 * k + 1, jt_], Aub[2 * k + 1, jn_] = -1.0, -F
+        bub = np.zeros(Aub.shape[0]) if Aub is not None else None
+        # the smallest unbalanced load: minimise sum |residual| with slacks s+ - s- on the equations
+        k = R.shape[1]
+        A2 = np.hstack([Aeq / scale, np.eye(k), -np.eye(k)])
+        c = np.concatenate([np.zeros(nvar), np.ones(2 * k)])
+        Aub2 = None if Aub is None else np.hstack([Aub, np.zeros((Aub.shape[0], 2 * k))])
+        res = linprog(c, A_ub=Aub2, b_ub=bub, A_eq=A2, b_eq=beq / scale, bounds=bounds + [(0, None)] * (2 * k),
+                      method="highs")
+        if res.status != 0:
+            return   # undecided: let the solve itself report
+        resid = (res.x[nvar:nvar + k] - res.x[nvar + k:]) * scale
+        load = np.abs(R.T @ f)
+        tol = 1e-8 * max(float(np.max(load)), 1e-300)
+        bad = [j for j in range(k) if abs(resid[j]) > tol]
+        if bad:
+            parts = []
+            for j in bad:
+                body, name = labels[j]
+                kind = "moment" if "rotation" in name else "force"
+                parts.append(f"body {'+'.join(body.regions)}: {name} is not held (unbalanced {kind} "
+                             f"{-resid[j]:.3g})")
+            raise SolverError(f"contact solve{' at ' + where if where else ''}: the contacts cannot hold the load: "
+                              + "; ".join(parts) + ". The load pulls the body off its supports, or a tangential "
+                              "load exceeds what friction can carry (frictionless contact carries none); add a "
+                              "support (displacement or symmetry condition) or change the load")
 
 
 def nodal_modulus(props) -> float:

@@ -93,7 +93,8 @@ def hertz(h_contact: float, order: int = 1, *, method: str = "ssn") -> dict:
     forms, K, f, free, x0 = _system(mesh, setup)
     op = contact_operator_2d(mesh, forms.V, "hertz", "contact", None, axisymmetric=False,
                              obstacle=((0.0, 0.0), (0.0, 1.0)))
-    solver = ContactSolver([(op, ContactLaw())], modulus=nodal_modulus(props), method=method)
+    solver = ContactSolver([(op, ContactLaw())], modulus=nodal_modulus(props), method=method,
+                           floating=forms.floating_bodies())
     u, info = solver.solve(K, f, free, x0, "hertz")
     lam_n, _ = solver.multipliers[0]
     x = op.coords[:, 0]
@@ -132,7 +133,8 @@ def friction_block(push: str, *, law: str = "tresca", g_c: float = 1e6, friction
     """A block on a rigid foundation under the top pressure ``p_top`` with Tresca (slip bound ``g_c``, Pa)
     or Coulomb (coefficient ``friction``) friction; the capacity is g_c L or F_c p_top L. ``push`` =
     "traction": a left-side traction with the resultant ``ratio`` x capacity (it sticks, at least in part);
-    "displacement": u_x = 1e-3 L on the left side (it slides). Returns {"friction_force" (int q ds, N/m),
+    "displacement": u_x = 1e-3 L on the left side (it slides); "none": only the top pressure. Without a
+    displacement the block is held by the contact alone (semi-coercive). Returns {"friction_force" (int q ds, N/m),
     "capacity", "applied" (traction resultant, traction case), "normal_force" (int p ds), "stick", "slip"
     (node counts), "iterations", "max_penetration"}."""
     mesh = _foundation_block(L, H, h, order)
@@ -140,19 +142,21 @@ def friction_block(push: str, *, law: str = "tresca", g_c: float = 1e6, friction
     setup = ElasticSetup(props=props, model="plane_strain", order=order)
     setup.pressure["top"] = expression_function(p_top)
     applied = None
-    capacity = g_c * L if law == "tresca" else friction * p_top * L
+    capacity = {"tresca": g_c * L, "coulomb": friction * p_top * L, "frictionless": 0.0}[law]
     if push == "traction":
         applied = ratio * capacity
         setup.traction["left"] = [expression_function(applied / H), expression_function(0.0)]
     elif push == "displacement":
         setup.dirichlet["left"] = [expression_function(1e-3 * L), None]
-    else:
+    elif push != "none":
         raise ValueError(f"push must be 'traction' or 'displacement', got {push!r}")
     forms, K, f, free, x0 = _system(mesh, setup)
     op = contact_operator_2d(mesh, forms.V, "foundation", "bottom", None, axisymmetric=False,
                              obstacle=((0.0, 0.0), (0.0, 1.0)))
-    claw = ContactLaw("tresca", slip_bound=g_c) if law == "tresca" else ContactLaw("coulomb", friction=friction)
-    solver = ContactSolver([(op, claw)], modulus=nodal_modulus(props))
+    claw = {"tresca": lambda: ContactLaw("tresca", slip_bound=g_c),
+            "coulomb": lambda: ContactLaw("coulomb", friction=friction),
+            "frictionless": ContactLaw}[law]()
+    solver = ContactSolver([(op, claw)], modulus=nodal_modulus(props), floating=forms.floating_bodies())
     u, info = solver.solve(K, f, free, x0, f"{law} block")
     lam_n, lam_t = solver.multipliers[0]
     return {"friction_force": float(np.dot(op.weight, lam_t)), "capacity": capacity, "applied": applied,
@@ -184,7 +188,7 @@ def patch_test(p: float = 1e6, *, h_lower: float = 0.1, h_upper: float = 0.07, o
     setup.pressure["top"] = expression_function(p)
     forms, K, f, free, x0 = _system(mesh, setup)
     op = contact_operator_2d(mesh, forms.V, "patch", "upper_bottom", "lower_top", axisymmetric=False)
-    solver = ContactSolver([(op, ContactLaw())], modulus=nodal_modulus(props))
+    solver = ContactSolver([(op, ContactLaw())], modulus=nodal_modulus(props), floating=forms.floating_bodies())
     u, info = solver.solve(K, f, free, x0, "patch test")
     lam_n, _ = solver.multipliers[0]
     keep = op.coverage > 1 - 1e-6
