@@ -46,7 +46,7 @@ class ContactOperator:
     (m x ndof of the vector space); ``g0``: weighted initial gaps (m x 1); ``weight``: int_S w phi_j ds (so
     g_j / weight_j is a nodal gap in m, and sum_j lam_j weight_j = int_S w p ds); ``length``: int_S phi_j ds
     (m, the nodal mesh size); ``coverage``: the fraction of int_S w phi_j ds whose rays meet O (the solver
-    constrains only fully covered nodes); ``normals``: nodal unit normals (averaged)."""
+    constrains only fully covered nodes)."""
 
     name: str
     side: str
@@ -59,7 +59,6 @@ class ContactOperator:
     weight: np.ndarray
     length: np.ndarray
     coverage: np.ndarray
-    normals: np.ndarray
 
     @property
     def size(self) -> int:
@@ -151,7 +150,6 @@ def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, 
     weight = np.zeros(m)
     length = np.zeros(m)
     covered = np.zeros(m)
-    nsum = np.zeros((m, 2))
     for sg, (j0, j1) in zip(sides, seg_nodes):
         # dual (biorthogonal) basis on this segment: psi_a = sum_b A_ab phi_b, int psi_a phi_b w = delta_ab D_a
         Me = np.zeros((2, 2))
@@ -185,7 +183,6 @@ def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, 
                 for j, ph in zip((j0, j1), phi):
                     weight[j] += wt * ph
                     length[j] += wq * (b - a) * sg.speed(s) * ph
-                    nsum[j] += wt * ph * n
                 best = None
                 if opposite is None:
                     nn = float(np.dot(n, n_ob))
@@ -225,6 +222,5 @@ def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, 
     Bn.sum_duplicates()
     Bt.sum_duplicates()
     coverage = np.divide(covered, weight, out=np.zeros(m), where=weight > 0)
-    normals = nsum / np.maximum(np.linalg.norm(nsum, axis=1), 1e-300)[:, None]
     return ContactOperator(name, side, opposite, np.array(list(vert), dtype=int), coords, Bn, Bt, g0, weight, length,
-                           coverage, normals)
+                           coverage)
