@@ -96,6 +96,34 @@ def _axis_aligned_normal(mesh, name: str) -> tuple[int, np.ndarray] | None:
     return None, n0
 
 
+def _rigid_modes(model: str, dim: int, center=(0.0, 0.0, 0.0)) -> dict:
+    """The rigid motions of a model as CoefficientFunction components, rotations about ``center`` (m):
+    axisymmetric the axial translation, plane 2 translations and the rotation, 3D 3 + 3."""
+    x, y = ngs.x - center[0], ngs.y - center[1]
+    z = ngs.z - center[2] if dim == 3 else 0
+    if model == "axisymmetric":
+        return {"translation along z": (0, 1)}
+    if dim == 3:
+        return {"translation along x": (1, 0, 0), "translation along y": (0, 1, 0),
+                "translation along z": (0, 0, 1), "rotation about x": (0, -z, y),
+                "rotation about y": (z, 0, -x), "rotation about z": (-y, x, 0)}
+    return {"translation along x": (1, 0), "translation along y": (0, 1), "rotation about z": (-y, x)}
+
+
+def _free_combinations(A: np.ndarray, names: list[str]) -> tuple[np.ndarray, list[str]]:
+    """The combinations of rigid motions (columns of the constraint matrix A, one row per constrained
+    value) that no constraint holds: (rows of coefficients, their names: a motion's name or a weighted sum)."""
+    if A.size:
+        _, sv, vt = np.linalg.svd(A, full_matrices=True)
+        rank = int(np.sum(sv > 1e-10 * max(1.0, float(np.abs(A).max()))))
+        null = vt[rank:]
+    else:
+        null = np.eye(len(names))
+    labels = [names[int(np.argmax(np.abs(v)))] if np.count_nonzero(np.abs(v) > 1e-8) == 1
+              else " + ".join(f"{c:.2g} x ({n})" for c, n in zip(v, names) if abs(c) > 1e-8) for v in null]
+    return null, labels
+
+
 class ElasticForms:
     """Spaces, state and forms of the elastic problem on a given mesh (builds no mesh, writes no file)."""
 
@@ -299,16 +327,7 @@ class ElasticForms:
         translation; 3D: 3 translations and 3 rotations) is evaluated on the constrained dofs and, for oblique
         symmetry boundaries, as u.n there; the combinations vanishing on all of them are free.
         """
-        m = self.setup.model
-        x, y, z = ngs.x, ngs.y, ngs.z
-        if m == "axisymmetric":
-            modes = {"translation along z": (0, 1)}
-        elif m == "3d":
-            modes = {"translation along x": (1, 0, 0), "translation along y": (0, 1, 0),
-                     "translation along z": (0, 0, 1), "rotation about x": (0, -z, y),
-                     "rotation about y": (z, 0, -x), "rotation about z": (-y, x, 0)}
-        else:
-            modes = {"translation along x": (1, 0), "translation along y": (0, 1), "rotation about z": (-y, x)}
+        modes = _rigid_modes(self.setup.model, self.dim)
         fixed = ~np.array(list(self.V.FreeDofs()), dtype=bool)
         g = ngs.GridFunction(self.V)
         oblique_points = []
@@ -324,19 +343,7 @@ class ElasticForms:
             for p, nvec in oblique_points:   # u.n = 0 at the vertices of oblique symmetry boundaries
                 col.append(float(np.dot(np.array(cf(self.mesh(*p))).ravel(), nvec)))
             columns.append(col)
-        A = np.array(columns, dtype=float).T
-        if A.size == 0:
-            return list(modes)
-        scale = max(1.0, float(np.abs(A).max()))
-        _, sv, vt = np.linalg.svd(A, full_matrices=True)
-        rank = int(np.sum(sv > 1e-10 * scale))
-        free = vt[rank:]
-        out = []
-        for v in free:
-            k = int(np.argmax(np.abs(v)))
-            out.append(list(modes)[k] if np.count_nonzero(np.abs(v) > 1e-8) == 1
-                       else " + ".join(f"{c:.2g} x ({n})" for c, n in zip(v, modes) if abs(c) > 1e-8))
-        return out
+        return _free_combinations(np.array(columns, dtype=float).T, list(modes))[1]
 
     def floating_bodies(self) -> list[FloatingBody]:
         """The bodies (connected parts of the mesh: blocks joined by glued interfaces) with rigid motions the
@@ -367,15 +374,7 @@ class ElasticForms:
             vol = ngs.Integrate(ngs.CoefficientFunction(1.0), self.mesh, definedon=where)
             c = np.array([ngs.Integrate(cx, self.mesh, definedon=where) / vol
                           for cx in (ngs.x, ngs.y, ngs.z)[:dim]])    # the centroid (moments about it)
-            x, y, z = ngs.x - c[0], ngs.y - c[1], (ngs.z - c[2]) if dim == 3 else 0
-            if self.setup.model == "axisymmetric":
-                modes = {"translation along z": (0, 1)}
-            elif dim == 3:
-                modes = {"translation along x": (1, 0, 0), "translation along y": (0, 1, 0),
-                         "translation along z": (0, 0, 1), "rotation about x": (0, -z, y),
-                         "rotation about y": (z, 0, -x), "rotation about z": (-y, x, 0)}
-            else:
-                modes = {"translation along x": (1, 0), "translation along y": (0, 1), "rotation about z": (-y, x)}
+            modes = _rigid_modes(self.setup.model, dim, c)
             vecs, cons = [], []
             bfixed = dofs[fixed[dofs]]
             for comps in modes.values():
@@ -389,17 +388,9 @@ class ElasticForms:
                     if labels[k] == b:
                         col.append(float(np.dot(np.array(cf(mesh(*pts[k]))).ravel(), nvec)))
                 cons.append(col)
-            A = np.array(cons, dtype=float).T
-            if A.size:
-                _, sv, vt = np.linalg.svd(A, full_matrices=True)
-                rank = int(np.sum(sv > 1e-10 * max(1.0, float(np.abs(A).max()))))
-                null = vt[rank:]
-            else:
-                null = np.eye(len(modes))
+            null, names = _free_combinations(np.array(cons, dtype=float).T, list(modes))
             if len(null) == 0:
                 continue
-            names = [list(modes)[int(np.argmax(np.abs(v)))] if np.count_nonzero(np.abs(v) > 1e-8) == 1
-                     else " + ".join(f"{cv:.2g} x ({n})" for cv, n in zip(v, modes) if abs(cv) > 1e-8) for v in null]
             R = np.array(vecs).T @ null.T
             out.append(FloatingBody(regions, names, R))
         return out
