@@ -52,6 +52,11 @@ _SINGULAR_HINT = ("a body without enough displacement or symmetry conditions has
                   "law is bounded for lam <= 1/2).")
 
 
+def h1_norm(u, mesh) -> float:
+    """||u||_1 = (int u.u + grad u : grad u dx)^(1/2), the norm of the convergence quantity (2.35)."""
+    return math.sqrt(ngs.Integrate(ngs.InnerProduct(u, u) + ngs.InnerProduct(ngs.grad(u), ngs.grad(u)), mesh))
+
+
 @dataclass
 class NonlinearInfo:
     """Iteration history of one nonlinear solve: relative H1 changes ||u_{n+1} - u_n||_1 / ||u_{n+1}||_1
@@ -108,10 +113,6 @@ class ElasticSolver:
                     self._tmp.components[k].Set(cf[k], ngs.BND,
                                                 definedon=self.f.mesh.Boundaries(regions_regex(set(names))))
         u.vec.data += self._fixed * (self._tmp.vec - u.vec)
-
-    def _h1(self, u) -> float:
-        return math.sqrt(ngs.Integrate(ngs.InnerProduct(u, u) + ngs.InnerProduct(ngs.grad(u), ngs.grad(u)),
-                                       self.f.mesh))
 
     def _solve_secant_system(self, where: str, reuse: bool):
         """One linear solve with the coefficients frozen at u_frozen; returns nothing (updates gf)."""
@@ -206,7 +207,7 @@ class ElasticSolver:
         f = self.f
         dgf.vec.data = step_vec
         du = dgf.components[0] if f.oblique else dgf
-        return self._h1(du) / max(self._h1(f.displacement()), 1e-300)
+        return h1_norm(du, f.mesh) / max(h1_norm(f.displacement(), f.mesh), 1e-300)
 
     def _secant(self, where: str) -> NonlinearInfo:
         """Secant modules method (2.32)-(2.34): each iteration a linear problem with c* frozen at u_n, whose
