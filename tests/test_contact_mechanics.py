@@ -75,3 +75,28 @@ def test_unsolvable_floating_block_names_body_and_motion(one_thread, kw, expect)
     from ngs_geomech.errors import SolverError
     with pytest.raises(SolverError, match="body block: " + expect):
         cp.friction_block(**kw)
+
+
+@pytest.mark.parametrize("order,fractions,scale_far,min_order", [
+    (1, (0.2, 0.1, 0.05, 0.025), True, 0.6),
+    (2, (0.4, 0.2, 0.1, 0.05), False, 0.8),
+])
+def test_hertz_pressure_converges(one_thread, order, fractions, scale_far, min_order):
+    """The pressure inside the contact zone (x < 0.9 a) converges; the square-root edge of the Hertz pressure
+    (p in H^(1/2 - eps)) limits the order to about 1 (measured 0.74 for P1, 0.94 for P2). With ``scale_far``
+    the mesh away from the contact is refined too (its finer levels once tripped the solvability check,
+    see ContactSolver._check_solvable)."""
+    from ngs_geomech.verification.study import observed_order
+    a = cp.R_HERTZ / 50
+    hs, errors, iterations = [], [], []
+    for f in fractions:
+        r = cp.hertz(f * a, order, maxh=0.25 * f / fractions[0] if scale_far else None)
+        hs.append(f * a)
+        errors.append(r["pressure_l2_error"])
+        iterations.append(r["iterations"])
+    rate = observed_order(hs, errors)
+    print(f"\nHertz P{order} pressure L2 error (x < 0.9 a) at h/a = {fractions}: "
+          + ", ".join(f"{e:.2e}" for e in errors) + f"; order {rate:.2f}; iterations {iterations}")
+    assert rate >= min_order
+    assert errors[-1] < errors[0]
+    assert max(iterations) <= 15

@@ -373,7 +373,13 @@ class ContactSolver:
                 ub_rows += [(a, b_, it.law.friction) for a, b_ in zip(jt, jn)]
         Aeq = np.hstack(cols_eq) if cols_eq else np.zeros((R.shape[1], 0))
         beq = -(R.T @ f)
-        scale = max(float(np.max(np.abs(beq))), float(np.max(np.abs(Aeq), initial=0.0)), 1e-300)
+        # scaled unknowns lam = sigma mu so that the LP's coefficients are O(1): the entries of Aeq are
+        # lengths (m, e.g. 1e-4 on fine meshes) and the loads forces (e.g. 1e7 N/m); unscaled, HiGHS drops
+        # the tiny coefficients and reports a false imbalance
+        a_s = max(float(np.max(np.abs(Aeq), initial=0.0)), 1e-300)
+        b_s = max(float(np.max(np.abs(beq))), 1e-300)
+        sigma = b_s / a_s
+        bounds = [(None if lo is None else lo / sigma, None if hi is None else hi / sigma) for lo, hi in bounds]
         Aub = None
         if ub_rows:
             Aub = np.zeros((2 * len(ub_rows), nvar))
@@ -383,14 +389,14 @@ class ContactSolver:
         bub = np.zeros(Aub.shape[0]) if Aub is not None else None
         # the smallest unbalanced load: minimise sum |residual| with slacks s+ - s- on the equations
         k = R.shape[1]
-        A2 = np.hstack([Aeq / scale, np.eye(k), -np.eye(k)])
+        A2 = np.hstack([Aeq / a_s, np.eye(k), -np.eye(k)])
         c = np.concatenate([np.zeros(nvar), np.ones(2 * k)])
         Aub2 = None if Aub is None else np.hstack([Aub, np.zeros((Aub.shape[0], 2 * k))])
-        res = linprog(c, A_ub=Aub2, b_ub=bub, A_eq=A2, b_eq=beq / scale, bounds=bounds + [(0, None)] * (2 * k),
+        res = linprog(c, A_ub=Aub2, b_ub=bub, A_eq=A2, b_eq=beq / b_s, bounds=bounds + [(0, None)] * (2 * k),
                       method="highs")
         if res.status != 0:
             return   # undecided: let the solve itself report
-        resid = (res.x[nvar:nvar + k] - res.x[nvar + k:]) * scale
+        resid = (res.x[nvar:nvar + k] - res.x[nvar + k:]) * b_s
         load = np.abs(R.T @ f)
         tol = 1e-8 * max(float(np.max(load)), 1e-300)
         bad = [j for j in range(k) if abs(resid[j]) > tol]

@@ -59,13 +59,15 @@ def _translation(forms, direction) -> np.ndarray:
     return out
 
 
-def hertz(h_contact: float, order: int = 1, *, method: str = "ssn") -> dict:
+def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float | None = None) -> dict:
     """Hertz line contact of a quarter cylinder on a rigid flat (module docstring); ``h_contact`` (m) is the
-    element size along the contact arc (the arc up to 4a from the axis).
+    element size along the contact arc (the arc up to 4a from the axis), ``maxh`` (m) the size elsewhere
+    (default R/4).
 
     Returns {"a", "p0" (closed form), "p0_num" (nodal pressure on the axis), "p0_rel_error", "a_num" (the last
     node in contact), "a_next" (the first open node), "a_error" (|a_num - a|), "h" (node spacing at a),
-    "profile_max_error" (max |p - p_ref| / p0 over the nodes with x < 0.9 a), "force_balance" (|int p - P/2| /
+    "profile_max_error" (max |p - p_ref| / p0 over the nodes with x < 0.9 a), "pressure_l2_error" (the
+    same region: sqrt(int (p - p_ref)^2 dx / a) / p0, trapezoidal over the nodes), "force_balance" (|int p - P/2| /
     (P/2)), "max_penetration" (m), "iterations", "penalty_iterations", "ndof", "wall_s" (contact solve),
     "x", "p", "p_ref" (nodal profile)}."""
     R, E, nu = R_HERTZ, E_HERTZ, NU_HERTZ
@@ -85,7 +87,7 @@ def hertz(h_contact: float, order: int = 1, *, method: str = "ssn") -> dict:
         face.edges[k].name = name
     face.edges[0].maxh = h_contact
     face.name = "cylinder"
-    mesh = ngs.Mesh(OCCGeometry(face, dim=2).GenerateMesh(maxh=R / 4, grading=0.25))
+    mesh = ngs.Mesh(OCCGeometry(face, dim=2).GenerateMesh(maxh=maxh or R / 4, grading=0.25))
     mesh.Curve(max(order, 2))
     props = _props(E, nu, ["cylinder"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order, symmetry=["sym"])
@@ -103,12 +105,14 @@ def hertz(h_contact: float, order: int = 1, *, method: str = "ssn") -> dict:
     last = int(np.max(np.where(ps > 0)[0]))
     pref = cc.hertz_pressure(xs, ref.a, ref.p0)
     inner = xs < 0.9 * ref.a
+    # discrete L2 error of the pressure inside the contact zone, relative: sqrt(int (p - p_ref)^2 dx / a) / p0
+    l2 = math.sqrt(float(np.trapezoid((ps[inner] - pref[inner]) ** 2, xs[inner])) / ref.a) / ref.p0
     # the vertical resultant of the discrete contact forces Bn^T lam_n (on the cylinder: -int p n ds)
     force = float(_translation(forms, (0.0, 1.0))[:op.Bn.shape[1]] @ (op.Bn.T @ lam_n))
     return {"a": ref.a, "p0": ref.p0, "P": P, "p0_num": float(ps[0]), "p0_rel_error": float(ps[0] / ref.p0 - 1),
             "a_num": float(xs[last]), "a_next": float(xs[min(last + 1, len(xs) - 1)]),
             "a_error": abs(float(xs[last]) - ref.a), "h": float(xs[min(last + 1, len(xs) - 1)] - xs[last]),
-            "profile_max_error": float(np.max(np.abs(ps[inner] - pref[inner])) / ref.p0),
+            "profile_max_error": float(np.max(np.abs(ps[inner] - pref[inner])) / ref.p0), "pressure_l2_error": l2,
             "force_balance": abs(force - P / 2) / (P / 2), "max_penetration": info.max_penetration,
             "iterations": info.iterations, "penalty_iterations": info.penalty_iterations,
             "ndof": int(forms.X.ndof), "wall_s": info.wall_s,
