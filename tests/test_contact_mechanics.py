@@ -100,3 +100,16 @@ def test_hertz_pressure_converges(one_thread, order, fractions, scale_far, min_o
     assert rate >= min_order
     assert errors[-1] < errors[0]
     assert max(iterations) <= 15
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(kind="sticky"), "unknown contact law 'sticky'"),
+    (dict(kind="tresca"), "needs a slip bound"),
+    (dict(kind="tresca", slip_bound=-1.0), "slip bound g_c must be finite and >= 0"),
+    (dict(kind="coulomb", friction=0.0), "positive coefficient"),
+    (dict(kind="frictionless", augmentation=-5.0), "augmentation c must be positive"),
+])
+def test_contact_law_rejects_bad_values(kw, match):
+    from ngs_geomech.solvers.contact import ContactLaw
+    with pytest.raises(ValueError, match=match):
+        ContactLaw(**kw)

@@ -53,8 +53,14 @@ class ContactLaw:
             raise ValueError(f"unknown contact law {self.kind!r}; choose one of {', '.join(LAWS)}")
         if self.kind == "tresca" and self.slip_bound is None:
             raise ValueError("Tresca friction needs a slip bound g_c (Pa)")
-        if self.kind == "coulomb" and not self.friction > 0:
+        if self.kind == "coulomb" and not (self.friction > 0 and np.isfinite(self.friction)):
             raise ValueError(f"Coulomb friction needs a positive coefficient, got {self.friction}")
+        if self.kind == "tresca":
+            g = np.asarray(self.slip_bound, dtype=float)
+            if not np.all(np.isfinite(g)) or np.any(g < 0):
+                raise ValueError(f"the Tresca slip bound g_c must be finite and >= 0 (Pa), got {self.slip_bound}")
+        if self.augmentation is not None and not (self.augmentation > 0 and np.isfinite(self.augmentation)):
+            raise ValueError(f"the augmentation c must be positive (Pa/m), got {self.augmentation}")
 
 
 @dataclass
