@@ -59,6 +59,7 @@ class ContactOperator:
     weight: np.ndarray
     length: np.ndarray
     coverage: np.ndarray
+    Bt2: sp.csr_matrix | None = None
 
     @property
     def size(self) -> int:
@@ -98,6 +99,31 @@ def _ray_hit(seg: _Segment, p: np.ndarray, n: np.ndarray) -> tuple[float, float]
     return float(g), float(min(max(t, 0.0), 1.0))
 
 
+def _outward_signs(mesh, side: str, segments) -> list[float]:
+    """+1 or -1 per boundary element of ``side``: the factor that makes NGSolve's normal point out of the body
+    the element bounds. (The normal of a boundary segment follows the segment's orientation; on the copied
+    sides of a contact interface it pointed into the body for one of the two blocks, which turned contact
+    into adhesion.)"""
+    els = list(mesh.Boundaries(side).Elements())
+    wanted = {frozenset(v.nr for v in el.vertices) for el in els}
+    centroid = {}
+    for el in mesh.Elements(ngs.VOL):
+        vs = [v.nr for v in el.vertices]
+        for a in range(len(vs)):
+            key = frozenset((vs[a], vs[(a + 1) % len(vs)]))
+            if key in wanted:
+                centroid[key] = np.mean([mesh[v].point[:2] for v in el.vertices], axis=0)
+    nrm = ngs.specialcf.normal(2)
+    out = []
+    for el, sg in zip(els, segments):
+        c = centroid.get(frozenset(v.nr for v in el.vertices))
+        mip = sg.trafo(0.5)
+        n = np.array(nrm(mip)).ravel()[:2]
+        p = np.array([ngs.x(mip), ngs.y(mip)])
+        out.append(-1.0 if c is not None and float(np.dot(n, c - p)) > 0 else 1.0)
+    return out
+
+
 def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, axisymmetric: bool,
                         obstacle: tuple | None = None, search_distance: float | None = None) -> ContactOperator:
     """Assemble the operators of :class:`ContactOperator` for contact side ``side`` (multipliers) against
@@ -121,6 +147,7 @@ def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, 
         n_ob = np.asarray(obstacle[1], dtype=float)[:2]
         n_ob = n_ob / np.linalg.norm(n_ob)
     nrm = ngs.specialcf.normal(2)
+    outward = _outward_signs(mesh, side, sides)
     vert: dict[int, int] = {}
     seg_nodes = []
     for el, sg in zip(mesh.Boundaries(side).Elements(), sides):
@@ -150,7 +177,7 @@ def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, 
     weight = np.zeros(m)
     length = np.zeros(m)
     covered = np.zeros(m)
-    for sg, (j0, j1) in zip(sides, seg_nodes):
+    for sg, (j0, j1), sign in zip(sides, seg_nodes, outward):
         # dual (biorthogonal) basis on this segment: psi_a = sum_b A_ab phi_b, int psi_a phi_b w = delta_ab D_a
         Me = np.zeros((2, 2))
         for xq, wq in zip(gx, gw):
@@ -176,7 +203,7 @@ def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, 
                 mip = sg.trafo(s)
                 p = np.array([ngs.x(mip), ngs.y(mip)])
                 n = np.array(nrm(mip)).ravel()[:2]
-                n = n / np.linalg.norm(n)
+                n = sign * n / np.linalg.norm(n)
                 tvec = np.array([-n[1], n[0]])
                 wt = wq * (b - a) * sg.speed(s) * (p[0] if axisymmetric else 1.0)
                 phi = (1.0 - s, s)
