@@ -10,6 +10,10 @@ by :class:`ngs_geomech.solvers.contact.ContactSolver` on the operators of :mod:`
   the push), by a displacement it slides (the friction force is the capacity).
 * :func:`patch_test`: two blocks with non-matching meshes, frictionless, under a uniform top pressure p: the
   exact solution is a uniform stress, so the contact pressure must be p at every node.
+* :func:`cattaneo`: Cattaneo-Mindlin partial slip (verification.md section 3): an elastic half cylinder
+  pressed on an elastic block of the same material (non-matching meshes, Coulomb friction mu) by P and pushed
+  sideways by Q < mu P in one static step: the stick-zone half width c against c/a = sqrt(1 - Q/(mu P)) and
+  the tangential traction against the closed form.
 
 The problems build their geometry with netgen.occ (test problems, not scenes). Every function returns a plain
 dict and prints nothing. Units: m, Pa, N/m.
@@ -133,14 +137,16 @@ def _foundation_block(L: float, H: float, h: float, order: int):
 
 def friction_block(push: str, *, law: str = "tresca", g_c: float = 1e6, friction: float = 0.3,
                    p_top: float = 5e6, ratio: float = 0.5, L: float = 1.0, H: float = 0.5, h: float = 0.1,
-                   order: int = 1, E: float = 10e9, nu: float = 0.25) -> dict:
+                   order: int = 1, E: float = 10e9, nu: float = 0.25, solver_factory=None) -> dict:
     """A block on a rigid foundation under the top pressure ``p_top`` with Tresca (slip bound ``g_c``, Pa)
     or Coulomb (coefficient ``friction``) friction; the capacity is g_c L or F_c p_top L. ``push`` =
     "traction": a left-side traction with the resultant ``ratio`` x capacity (it sticks, at least in part);
     "displacement": u_x = 1e-3 L on the left side (it slides); "none": only the top pressure. Without a
     displacement the block is held by the contact alone (semi-coercive). Returns {"friction_force" (int q ds, N/m),
     "capacity", "applied" (traction resultant, traction case), "normal_force" (int p ds), "stick", "slip"
-    (node counts), "iterations", "max_penetration"}."""
+    (node counts), "iterations", "max_penetration", "lam_n", "lam_t" (nodal multipliers, Pa), "u" (the solution
+    vector), "info" (the solver's history)}. ``solver_factory(interfaces, modulus=, floating=)`` builds the solver
+    (default :class:`ContactSolver`; e.g. :class:`ngs_geomech.solvers.contact_uzawa.UzawaSolver`)."""
     mesh = _foundation_block(L, H, h, order)
     props = _props(E, nu, ["block"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order)
@@ -160,12 +166,14 @@ def friction_block(push: str, *, law: str = "tresca", g_c: float = 1e6, friction
     claw = {"tresca": lambda: ContactLaw("tresca", slip_bound=g_c),
             "coulomb": lambda: ContactLaw("coulomb", friction=friction),
             "frictionless": ContactLaw}[law]()
-    solver = ContactSolver([(op, claw)], modulus=nodal_modulus(props), floating=forms.floating_bodies())
+    solver = (solver_factory or ContactSolver)([(op, claw)], modulus=nodal_modulus(props),
+                                               floating=forms.floating_bodies())
     u, info = solver.solve(K, f, free, x0, f"{law} block")
     lam_n, lam_t = solver.multipliers[0]
     return {"friction_force": float(np.dot(op.weight, lam_t)), "capacity": capacity, "applied": applied,
             "normal_force": float(np.dot(op.weight, lam_n)), "load": p_top * L, "stick": info.stick[-1],
-            "slip": info.slip[-1], "iterations": info.iterations, "max_penetration": info.max_penetration}
+            "slip": info.slip[-1], "iterations": info.iterations, "max_penetration": info.max_penetration,
+            "lam_n": lam_n, "lam_t": lam_t, "u": u, "info": info}
 
 
 def patch_test(p: float = 1e6, *, h_lower: float = 0.1, h_upper: float = 0.07, order: int = 1,
@@ -199,3 +207,145 @@ def patch_test(p: float = 1e6, *, h_lower: float = 0.1, h_upper: float = 0.07, o
     return {"max_deviation": float(np.max(np.abs(lam_n[keep] - p)) / p),
             "force_balance": abs(float(np.dot(op.weight, lam_n)) - p) / p,
             "max_penetration": info.max_penetration, "iterations": info.iterations, "nodes": int(keep.sum())}
+
+
+def cattaneo(h_contact: float, order: int = 1, *, Q_ratio: float = 0.5, friction: float = 0.3,
+             maxh: float | None = None, grading: float = 0.3) -> dict:
+    """Cattaneo-Mindlin partial slip of a line contact (verification.md section 3), plane strain.
+
+    A half cylinder (|x| <= R, flat top y = R through its centre, lowest point at the origin) rests on a
+    block [-R, R] x [-R, 0] of the same material (E, nu of :func:`hertz`, so E* = E/(2 (1 - nu^2))); the two
+    are meshed independently (not glued) and touch with Coulomb friction ``friction`` (mu). The block's bottom
+    is fixed; the cylinder is held by the contact alone (semi-coercive). A traction on the cylinder's top
+    applies the normal load P (N/m, chosen so that the Hertz half width is a = R/50) and the tangential load
+    Q = ``Q_ratio`` mu P (+x) in one static step: for elastically identical bodies the normal load causes no
+    relative tangential displacement, so the one-step solution is that of the Cattaneo loading path (P,
+    then Q). The top traction is (Q, -P)/(2R) plus a linear normal part 3 Q x/(2 R^2) whose moment cancels
+    that of Q about the contact point (Q R): without it the pressure would have to balance the moment Q R
+    (7.5 P a at Q_ratio 0.5, mu 0.3), far more than an elliptical pressure of half width a can: the cylinder
+    would roll instead of sticking (Cattaneo's loads have no moment about the contact).
+
+    The multipliers live on the block's top (flat: p and q are exactly the vertical and horizontal
+    tractions); its contact edge |x| <= 3a and the cylinder's arc |x| <= 4a are meshed with size
+    ``h_contact`` (m), the rest with ``maxh`` (default R/4) and netgen's ``grading``. Coarse contact meshes
+    can stop the solver: with order 2 and h_contact = a/5 or a/3.3 its first active set is the single node at
+    x = 0, which does not hold the cylinder's rotation, and ContactSolver raises SolverError ("not held by
+    the active contact set"; its retry handles only sets with slipping nodes); a/10 and finer solve.
+
+    Measured: the contact half width (nodes with p > 0), the stick zone (nodes in contact with |q| < mu p,
+    cross-checked against the solver's stick set) and its half width c_num, the midpoint between the last
+    stick and the first slip node on each side (so |c_num - c| <= h/2 when the discrete transition is at the
+    right element); its centre ``stick_shift`` (m, exact 0); the traction profile against
+    :func:`.contact_closed_forms.cattaneo_traction`.
+
+    Returns {"a", "p0", "P", "Q", "c" (closed forms), "c_over_a" (sqrt(1 - Q/(mu P))), "c_num", "c_num_over_a",
+    "c_stick" (half extent of the stick nodes), "c_slip" (of the innermost slip nodes), "c_error" (|c_num -
+    c|), "h" (node spacing at the stick/slip transition), "stick_shift", "stick_contiguous", "a_num" (half
+    extent of the nodes in contact), "a_next" (of the first open nodes), "a_error", "a_fit" (half width of the
+    ellipse fitted to p^2 over |x| < 0.8 a), "p0_num" (nodal pressure at the node nearest x = 0),
+    "p0_rel_error", "p0_fit_rel_error" (peak of the fitted ellipse), "q_stick_max_error" (max |q - q_ref| /
+    (mu p0) over the stick nodes), "q_stick_max_error_shifted" (the same with the closed form's stick term
+    centred at ``stick_shift``), "q_max_error" (over |x| < 0.9 a), "q_l2_error" (the same region:
+    sqrt(int (q - q_ref)^2 dx / a) / (mu p0), trapezoidal over the nodes), "slip_law_error" (max | |q|/(mu p) - 1 |
+    over the slip nodes), "force_balance_n" (|int p - P| / P), "force_balance_t" (|int q - Q| / Q),
+    "transfer_error" (the contact resultant on the cylinder, through the mortar operators, against (-Q, P),
+    relative to P), "stick", "slip" (node counts), "solver_stick", "solver_slip" (ContactInfo), "iterations",
+    "penalty_iterations", "max_penetration", "ndof", "wall_s" (contact solve), "x", "p", "q", "q_ref"
+    (nodal profiles, q in the direction of Q)}."""
+    if not 0.0 < Q_ratio < 1.0:
+        raise ValueError(f"Q_ratio = Q/(mu P) must lie in (0, 1) (partial slip), got {Q_ratio!r}")
+    R, E, nu, mu = R_HERTZ, E_HERTZ, NU_HERTZ, float(friction)
+    E_star = cc.effective_modulus(E, nu, E, nu)
+    a_ref = R / 50
+    P = math.pi * E_star * a_ref ** 2 / (4 * R)
+    Q = Q_ratio * mu * P
+    ref = cc.hertz_line(P, R, E_star)
+    c_ref = cc.cattaneo_stick_half_width(Q, P, mu, ref.a)
+    th = 4 * a_ref / R                  # the cylinder's fine arc |x| <= ~4a
+    L = 3 * a_ref                       # the block's contact edge |x| <= 3a (the multiplier side)
+
+    def on_circle(t):
+        return Pnt(R * math.sin(t), R - R * math.cos(t), 0)
+
+    q1 = (math.pi / 2 + th) / 2
+    cyl = Face(Wire([ArcOfCircle(on_circle(-math.pi / 2), on_circle(-q1), on_circle(-th)),
+                     ArcOfCircle(on_circle(-th), on_circle(0.0), on_circle(th)),
+                     ArcOfCircle(on_circle(th), on_circle(q1), on_circle(math.pi / 2)),
+                     Segment(Pnt(R, R, 0), Pnt(-R, R, 0))]))
+    for k, name in enumerate(("cylinder_free", "cylinder_contact", "cylinder_free", "top")):
+        cyl.edges[k].name = name
+    cyl.edges[1].maxh = h_contact
+    cyl.name = "cylinder"
+    corners = [(-R, -R), (R, -R), (R, 0.0), (L, 0.0), (-L, 0.0), (-R, 0.0)]
+    block = Face(Wire([Segment(Pnt(*corners[k], 0), Pnt(*corners[(k + 1) % 6], 0)) for k in range(6)]))
+    for k, name in enumerate(("bottom", "block_side", "block_top", "block_contact", "block_top", "block_side")):
+        block.edges[k].name = name
+    block.edges[3].maxh = h_contact
+    block.name = "block"
+    shape = Compound([cyl, block])      # not glued: independent meshes on the two sides
+    mesh = ngs.Mesh(OCCGeometry(shape, dim=2).GenerateMesh(maxh=maxh or R / 4, grading=grading))
+    mesh.Curve(max(order, 2))
+    props = _props(E, nu, ["cylinder", "block"])
+    setup = ElasticSetup(props=props, model="plane_strain", order=order)
+    setup.dirichlet["bottom"] = [expression_function(0.0), expression_function(0.0)]
+    setup.traction["top"] = [expression_function(Q / (2 * R)),
+                             expression_function(f"{-P / (2 * R)!r} + {3 * Q / (2 * R ** 2)!r} * x")]
+    forms, K, f, free, x0 = _system(mesh, setup)
+    floating = forms.floating_bodies()
+    op = contact_operator_2d(mesh, forms.V, "cattaneo", "block_contact", "cylinder_contact", axisymmetric=False,
+                             search_distance=a_ref / 2)
+    solver = ContactSolver([(op, ContactLaw("coulomb", friction=mu))], modulus=nodal_modulus(props),
+                           floating=floating)
+    u, info = solver.solve(K, f, free, x0, "cattaneo")
+    lam_n, lam_t = solver.multipliers[0]
+    # the contact resultant on the cylinder through the mortar operators (O side): (-int q, int p)
+    body = next(b for b in floating if "cylinder" in b.regions)
+    nv = op.Bn.shape[1]
+    force = op.Bn.T @ lam_n + op.Bt.T @ lam_t
+    fx = float(body.modes[:nv, body.names.index("translation along x")] @ force)
+    fy = float(body.modes[:nv, body.names.index("translation along y")] @ force)
+    x = op.coords[:, 0]
+    o = np.argsort(x)
+    xs, ps, qs = x[o], lam_n[o], lam_t[o]       # q > 0: the friction on the cylinder opposes Q (+x)
+    contact = ps > 0
+    stick = contact & (np.abs(qs) < mu * ps * (1 - 1e-10))
+    slip = contact & ~stick
+    xc, xk = xs[contact], xs[stick]
+    cl, cr = float(xc.min()), float(xc.max())
+    a_num = (cr - cl) / 2
+    open_l, open_r = xs[xs < cl], xs[xs > cr]
+    a_next = (float(open_r.min() if len(open_r) else cr) - float(open_l.max() if len(open_l) else cl)) / 2
+    kl, kr = (float(xk.min()), float(xk.max())) if len(xk) else (0.0, 0.0)   # no stick node: c_num 0
+    sl_l, sl_r = xs[slip & (xs < kl)], xs[slip & (xs > kr)]
+    sl, sr = (float(sl_l.max()) if len(sl_l) else cl), (float(sl_r.min()) if len(sl_r) else cr)
+    left, right = (kl + sl) / 2, (kr + sr) / 2
+    c_num, shift = (right - left) / 2, (right + left) / 2
+    # elliptical fit p^2 = p0'^2 (1 - x^2/a'^2) over |x| < 0.8 a
+    fit = (np.abs(xs) < 0.8 * ref.a) & contact
+    k0, k1 = np.linalg.lstsq(np.vstack([np.ones(fit.sum()), xs[fit] ** 2]).T, ps[fit] ** 2, rcond=None)[0]
+    qref = np.asarray(cc.cattaneo_traction(xs, ref.a, c_ref, ref.p0, mu))
+    qref_shifted = mu * np.asarray(cc.hertz_pressure(xs, ref.a, ref.p0)) \
+        - mu * ref.p0 * (c_ref / ref.a) * np.sqrt(np.clip(1.0 - ((xs - shift) / c_ref) ** 2, 0.0, None))
+    inner = np.abs(xs) < 0.9 * ref.a
+    scale = mu * ref.p0
+    return {"a": ref.a, "p0": ref.p0, "P": P, "Q": Q, "c": c_ref, "c_over_a": c_ref / ref.a,
+            "c_num": c_num, "c_num_over_a": c_num / ref.a, "c_stick": (kr - kl) / 2, "c_slip": (sr - sl) / 2,
+            "c_error": abs(c_num - c_ref), "h": ((sr - kr) + (kl - sl)) / 2, "stick_shift": shift,
+            "stick_contiguous": bool(np.all(stick[(xs >= kl) & (xs <= kr)])),
+            "a_num": a_num, "a_next": a_next, "a_error": abs(a_num - ref.a),
+            "a_fit": math.sqrt(-k0 / k1) if k0 > 0 > k1 else float("nan"),
+            "p0_num": float(ps[np.argmin(np.abs(xs))]), "p0_rel_error": float(ps[np.argmin(np.abs(xs))] / ref.p0 - 1),
+            "p0_fit_rel_error": math.sqrt(max(k0, 0.0)) / ref.p0 - 1,
+            "q_stick_max_error": float(np.max(np.abs(qs[stick] - qref[stick]), initial=0.0)) / scale,
+            "q_stick_max_error_shifted": float(np.max(np.abs(qs[stick] - qref_shifted[stick]), initial=0.0)) / scale,
+            "q_max_error": float(np.max(np.abs(qs[inner] - qref[inner]))) / scale,
+            "q_l2_error": math.sqrt(float(np.trapezoid((qs[inner] - qref[inner]) ** 2, xs[inner])) / ref.a) / scale,
+            "slip_law_error": float(np.max(np.abs(np.abs(qs[slip]) / (mu * ps[slip]) - 1), initial=0.0)),
+            "force_balance_n": abs(float(np.dot(op.weight, lam_n)) - P) / P,
+            "force_balance_t": abs(float(np.dot(op.weight, lam_t)) - Q) / Q,
+            "transfer_error": math.hypot(fx + Q, fy - P) / P,
+            "stick": int(stick.sum()), "slip": int(slip.sum()), "solver_stick": info.stick[-1],
+            "solver_slip": info.slip[-1], "iterations": info.iterations,
+            "penalty_iterations": info.penalty_iterations, "max_penetration": info.max_penetration,
+            "ndof": int(forms.X.ndof), "wall_s": info.wall_s,
+            "x": xs.tolist(), "p": ps.tolist(), "q": qs.tolist(), "q_ref": qref.tolist()}
