@@ -19,6 +19,7 @@ from .geometry.assemble import GeometryModel
 from .geometry.mesh import make_mesh
 from .io import figures, stress_figures
 from .io.atomic import OutputDir, write_json_atomic
+from .io.lines_vtk import LineSeries
 from .io.meshdata import mesh_arrays, vertex_values
 from .io.progress import Progress
 from .io.summary import finite, probe_statistics, versions
@@ -26,12 +27,17 @@ from .io.vtk import VtkSeries
 from .physics.elasticity import ElasticForms, stress_measures
 from .physics.thermal import HeatForms
 from .probes import ProbeSet
+from .problems.contact import check_supported, contact_specs
+from .problems.contact_output import ContactOutput
 from .problems.heat import heat_setup, initial_temperature
 from .problems.mechanics import elastic_setup, mechanics_warnings
 from .scene.model import Scene
 from .scene.schema import to_dict
 from .scene.validate import validate
+from .solvers.contact import ContactSolver, nodal_modulus
+from .solvers.contact_uzawa import UzawaSolver
 from .solvers.elastic import ElasticSolver
+from .solvers.elastic_contact import ElasticContactSolver
 from .solvers.heat import HeatSolver
 from .solvers.timesteps import schedule
 from .units import YEAR, format_time
@@ -102,8 +108,11 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     probes = ProbeSet(mesh, scene.output.probes, axi)
     timings["setup_s"] = _time.perf_counter() - tic
     vtk = None
+    lines = {}
     if staging is not None and scene.output.vtk:
         vtk = VtkSeries(mesh, fields, staging.path, name, scene.output.subdivision)
+        if mech is not None and mech.contact_output is not None:
+            lines = {c.name: LineSeries(staging.path, f"{name}_contact_{c.name}") for c in mech.contacts}
     history = {"newton_iterations": [], "interface_heat_flow_W": {}}
     solve_s = 0.0
 
@@ -118,6 +127,9 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
             probes.record(t, mech.probe_fields)
         if vtk:
             vtk.write(t)
+        for spec, res in zip(mech.contacts if lines else [], mech.contact_output.latest if lines else []):
+            lines[spec.name].write(t, np.column_stack([res["x"], res["y"]]), spec.segments,
+                                   {k: res[k] for k in ("pressure", "traction", "gap", "slip", "status", "bound")})
 
     ts = scene.time
     transient = scene.physics.thermal == "transient" or (heat is None and ts is not None)
@@ -191,13 +203,28 @@ class _Mechanics:
         ms = scene.mechanics
         self.setup = elastic_setup(scene, geo, mesh, temperature)
         self.forms = ElasticForms(mesh, self.setup)
-        self.solver = ElasticSolver(self.forms, method=ms.nonlinear_solver, tol=ms.tolerance,
-                                    maxit=ms.max_iterations, relaxation=ms.secant_relaxation)
-        free = self.forms.unheld_rigid_motions()
-        if free:
-            raise SceneError([Problem("boundary_conditions", f"the bodies are not held against {', '.join(free)}: "
-                                      "add displacement or symmetry conditions that stop it (contact support "
-                                      "comes with contact mechanics)")], source=f"scene {scene.scene.name!r}")
+        self.contacts = contact_specs(scene, geo, mesh, self.forms.V) if mesh.dim == 2 else []
+        if self.contacts:
+            floating = self.forms.floating_bodies()
+            check_supported(self.contacts, floating, scene.scene.name)
+            items, modulus = [(c.op, c.law) for c in self.contacts], nodal_modulus(self.setup.props)
+            if any(c.settings.method == "uzawa" for c in self.contacts):     # validated: then all are
+                csolver = UzawaSolver(items, modulus=modulus, floating=floating)
+            else:                                # 'penalty' interfaces keep their penalty rows (ContactLaw)
+                csolver = ContactSolver(items, modulus=modulus, floating=floating)
+            relax = ms.secant_relaxation if ms.secant_relaxation is not None and ms.secant_relaxation <= 1 else None
+            self.solver = ElasticContactSolver(self.forms, csolver, tol=ms.tolerance, maxit=ms.max_iterations,
+                                               relaxation=relax)
+            self.contact_output = ContactOutput(self.forms, self.contacts)
+        else:
+            self.solver = ElasticSolver(self.forms, method=ms.nonlinear_solver, tol=ms.tolerance,
+                                        maxit=ms.max_iterations, relaxation=ms.secant_relaxation)
+            self.contact_output = None
+            free = self.forms.unheld_rigid_motions()
+            if free:
+                raise SceneError([Problem("boundary_conditions", f"the bodies are not held against "
+                                          f"{', '.join(free)}: add displacement or symmetry conditions that stop "
+                                          "it, or a foundation")], source=f"scene {scene.scene.name!r}")
         self.warnings = mechanics_warnings(scene, self.setup)
         u = self.forms.displacement()
         sigma = self.forms.stress_tensor(u)
@@ -216,13 +243,18 @@ class _Mechanics:
         self.forms.t.Set(t)
         self.solver.solve(where)
         self.times.append(t)
+        if self.contact_output is not None:
+            self.contact_output.record(t, self.solver)
 
     def summary(self) -> dict:
         h = self.solver.history
-        return {"model": self.setup.model, "solver": self.solver.method if self.setup.nonlinear else "linear",
-                "solves": len(h), "times_s": self.times,
-                "iterations": [i.iterations for i in h], "wall_s": [i.wall_s for i in h],
-                "last_changes": h[-1].changes if h else []}
+        out = {"model": self.setup.model, "solver": self.solver.method if self.setup.nonlinear else "linear",
+               "solves": len(h), "times_s": self.times,
+               "iterations": [i.iterations for i in h], "wall_s": [i.wall_s for i in h],
+               "last_changes": h[-1].changes if h else []}
+        if self.contact_output is not None:
+            out.update(self.contact_output.summary())
+        return out
 
 
 def _interface_flows(forms: HeatForms, history: dict, axi: bool) -> None:
@@ -260,6 +292,8 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
                                  label=f"T ({t_unit})", axis_labels=labels, window=scene.output.figure_window)
     if arrays is not None and mech is not None:
         _mechanics_figures(scene, mesh, arrays, mech, directory, labels, t_end)
+        if mech.contact_output is not None:
+            _contact_figures(scene, mech, directory, t_end)
     for quantity, names in groups.items():
         times = probes.times[names[0]]
         span = times[-1] - times[0]
@@ -301,6 +335,23 @@ def _mechanics_figures(scene: Scene, mesh, arrays, mech, directory: Path, labels
             arrays, pts, s1, s2, th, directory / fname, axis_labels=labels, window=window,
             title=f"{scene.scene.name}: principal stresses, {_when(t_end)}",
             background=vm / 1e6, background_label="von Mises stress (MPa)")
+
+
+def _contact_figures(scene: Scene, mech, directory: Path, t_end: float) -> None:
+    """Pressure, traction (with the slip bound), gap and slip along each contact, at the last mechanics time."""
+    for spec, res in zip(mech.contacts, mech.contact_output.latest):
+        o = res["order"]
+        xy = np.column_stack([res["x"], res["y"]])[o]
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
+        forces = {"pressure p": res["pressure"][o] / 1e6, "traction q": res["traction"][o] / 1e6}
+        if spec.law.kind != "frictionless":
+            forces["slip bound"] = res["bound"][o] / 1e6
+        figures.interface_profiles(
+            s, [forces, {"gap": res["gap"][o] * 1e3, "slip": res["slip"][o] * 1e3}],
+            directory / f"contact_{spec.name}.png", ylabels=["traction (MPa)", "gap, slip (mm)"],
+            title=f"{scene.scene.name}: contact {spec.name} ({spec.law.kind}), {_when(t_end)}",
+            xlabel=f"arc length along {spec.op.side} from ({xy[0, 0]:.3g}, {xy[0, 1]:.3g}) (m)",
+            status=res["status"][o].astype(int))
 
 
 def _vertex_average(mesh, cf) -> np.ndarray:

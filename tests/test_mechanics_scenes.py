@@ -144,15 +144,27 @@ def test_quasi_static_displacement_history():
     assert np.allclose(vals, 1e-4 * times / year, rtol=1e-9, atol=1e-15)
 
 
-def test_mechanics_with_contact_interface_is_refused():
+def test_unloaded_body_in_frictionless_contact_stays_put():
+    """Block b touches the fixed block a through a frictionless contact and carries no load: it is not held
+    tangentially, but nothing moves it; the solve gives zero displacement (no singular-matrix crash)."""
     blocks = [{"name": "a", "shape": "rectangle", "origin": [0, 0], "size": [1, 1], "boundaries": {"l": "xmin"}},
               {"name": "b", "shape": "rectangle", "origin": [1, 0], "size": [1, 1]}]
     d = {"scene": {"name": "c"}, "physics": {"mechanics": "static"}, "blocks": blocks,
          "interfaces": [{"name": "f", "blocks": ["a", "b"], "type": "contact"}],
          "materials": {"a": ROCK, "b": ROCK}, "boundary_conditions": {"l": {"displacement": [0, 0]}}}
+    res = run(scene_from_dict(d), None, progress=False)
+    assert np.max(np.abs(res.mechanics.forms.gf.vec.FV().NumPy())) < 1e-12
+
+
+def test_3d_contact_mechanics_is_refused():
+    blocks = [{"name": "a", "shape": "box", "origin": [0, 0, 0], "size": [1, 1, 1], "boundaries": {"l": "xmin"}},
+              {"name": "b", "shape": "box", "origin": [1, 0, 0], "size": [1, 1, 1]}]
+    d = {"scene": {"name": "c", "dimension": "3d"}, "physics": {"mechanics": "static"}, "blocks": blocks,
+         "interfaces": [{"name": "f", "blocks": ["a", "b"], "type": "contact"}],
+         "materials": {"a": ROCK, "b": ROCK}, "boundary_conditions": {"l": {"displacement": [0, 0, 0]}}}
     with pytest.raises(SceneError) as err:
         run(scene_from_dict(d), None, progress=False)
-    assert "interfaces" in str(err.value) and "glued" in str(err.value)
+    assert "interfaces" in str(err.value) and "2D" in str(err.value)
 
 
 def test_heated_rock_scene_writes_mechanics_output(tmp_path):

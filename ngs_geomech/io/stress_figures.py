@@ -63,8 +63,27 @@ def _triangulation(m: MeshArrays) -> Triangulation:
 def find_triangles(m: MeshArrays, xy) -> np.ndarray:
     """The triangle (row of ``m.triangles``) containing each point of ``xy`` (n, 2), -1 outside the mesh."""
     xy = np.atleast_2d(np.asarray(xy, dtype=float))
-    finder = TrapezoidMapTriFinder(_triangulation(m))
+    try:
+        finder = TrapezoidMapTriFinder(_triangulation(m))
+    except RuntimeError:    # duplicate vertices (the two sides of a contact interface): matplotlib refuses them
+        return _find_triangles_direct(m, xy)
     return np.asarray(finder(xy[:, 0], xy[:, 1]), dtype=int)
+
+
+def _find_triangles_direct(m: MeshArrays, xy: np.ndarray, chunk: int = 256) -> np.ndarray:
+    """The first triangle whose barycentric coordinates of the point are all >= -1e-12 (-1: none)."""
+    p = m.points[m.triangles]                      # (nt, 3, 2)
+    a, b, c = p[:, 0], p[:, 1], p[:, 2]
+    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+    out = np.full(len(xy), -1, dtype=int)
+    for s in range(0, len(xy), chunk):
+        q = xy[s:s + chunk, None, :]               # (k, 1, 2)
+        l1 = ((b[:, 0] - q[..., 0]) * (c[:, 1] - q[..., 1]) - (c[:, 0] - q[..., 0]) * (b[:, 1] - q[..., 1])) / det
+        l2 = ((c[:, 0] - q[..., 0]) * (a[:, 1] - q[..., 1]) - (a[:, 0] - q[..., 0]) * (c[:, 1] - q[..., 1])) / det
+        inside = (l1 >= -1e-12) & (l2 >= -1e-12) & (1 - l1 - l2 >= -1e-12)
+        hit = inside.any(axis=1)
+        out[s:s + chunk][hit] = np.argmax(inside[hit], axis=1)
+    return out
 
 
 def grid_samples(m: MeshArrays, spacing: float, window=None) -> Samples:

@@ -102,16 +102,56 @@ class Block:
     maxh: float | None = field(optional(number), None, doc="maximal element size in this block, m")
 
 
+CONTACT_LAWS = ("frictionless", "tresca", "coulomb")
+CONTACT_METHODS = ("ssn", "penalty", "uzawa")
+
+
 @dataclass(frozen=True, kw_only=True)
-class Interface:
+class ContactMechanics:
+    """The mechanical contact law of an interface or a rigid foundation (2.23)-(2.27): non-penetration
+    always; friction per ``law``. Used only when physics.mechanics is on."""
+
+    law: str = field(one_of(*CONTACT_LAWS), "frictionless",
+                     doc="'frictionless' (2.27), 'tresca' (slip bound g_c, (2.24)-(2.26)) or 'coulomb' "
+                         "(slip bound friction * normal pressure)")
+    slip_bound: object = field(optional(expr), None,
+                               doc="Tresca slip bound g_c, Pa: a number or an expression of x, y (z), "
+                                   "evaluated at the contact nodes")
+    friction: float | None = field(optional(number), None, doc="Coulomb friction coefficient F_c (> 0)")
+    method: str = field(one_of(*CONTACT_METHODS), "ssn",
+                        doc="'ssn': semi-smooth Newton / primal-dual active set on the augmented Lagrangian "
+                            "(exact constraints; the default), 'penalty': plain penalty (penetration "
+                            "~ pressure / augmentation), 'uzawa': the seed's Uzawa algorithm (2.66) for the "
+                            "friction multipliers (reference; slow)")
+    augmentation: float | None = field(optional(number), None,
+                                       doc="augmentation / penalty parameter c, Pa/m (default: the largest "
+                                           "stiffness entry of the materials over the nodal size, E/h)")
+    search_distance: float | None = field(optional(number), None,
+                                          doc="largest initial gap seen as contact, m (default a quarter of "
+                                              "the side's extent)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Interface(ContactMechanics):
     """``[[interfaces]]``: where two blocks touch; ``glued`` (conforming mesh) or ``contact``
-    (independent, possibly non-matching meshes, coupled weakly)."""
+    (independent, possibly non-matching meshes, coupled weakly). A contact interface carries heat (mortar
+    coupling) and, in mechanical scenes, the contact law of the inherited keys (law, friction, ...)."""
 
     name: str = field(string, doc="interface name")
     blocks: list = field(list_of(string, 2), doc="the two block names")
     type: str = field(one_of("glued", "contact"), "glued", doc="'glued' or 'contact'")
     master: str | None = field(optional(string), None,
                                doc="contact: block whose side carries the coupling (default the first)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Foundation(ContactMechanics):
+    """``[boundary_conditions.NAME.foundation]``: a rigid, fixed, straight (2D) foundation the boundary NAME
+    may touch (Signorini contact with the law of the inherited keys). Initial gaps are the distances from
+    the boundary to the foundation line along the boundary's normal."""
+
+    point: list = field(list_of(number), doc="a point of the foundation surface, m")
+    normal: list = field(list_of(number), doc="the foundation's outward normal (pointing towards the body)")
 
 
 conductivity_value = either(number, matrix, what="a number or a symmetric matrix [[kxx, kxy], [kxy, kyy]]")
@@ -193,6 +233,8 @@ class BoundaryCondition:
     traction: list | None = field(optional(list_of(expr)), None, doc="surface force P (2.19), Pa, per component")
     pressure: object = field(optional(expr), None, doc="normal pressure p (traction -p n), Pa")
     symmetry: bool = field(boolean, False, doc="symmetry u_n = 0, tau_t = 0 (2.16) on a straight boundary")
+    foundation: Foundation | None = field(optional(nested(Foundation)), None,
+                                          doc="contact with a rigid foundation (Signorini, friction)")
 
 
 @dataclass(frozen=True, kw_only=True)

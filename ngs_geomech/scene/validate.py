@@ -7,11 +7,13 @@ learn the region and boundary names.
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
 from netgen import occ
 
+from .. import expressions
 from ..elastic_materials import MaterialError, axisymmetric, elastic_properties
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel, build_geometry, scene_dim
@@ -143,15 +145,26 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
                                  ("pressure", bc.pressure)) if v is not None]
         if bc.symmetry:
             mkinds.append("symmetry")
+        if bc.foundation is not None:
+            mkinds.append("foundation")
+            _check_contact_law(bc.foundation, f"{p}.foundation", problems)
+            for key in ("point", "normal"):
+                v = getattr(bc.foundation, key)
+                if v is not None and len(v) != dim:
+                    problems.append(Problem(f"{p}.foundation.{key}", f"needs {dim} components, got {len(v)}"))
+            nv = bc.foundation.normal
+            if nv is not None and not float(np.linalg.norm(np.asarray(nv, dtype=float))) > 0:
+                problems.append(Problem(f"{p}.foundation.normal", "must not be the zero vector"))
         if len(kinds) > 1:
             problems.append(Problem(p, f"contradictory conditions {kinds}: give one of temperature, flux, "
                                        "insulated, or heat_transfer_coefficient with ambient_temperature"))
         if len(mkinds) > 1:
             problems.append(Problem(p, f"contradictory conditions {mkinds}: give one of displacement, traction, "
-                                       "pressure, symmetry"))
+                                       "pressure, symmetry, foundation"))
         if not kinds and not mkinds:
             problems.append(Problem(p, "no condition given (temperature, flux, insulated, heat_transfer_coefficient"
-                                       " with ambient_temperature; displacement, traction, pressure, symmetry)"))
+                                       " with ambient_temperature; displacement, traction, pressure, symmetry, "
+                                       "foundation)"))
         if kinds and ph.thermal is None:
             problems.append(Problem(p, f"thermal condition {kinds[0]!r} but physics.thermal is off"))
         if mkinds and ph.mechanics is None:
@@ -165,10 +178,56 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
         if bc.heat_transfer_coefficient is not None and bc.heat_transfer_coefficient <= 0:
             problems.append(Problem(f"{p}.heat_transfer_coefficient",
                                     f"must be positive, got {bc.heat_transfer_coefficient}"))
-    if ph.mechanics is not None and not any(bc.displacement is not None or bc.symmetry
+    if ph.mechanics is not None and not any(bc.displacement is not None or bc.symmetry or bc.foundation is not None
                                             for bc in scene.boundary_conditions.values()):
-        problems.append(Problem("boundary_conditions", "the bodies are not held: mechanics needs a displacement or "
-                                "symmetry condition somewhere, or rigid motions are free"))
+        problems.append(Problem("boundary_conditions", "the bodies are not held: mechanics needs a displacement, "
+                                "symmetry or foundation condition somewhere, or rigid motions are free"))
+    for i, itf in enumerate(scene.interfaces):
+        p = f"interfaces[{i}] ({itf.name})"
+        if itf.type == "glued":
+            set_keys = [k for k in ("slip_bound", "friction", "augmentation", "search_distance")
+                        if getattr(itf, k) is not None] + [k for k, d in (("law", "frictionless"), ("method", "ssn"))
+                                                           if getattr(itf, k) != d]
+            if set_keys:
+                problems.append(Problem(f"{p}.{set_keys[0]}", "contact keys apply to type = 'contact' only"))
+        elif ph.mechanics is not None:
+            _check_contact_law(itf, p, problems)
+    contacts = ([(f"interfaces[{i}] ({itf.name})", itf) for i, itf in enumerate(scene.interfaces)
+                 if itf.type == "contact"]
+                + [(f"boundary_conditions.{n}.foundation", bc.foundation)
+                   for n, bc in scene.boundary_conditions.items() if bc.foundation is not None])
+    uzawa = [p for p, c in contacts if c.method == "uzawa"]
+    if ph.mechanics is not None and uzawa and len(uzawa) != len(contacts):
+        other = next(p for p, c in contacts if c.method != "uzawa")
+        problems.append(Problem(f"{other}.method", f"the Uzawa reference method ({uzawa[0]}) solves all contacts "
+                                "of a scene at once: use method = 'uzawa' on every contact or on none"))
+    if ph.mechanics is not None and dim == 3 and (
+            any(i.type == "contact" for i in scene.interfaces)
+            or any(bc.foundation is not None for bc in scene.boundary_conditions.values())):
+        problems.append(Problem("interfaces", "contact mechanics is implemented in 2D (plane and axisymmetric) "
+                                "only: 3D scenes may use contact interfaces for heat, with physics.mechanics off"))
+
+
+def _check_contact_law(c, p: str, problems: list[Problem]) -> None:
+    """The contact-law keys of an interface or foundation (:class:`ContactMechanics`)."""
+    if c.law == "tresca" and c.slip_bound is None:
+        problems.append(Problem(f"{p}.slip_bound", "Tresca friction needs a slip bound g_c (Pa)"))
+    if c.law != "tresca" and c.slip_bound is not None:
+        problems.append(Problem(f"{p}.slip_bound", f"applies to law = 'tresca', not {c.law!r}"))
+    if c.law == "coulomb" and c.friction is None:
+        problems.append(Problem(f"{p}.friction", "Coulomb friction needs a coefficient F_c"))
+    if c.law != "coulomb" and c.friction is not None:
+        problems.append(Problem(f"{p}.friction", f"applies to law = 'coulomb', not {c.law!r}"))
+    if c.friction is not None and not (c.friction > 0 and math.isfinite(c.friction)):
+        problems.append(Problem(f"{p}.friction", f"must be positive, got {c.friction}"))
+    if isinstance(c.slip_bound, (int, float)) and not (c.slip_bound >= 0 and math.isfinite(c.slip_bound)):
+        problems.append(Problem(f"{p}.slip_bound", f"must be >= 0 (Pa), got {c.slip_bound}"))
+    if isinstance(c.slip_bound, str) and "t" in expressions.uses(c.slip_bound):
+        problems.append(Problem(f"{p}.slip_bound", "must not depend on time t (an expression of x, y, z)"))
+    for key in ("augmentation", "search_distance"):
+        v = getattr(c, key)
+        if v is not None and not (v > 0 and math.isfinite(v)):
+            problems.append(Problem(f"{p}.{key}", f"must be positive, got {v}"))
 
 
 def _count_steps(t) -> int:
@@ -225,10 +284,6 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
     for r in geo.regions:
         if r not in scene.materials:
             problems.append(Problem(f"materials.{r}", f"region {r!r} has no material"))
-    if scene.physics.mechanics is not None and geo.contacts:
-        problems.append(Problem("interfaces", f"contact interfaces {sorted(geo.contacts)} carry heat only: contact "
-                                "mechanics (Signorini, friction) is not implemented yet, so the bodies would not be "
-                                "held together; declare them 'glued' for a mechanical run"))
     for name in scene.materials:
         if name not in regions:
             problems.append(Problem(f"materials.{name}", f"no region {name!r} in the geometry "

@@ -1,0 +1,170 @@
+"""From a scene to the contact operators and laws of its interfaces and foundations, and from a contact
+solution to the interface quantities of the output (pressure, traction, gap, slip, status, resultants).
+
+Sign conventions (see :mod:`ngs_geomech.physics.contact`): on the contact side S (an interface's master
+block side, or a boundary with a foundation) p = lam_n >= 0 is the normal pressure (compression, Pa), q =
+lam_t the tangential traction along t = (-n_y, n_x) (n the outward normal of S's body); the force on S's
+body is -p n - q t per unit area. The gap (m) and slip (m) are nodal: weighted values over the nodal
+weights. Forces are N per m of depth (plane) or N per radian (axisymmetric, weight r).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import ngsolve as ngs
+import numpy as np
+
+from .. import expressions
+from ..errors import Problem, SceneError
+from ..geometry.assemble import GeometryModel
+from ..physics.contact import ContactOperator, contact_operator_2d
+from ..scene.model import ContactMechanics, Scene
+from ..solvers.contact import ContactLaw
+
+STATUS_OPEN, STATUS_STICK, STATUS_SLIP = 0, 1, 2
+
+
+@dataclass
+class ContactSpec:
+    """One mechanical contact of a scene: its operator, law, scene settings and the blocks involved
+    (``blocks``: the side's block, then the opposite block or None for a foundation)."""
+
+    name: str
+    kind: str                       # "interface" | "foundation"
+    op: ContactOperator
+    law: ContactLaw
+    settings: ContactMechanics
+    blocks: tuple
+    segments: np.ndarray            # (k, 2) node indices of S's boundary segments (for output lines)
+
+
+def contact_law(c: ContactMechanics, coords: np.ndarray) -> ContactLaw:
+    """The solver's law from the scene keys; an expression slip bound is evaluated at the nodes (m x dim)."""
+    g = None
+    if c.law == "tresca":
+        if isinstance(c.slip_bound, str):
+            names = "xyz"
+            g = np.array([expressions.evaluate(c.slip_bound, **{names[k]: float(p[k]) for k in range(len(p))},
+                                               r=float(p[0])) for p in coords])
+        else:
+            g = float(c.slip_bound)
+    return ContactLaw(c.law, slip_bound=g, friction=c.friction or 0.0, augmentation=c.augmentation,
+                      penalty=c.method == "penalty")
+
+
+def _segments(mesh, side: str, op: ContactOperator) -> np.ndarray:
+    index = {int(v): j for j, v in enumerate(op.nodes)}
+    return np.array([[index[el.vertices[0].nr], index[el.vertices[1].nr]]
+                     for el in mesh.Boundaries(side).Elements()], dtype=int).reshape(-1, 2)
+
+
+def contact_specs(scene: Scene, geo: GeometryModel, mesh, V) -> list[ContactSpec]:
+    """The mechanical contacts of a validated 2D scene on its mesh (``V`` the displacement space)."""
+    axi = scene.scene.dimension == "axisymmetric"
+    byname = {i.name: i for i in scene.interfaces}
+    out = []
+    for name, cs in geo.contacts.items():
+        itf = byname[name]
+        op = contact_operator_2d(mesh, V, name, cs.master, cs.minion, axisymmetric=axi,
+                                 search_distance=itf.search_distance)
+        out.append(ContactSpec(name, "interface", op, contact_law(itf, op.coords), itf,
+                               (cs.master_block, cs.minion_block), _segments(mesh, cs.master, op)))
+    for bname, bc in scene.boundary_conditions.items():
+        fd = bc.foundation
+        if fd is None:
+            continue
+        op = contact_operator_2d(mesh, V, bname, bname, None, axisymmetric=axi,
+                                 obstacle=(tuple(fd.point), tuple(fd.normal)), search_distance=fd.search_distance)
+        blocks = sorted({el.mat for el in _volume_neighbours(mesh, bname)})
+        out.append(ContactSpec(bname, "foundation", op, contact_law(fd, op.coords), fd, (tuple(blocks), None),
+                               _segments(mesh, bname, op)))
+    return out
+
+
+def _volume_neighbours(mesh, boundary: str):
+    """The volume elements having a vertex on the boundary (to name the blocks a foundation supports)."""
+    verts = {v.nr for el in mesh.Boundaries(boundary).Elements() for v in el.vertices}
+    return [el for el in mesh.Elements(ngs.VOL) if any(v.nr in verts for v in el.vertices)]
+
+
+def check_supported(specs: list[ContactSpec], floating, scene_name: str) -> None:
+    """A floating body (no displacement/symmetry holds it) must touch some contact, or nothing can hold it:
+    stop with the body and its free motions named."""
+    touched = set()
+    for s in specs:
+        for b in s.blocks:
+            if isinstance(b, tuple):
+                touched |= set(b)
+            elif b is not None:
+                touched.add(b)
+    bad = [fb for fb in floating if not touched & set(fb.regions)]
+    if bad:
+        raise SceneError([Problem("boundary_conditions", f"body {'+'.join(fb.regions)} is not held against "
+                                  f"{', '.join(fb.names)}: add a displacement or symmetry condition, a "
+                                  "foundation, or a contact interface to a held body") for fb in bad],
+                         source=f"scene {scene_name!r}")
+
+
+def interface_results(spec: ContactSpec, u: np.ndarray, lam_n: np.ndarray, lam_t: np.ndarray) -> dict:
+    """Nodal arrays of one contact at a solution u (vector of X): x, y (m), pressure p (Pa), traction q (Pa),
+    gap (m), slip (m), status (0 open, 1 stick, 2 slip), bound (the slip bound, Pa) and the node order
+    along the side (``order``, by arc length from one end)."""
+    op = spec.op
+    n = op.Bn.shape[1]
+    w = np.maximum(op.weight, 1e-300)
+    gap = (op.g0 + op.Bn @ u[:n]) / w
+    slip = (op.Bt @ u[:n]) / w
+    law = spec.law
+    if law.kind == "tresca":
+        bound = np.broadcast_to(np.asarray(law.slip_bound, dtype=float), lam_n.shape).copy()
+    elif law.kind == "coulomb":
+        bound = law.friction * np.maximum(lam_n, 0.0)
+    else:
+        bound = np.zeros_like(lam_n)
+    status = np.where(lam_n > 0, STATUS_STICK, STATUS_OPEN)
+    if law.kind == "frictionless":
+        status = np.where(lam_n > 0, STATUS_SLIP, STATUS_OPEN)
+    else:
+        sliding = (lam_n > 0) & (np.abs(lam_t) >= bound * (1 - 1e-9))
+        status = np.where(sliding, STATUS_SLIP, status)
+    return {"x": op.coords[:, 0], "y": op.coords[:, 1], "pressure": lam_n, "traction": lam_t, "gap": gap,
+            "slip": slip, "status": status.astype(float), "bound": bound, "order": _arc_order(spec)}
+
+
+def _arc_order(spec: ContactSpec) -> np.ndarray:
+    """Node indices in order along the side (a chain through the segments from an end; by x if it branches)."""
+    m = spec.op.size
+    nb: dict[int, list[int]] = {j: [] for j in range(m)}
+    for a, b in spec.segments:
+        nb[int(a)].append(int(b))
+        nb[int(b)].append(int(a))
+    ends = [j for j, k in nb.items() if len(k) == 1]
+    if len(ends) != 2 or any(len(k) > 2 for k in nb.values()):
+        return np.lexsort((spec.op.coords[:, 1], spec.op.coords[:, 0]))
+    start = min(ends, key=lambda j: tuple(spec.op.coords[j]))
+    order, prev = [start], None
+    while len(order) < m:
+        nxt = [k for k in nb[order[-1]] if k != prev]
+        if not nxt:
+            break
+        prev = order[-1]
+        order.append(nxt[0])
+    return np.array(order, dtype=int)
+
+
+def resultant(op: ContactOperator, translations: np.ndarray, lam_n: np.ndarray, lam_t: np.ndarray,
+              side_dofs: np.ndarray) -> np.ndarray:
+    """The contact force on S's body (N/m plane, N/rad axisymmetric) per coordinate direction: the
+    translations' coefficient vectors (rows) applied to Bn^T lam_n + Bt^T lam_t on S's dofs."""
+    n = op.Bn.shape[1]
+    f = op.Bn.T @ lam_n + op.Bt.T @ lam_t
+    return np.array([float(t[:n][side_dofs] @ f[side_dofs]) for t in translations])
+
+
+def side_dofs(mesh, V, side: str) -> np.ndarray:
+    """The dofs of the vector space V on the boundary ``side`` (all components)."""
+    dofs = set()
+    for el in mesh.Boundaries(side).Elements():
+        dofs.update(d for d in V.GetDofNrs(el) if d >= 0)
+    return np.array(sorted(dofs), dtype=int)

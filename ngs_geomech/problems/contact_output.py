@@ -1,0 +1,110 @@
+"""The contact part of a mechanical run's output: nodal interface quantities at each mechanics time, the
+contact resultants and the global force balance for ``summary.json``.
+
+Force balance (per translation direction e: x and y in plane scenes, only z = y in axisymmetric ones):
+the applied loads L = e . f (body forces, tractions, pressures; thermal and initial stresses have no
+resultant), the support reactions S = e . (K u - f - B^T lam) on the fixed dofs, and the foundation
+forces F = e . B^T lam of the foundations sum to zero: imbalance = |L + S + F| / (the largest of |L|, |S|,
+|F| and the contact resultants).
+Interfaces between bodies are internal: the forces on their two sides must be opposite (reported as
+``action_reaction``: |F_side + F_opposite| / |F_side|).
+"""
+
+from __future__ import annotations
+
+import ngsolve as ngs
+import numpy as np
+
+from .contact import ContactSpec, interface_results, side_dofs
+
+_STATUS = ("open", "stick", "slip")
+
+
+class ContactOutput:
+    """Records the contact state of each mechanics solve (see the module docstring)."""
+
+    def __init__(self, forms, specs: list[ContactSpec]):
+        self.forms = forms
+        self.specs = specs
+        V = forms.V
+        axi = forms.setup.model == "axisymmetric"
+        self.directions = ["y"] if axi else ["x", "y"]
+        g = ngs.GridFunction(V)
+        rows = []
+        for d in self.directions:
+            comps = [0.0, 0.0]
+            comps["xy".index(d)] = 1.0
+            g.Set(ngs.CoefficientFunction(tuple(comps)))
+            rows.append(np.array(g.vec.FV().NumPy()))
+        self.translations = np.array(rows)
+        mesh = forms.mesh
+        self.side = [side_dofs(mesh, V, s.op.side) for s in specs]
+        self.opposite = [side_dofs(mesh, V, s.op.opposite) if s.op.opposite else None for s in specs]
+        self.latest: list[dict] = []
+        self.history: list[dict] = []
+
+    def record(self, t: float, solver) -> None:
+        """After a solve of :class:`ElasticContactSolver`: the interface arrays and the balance at time t."""
+        f = self.forms
+        n = f.V.ndof
+        u = np.array(f.gf.vec.FV().NumPy())
+        K = f.secant_form.mat
+        rhs = np.array(f.secant_rhs.vec.FV().NumPy())
+        ku = f.gf.vec.CreateVector()
+        ku.data = K * f.gf.vec
+        force = np.array(ku.FV().NumPy()) - rhs         # K u - f - B^T lam: the support reactions
+        self.latest = []
+        entry = {"time_s": t, "interfaces": {}}
+        foundation = np.zeros(len(self.directions))
+        for k, (spec, (lam_n, lam_t)) in enumerate(zip(self.specs, solver.contact.multipliers)):
+            res = interface_results(spec, u, lam_n, lam_t)
+            self.latest.append(res)
+            op = spec.op
+            bt = op.Bn.T @ lam_n + op.Bt.T @ lam_t
+            force[:n] -= bt
+            on_side = self._resultant(bt, self.side[k])
+            status = res["status"].astype(int)
+            keep = op.coverage > 1 - 1e-6
+            item = {"kind": spec.kind, "law": spec.law.kind, "normal_force": float(np.dot(op.weight, lam_n)),
+                    "tangential_force": float(np.dot(op.weight, lam_t)),
+                    "resultant_on_side": dict(zip(self.directions, on_side.tolist())),
+                    "max_pressure_Pa": float(np.max(lam_n, initial=0.0)),
+                    "max_penetration_m": float(np.max(-res["gap"][keep], initial=0.0)),
+                    "max_slip_m": float(np.max(np.abs(res["slip"][lam_n > 0]), initial=0.0)),
+                    "nodes": {s: int(np.sum(status == i)) for i, s in enumerate(_STATUS)}}
+            if spec.kind == "foundation":
+                foundation += on_side
+            else:
+                on_opp = self._resultant(bt, self.opposite[k])
+                item["resultant_on_opposite"] = dict(zip(self.directions, on_opp.tolist()))
+                item["action_reaction"] = float(np.linalg.norm(on_side + on_opp)
+                                                / max(float(np.linalg.norm(on_side)), 1e-300))
+            entry["interfaces"][spec.name] = item
+        free = np.array(list(f.X.FreeDofs()), dtype=bool)
+        reaction = np.where(free, 0.0, force)
+        load = self.translations @ rhs[:n]
+        supports = self.translations @ reaction[:n]
+        # relative to the largest force involved (a body squeezed between two foundations has no net load)
+        contact_forces = [abs(v) for item in entry["interfaces"].values() for v in item["resultant_on_side"].values()]
+        scale = max(float(np.max(np.abs(np.concatenate([load, supports, foundation])), initial=0.0)),
+                    max(contact_forces, default=0.0), 1e-300)
+        entry["force_balance"] = {"directions": self.directions, "load": load.tolist(),
+                                  "support_reactions": supports.tolist(), "foundations": foundation.tolist(),
+                                  "imbalance_rel": float(np.max(np.abs(load + supports + foundation)) / scale),
+                                  "units": "N/rad" if len(self.directions) == 1 else "N/m"}
+        infos = solver.contact_infos[-1] if solver.contact_infos else []
+        entry["contact_iterations"] = [i.iterations for i in infos]
+        self.history.append(entry)
+
+    def _resultant(self, bt: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+        return np.array([float(t[dofs] @ bt[dofs]) for t in self.translations])
+
+    def summary(self) -> dict:
+        last = self.history[-1] if self.history else {}
+        return {"contact": {"interfaces": last.get("interfaces", {}), "force_balance": last.get("force_balance", {}),
+                            "iterations_per_solve": [sum(h["contact_iterations"]) for h in self.history],
+                            "history": [{"time_s": h["time_s"], "imbalance_rel": h["force_balance"]["imbalance_rel"],
+                                         **{name: {"normal_force": v["normal_force"],
+                                                   "tangential_force": v["tangential_force"],
+                                                   "nodes": v["nodes"]}
+                                            for name, v in h["interfaces"].items()}} for h in self.history]}}

@@ -1,0 +1,221 @@
+"""Contact mechanics in scenes: problem (P) whole (heat, thermal stress, the lambda law and contact with
+foundations) against a closed form, friction on a foundation, the contact output (boundary VTK, figures,
+summary force balance), and the errors for bad contact input."""
+
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from ngs_geomech.errors import SceneError, SolverError
+from ngs_geomech.run import run_scene
+from ngs_geomech.scene.parse import scene_from_dict
+from ngs_geomech.scene.validate import validate
+from ngs_geomech.verification.contact_scenes import heated_bar, heated_bar_scene
+
+
+@pytest.mark.parametrize("lam", [1.0, 0.8, 1.3])
+def test_heated_bar_between_foundations(one_thread, lam):
+    """Thermal stress + lambda law + two Signorini contacts (semi-coercive along x): exact uniform pressure."""
+    r = heated_bar(lam=lam)
+    print(f"\nheated bar lam = {lam}: p_ref {r['p_ref'] / 1e6:.6f} MPa, max nodal error {r['p_error']:.1e}, "
+          f"imbalance {r['imbalance_rel']:.1e}, {r['iterations']} secant iterations, "
+          f"{r['contact_iterations']} active-set steps")
+    assert r["p_ref"] > 1e7
+    assert r["p_error"] < 1e-8
+    assert r["imbalance_rel"] < 1e-8
+    if lam != 1.0:
+        assert r["iterations"] <= 40
+
+
+def test_heated_bar_gap_stays_open(one_thread):
+    """Expansion smaller than the gap: no pressure anywhere, finite displacements (the x translation is free
+    and unloaded; it is fixed at the regularization's minimum-norm value)."""
+    r = heated_bar(gap=1e-3)
+    assert r["p_ref"] == 0.0
+    assert r["p_left"] == [0.0, 0.0] and r["p_right"] == [0.0, 0.0]
+    contact = r["summary"]["mechanics"]["contact"]["interfaces"]
+    assert contact["right"]["nodes"]["open"] == contact["right"]["nodes"]["open"] + contact["right"]["nodes"]["slip"]
+
+
+def _block_scene(push_ratio: float, **found) -> dict:
+    p, mu, L, H = 5e6, 0.3, 1.0, 0.5
+    return {
+        "scene": {"name": "block"},
+        "physics": {"mechanics": "static"},
+        "mesh": {"maxh": 0.1},
+        "blocks": [{"name": "block", "shape": "rectangle", "origin": [0, 0], "size": [L, H],
+                    "boundaries": {"base": "ymin", "top": "ymax", "left": "xmin"}}],
+        "materials": {"block": {"youngs_modulus": 10e9, "poisson_ratio": 0.25}},
+        "boundary_conditions": {
+            "base": {"foundation": {"point": [0, 0], "normal": [0, 1], "law": "coulomb", "friction": mu, **found}},
+            "top": {"pressure": p},
+            "left": {"traction": [push_ratio * mu * p * L / H, 0.0]},
+        },
+    }
+
+
+def test_block_on_foundation_output(one_thread, tmp_path):
+    """A block held only by a Coulomb foundation, pushed at half its capacity: the friction force balances
+    the push; boundary VTK, the contact figure and the summary's force balance are written."""
+    out = tmp_path / "block"
+    r = run_scene(scene_from_dict(_block_scene(0.5)), out, progress=False)
+    c = r.summary["mechanics"]["contact"]
+    base = c["interfaces"]["base"]
+    print(f"\nblock on foundation: friction force {base['tangential_force']:.6e} N/m (push 3.75e5), "
+          f"imbalance {c['force_balance']['imbalance_rel']:.1e}, nodes {base['nodes']}")
+    assert base["tangential_force"] == pytest.approx(0.5 * 0.3 * 5e6, rel=1e-9)
+    assert base["normal_force"] == pytest.approx(5e6, rel=1e-9)
+    assert base["resultant_on_side"]["x"] == pytest.approx(-0.5 * 0.3 * 5e6, rel=1e-9)
+    assert c["force_balance"]["imbalance_rel"] < 1e-8
+    assert base["nodes"]["stick"] > 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["mechanics"]["contact"]["interfaces"]["base"]["law"] == "coulomb"
+    assert (out / "figures" / "contact_base.png").stat().st_size > 1000
+    pvd = ET.parse(out / "block_contact_base.pvd").getroot()
+    files = [d.get("file") for d in pvd.iter("DataSet")]
+    assert files == ["block_contact_base_step00000.vtp"]
+    vtp = ET.parse(out / files[0]).getroot()
+    piece = next(vtp.iter("Piece"))
+    npts = int(piece.get("NumberOfPoints"))
+    arrays = {a.get("Name"): np.array(a.text.split(), dtype=float) for a in piece.find("PointData")}
+    assert set(arrays) == {"pressure", "traction", "gap", "slip", "status", "bound"}
+    assert npts == 11 and int(piece.get("NumberOfLines")) == 10
+    assert np.all(arrays["pressure"] > 0) and np.all(np.isin(arrays["status"], [1.0, 2.0]))
+
+
+def test_block_pulled_off_foundation_names_body(one_thread):
+    scene = _block_scene(0.0)
+    scene["boundary_conditions"]["top"] = {"traction": [0.0, 1e6]}       # pulls the block off
+    with pytest.raises(SolverError, match=r"body block: translation along y is not held"):
+        run_scene(scene_from_dict(scene), None, progress=False)
+
+
+def test_block_pushed_beyond_friction_names_body(one_thread):
+    with pytest.raises(SolverError, match=r"body block: translation along x is not held"):
+        run_scene(scene_from_dict(_block_scene(1.5)), None, progress=False)
+
+
+def _problems(data: dict) -> list[str]:
+    with pytest.raises(SceneError) as exc:
+        validate(scene_from_dict(data))
+    return [p.item for p in exc.value.problems]
+
+
+def test_contact_scene_validation():
+    s = heated_bar_scene()
+    left = s["boundary_conditions"]["left"]["foundation"]
+    left.update(law="tresca")
+    right = s["boundary_conditions"]["right"]["foundation"]
+    right.update(normal=[0.0, 0.0], friction=-1.0, augmentation=0.0)
+    items = _problems(s)
+    assert "boundary_conditions.left.foundation.slip_bound" in items
+    assert "boundary_conditions.right.foundation.normal" in items
+    assert "boundary_conditions.right.foundation.friction" in items
+    assert "boundary_conditions.right.foundation.augmentation" in items
+
+
+def test_contact_keys_on_glued_interface_rejected():
+    s = _block_scene(0.5)
+    s["blocks"][0]["boundaries"]["mid"] = "xmax"
+    s["blocks"].append({"name": "other", "shape": "rectangle", "origin": [1.0, 0], "size": [1.0, 0.5]})
+    s["materials"]["other"] = {"youngs_modulus": 10e9, "poisson_ratio": 0.25}
+    s["interfaces"] = [{"name": "joint", "blocks": ["block", "other"], "type": "glued", "law": "coulomb"}]
+    assert "interfaces[0] (joint).law" in _problems(s)
+
+
+def _two_blocks() -> dict:
+    s = _block_scene(0.0)
+    s["blocks"] = [{"name": "lower", "shape": "rectangle", "origin": [0, 0], "size": [1.0, 0.5]},
+                   {"name": "upper", "shape": "rectangle", "origin": [0, 0.5], "size": [1.0, 0.5],
+                    "boundaries": {"top": "ymax"}},
+                   {"name": "loose", "shape": "rectangle", "origin": [2.0, 0], "size": [0.5, 0.5]}]
+    s["materials"] = {n: {"youngs_modulus": 10e9, "poisson_ratio": 0.25, "density": 2500.0}
+                      for n in ("lower", "upper", "loose")}
+    s["interfaces"] = [{"name": "joint", "blocks": ["upper", "lower"], "type": "contact"}]
+    s["boundary_conditions"] = {"top": {"displacement": [0.0, 0.0]}}
+    return s
+
+
+def test_floating_body_without_contact_is_named(one_thread):
+    """A block that touches no contact and no support: the error names it and its free motions."""
+    with pytest.raises(SceneError, match=r"body loose is not held against translation along x"):
+        run_scene(scene_from_dict(_two_blocks()), None, progress=False)
+
+
+def test_hanging_body_pulled_off_by_gravity_is_named(one_thread):
+    """The lower block hangs under the fixed upper one: contact cannot pull, the error names the body."""
+    s = _two_blocks()
+    s["blocks"].pop()
+    s["materials"].pop("loose")
+    s["mechanics"] = {"gravity": [0.0, -9.81]}
+    with pytest.raises(SolverError, match=r"body lower: translation along y is not held"):
+        run_scene(scene_from_dict(s), None, progress=False)
+
+
+@pytest.mark.parametrize("law", ["frictionless", "coulomb"])
+def test_block_resting_on_block(one_thread, law):
+    """The upper block rests on the fixed lower one under gravity (held by the contact alone): the contact
+    carries its weight, the two sides' forces are opposite, the global balance closes."""
+    s = _two_blocks()
+    s["blocks"].pop()
+    s["materials"].pop("loose")
+    s["blocks"][0]["boundaries"] = {"base": "ymin"}
+    s["blocks"][1]["boundaries"] = {}
+    s["mechanics"] = {"gravity": [0.0, -9.81]}
+    s["interfaces"][0].update(law=law, **({"friction": 0.5} if law == "coulomb" else {}))
+    s["boundary_conditions"] = {"base": {"displacement": [0.0, 0.0]}}
+    r = run_scene(scene_from_dict(s), None, progress=False)
+    c = r.summary["mechanics"]["contact"]
+    joint = c["interfaces"]["joint"]
+    weight = 1.0 * 0.5 * 2500.0 * 9.81
+    print(f"\nstack ({law}): contact force {joint['normal_force']:.6f} N/m (weight {weight}), action-reaction "
+          f"{joint['action_reaction']:.1e}, imbalance {c['force_balance']['imbalance_rel']:.1e}")
+    assert joint["normal_force"] == pytest.approx(weight, rel=1e-9)
+    assert joint["resultant_on_side"]["y"] == pytest.approx(weight, rel=1e-9)     # pushes the upper block up
+    assert joint["action_reaction"] < 1e-10
+    assert c["force_balance"]["imbalance_rel"] < 1e-8
+    assert c["force_balance"]["support_reactions"][1] == pytest.approx(2 * weight, rel=1e-9)
+
+
+def test_penalty_method_softens_by_the_closed_form(one_thread):
+    """Plain penalty (method = 'penalty', augmentation c): each side penetrates p / c, so the heated bar's
+    pressure is p_exact / (1 + 2 E' / (c L)) with E' = E / (1 - nu^2) (plane strain, sigma_yy = 0)."""
+    E, nu, L = 20e9, 0.25, 1.0
+    Ep = E / (1 - nu ** 2)
+    for c in (1e10, 1e11):
+        s = heated_bar_scene(method="penalty")
+        for side in ("left", "right"):
+            s["boundary_conditions"][side]["foundation"]["augmentation"] = c
+        res = run_scene(scene_from_dict(s), None, progress=False)
+        exact = heated_bar()["p_ref"]
+        expect = exact / (1 + 2 * Ep / (c * L))
+        p = res.mechanics.contact_output.latest[0]["pressure"]
+        pen = res.summary["mechanics"]["contact"]["interfaces"]["left"]["max_penetration_m"]
+        print(f"\npenalty c = {c:.0e} Pa/m: p {p.mean() / 1e6:.6f} MPa (exact constraint {exact / 1e6:.6f}), "
+              f"penetration {pen:.3e} m = p/c {expect / c:.3e}")
+        assert np.allclose(p, expect, rtol=1e-8)
+        assert pen == pytest.approx(expect / c, rel=1e-8)
+
+
+def test_uzawa_method_in_a_scene_matches_ssn(one_thread):
+    """method = 'uzawa' (the seed's (2.66)) on the Coulomb block gives the semi-smooth Newton answer."""
+    ref = run_scene(scene_from_dict(_block_scene(0.5)), None, progress=False)
+    uz = run_scene(scene_from_dict(_block_scene(0.5, method="uzawa")), None, progress=False)
+    a = ref.mechanics.contact_output.latest[0]
+    b = uz.mechanics.contact_output.latest[0]
+    steps = uz.summary["mechanics"]["contact"]["iterations_per_solve"][-1]
+    print(f"\nUzawa in a scene: {steps} steps; max |dp| {np.max(np.abs(a['pressure'] - b['pressure'])):.2e} Pa, "
+          f"max |dq| {np.max(np.abs(a['traction'] - b['traction'])):.2e} Pa")
+    assert np.allclose(a["pressure"], b["pressure"], rtol=0, atol=1e-8 * 5e6)
+    assert np.allclose(a["traction"], b["traction"], rtol=0, atol=1e-8 * 5e6)
+    assert uz.summary["mechanics"]["contact"]["force_balance"]["imbalance_rel"] < 1e-8
+
+
+def test_uzawa_must_be_used_on_every_contact():
+    s = heated_bar_scene()
+    s["boundary_conditions"]["left"]["foundation"]["method"] = "uzawa"
+    assert "boundary_conditions.right.foundation.method" in _problems(s)
