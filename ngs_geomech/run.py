@@ -128,7 +128,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         if vtk:
             vtk.write(t)
         for spec, res in zip(mech.contacts if lines else [], mech.contact_output.latest if lines else []):
-            lines[spec.name].write(t, np.column_stack([res["x"], res["y"]]), spec.segments,
+            lines[spec.name].write(t, np.column_stack([res[c] for c in "xyz" if c in res]), spec.cells,
                                    {k: res[k] for k in ("pressure", "traction", "gap", "slip", "status", "bound")})
 
     ts = scene.time
@@ -203,7 +203,7 @@ class _Mechanics:
         ms = scene.mechanics
         self.setup = elastic_setup(scene, geo, mesh, temperature)
         self.forms = ElasticForms(mesh, self.setup)
-        self.contacts = contact_specs(scene, geo, mesh, self.forms.V) if mesh.dim == 2 else []
+        self.contacts = contact_specs(scene, geo, mesh, self.forms.V)
         if self.contacts:
             floating = self.forms.floating_bodies()
             check_supported(self.contacts, floating, scene.scene.name)
@@ -338,7 +338,8 @@ def _mechanics_figures(scene: Scene, mesh, arrays, mech, directory: Path, labels
 
 
 def _contact_figures(scene: Scene, mech, directory: Path, t_end: float) -> None:
-    """Pressure, traction (with the slip bound), gap and slip along each contact, at the last mechanics time."""
+    """Pressure, traction (with the slip bound), gap and slip along each contact, at the last mechanics time
+    (2D scenes; 3D contacts are in the boundary VTK only)."""
     for spec, res in zip(mech.contacts, mech.contact_output.latest):
         o = res["order"]
         xy = np.column_stack([res["x"], res["y"]])[o]

@@ -5,7 +5,12 @@ Sign conventions (see :mod:`ngs_geomech.physics.contact`): on the contact side S
 block side, or a boundary with a foundation) p = lam_n >= 0 is the normal pressure (compression, Pa), q =
 lam_t the tangential traction along t = (-n_y, n_x) (n the outward normal of S's body); the force on S's
 body is -p n - q t per unit area. The gap (m) and slip (m) are nodal: weighted values over the nodal
-weights. Forces are N per m of depth (plane) or N per radian (axisymmetric, weight r).
+weights. Forces are N per m of depth (plane), N per radian (axisymmetric, weight r) or N (3D).
+
+3D scenes (:func:`ngs_geomech.physics.contact3d.contact_operator_3d`): frictionless only (validated), so q = 0;
+the slip is the length of the tangential relative displacement (both tangential directions t1, t2), >= 0.
+The output cells are the side's boundary triangles (node index triples, ordered so that their right-hand
+normal points out of S's body) instead of segments.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from .. import expressions
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel
 from ..physics.contact import ContactOperator, contact_operator_2d
+from ..physics.contact3d import contact_operator_3d
 from ..scene.model import ContactMechanics, Scene
 from ..solvers.contact import ContactLaw
 
@@ -36,7 +42,7 @@ class ContactSpec:
     law: ContactLaw
     settings: ContactMechanics
     blocks: tuple
-    segments: np.ndarray            # (k, 2) node indices of S's boundary segments (for output lines)
+    cells: np.ndarray               # S's boundary cells as node indices (output): (k, 2) segments, 3D (k, 3) triangles
 
 
 def contact_law(c: ContactMechanics, coords: np.ndarray) -> ContactLaw:
@@ -53,32 +59,53 @@ def contact_law(c: ContactMechanics, coords: np.ndarray) -> ContactLaw:
                       penalty=c.method == "penalty")
 
 
-def _segments(mesh, side: str, op: ContactOperator) -> np.ndarray:
+def _cells(mesh, side: str, op: ContactOperator) -> np.ndarray:
+    """The boundary elements of ``side`` as indices into op's nodes: 2D (k, 2) segments; 3D (k, 3) triangles
+    whose right-hand normal points out of the body (away from the volume element behind the face)."""
     index = {int(v): j for j, v in enumerate(op.nodes)}
-    return np.array([[index[el.vertices[0].nr], index[el.vertices[1].nr]]
-                     for el in mesh.Boundaries(side).Elements()], dtype=int).reshape(-1, 2)
+    els = list(mesh.Boundaries(side).Elements())
+    if mesh.dim == 2:
+        return np.array([[index[el.vertices[0].nr], index[el.vertices[1].nr]] for el in els],
+                        dtype=int).reshape(-1, 2)
+    pts = np.asarray(mesh.ngmesh.Coordinates(), dtype=float)[:mesh.nv]
+    tris = []
+    for el in els:
+        vs = [v.nr for v in el.vertices]
+        p = pts[vs]
+        inner = pts[[v.nr for v in mesh[mesh[el.faces[0]].elements[0]].vertices]].mean(axis=0)
+        if float(np.dot(np.cross(p[1] - p[0], p[2] - p[0]), p.mean(axis=0) - inner)) < 0:
+            vs = [vs[0], vs[2], vs[1]]
+        tris.append([index[v] for v in vs])
+    return np.array(tris, dtype=int).reshape(-1, 3)
 
 
 def contact_specs(scene: Scene, geo: GeometryModel, mesh, V) -> list[ContactSpec]:
-    """The mechanical contacts of a validated 2D scene on its mesh (``V`` the displacement space)."""
+    """The mechanical contacts of a validated scene on its mesh (``V`` the displacement space): 2D (plane,
+    axisymmetric) operators of :func:`contact_operator_2d`, 3D ones of :func:`contact_operator_3d`."""
     axi = scene.scene.dimension == "axisymmetric"
+
+    def operator(name, side, opposite, obstacle, search_distance):
+        if mesh.dim == 3:
+            return contact_operator_3d(mesh, V, name, side, opposite, obstacle=obstacle,
+                                       search_distance=search_distance)
+        return contact_operator_2d(mesh, V, name, side, opposite, axisymmetric=axi, obstacle=obstacle,
+                                   search_distance=search_distance)
+
     byname = {i.name: i for i in scene.interfaces}
     out = []
     for name, cs in geo.contacts.items():
         itf = byname[name]
-        op = contact_operator_2d(mesh, V, name, cs.master, cs.minion, axisymmetric=axi,
-                                 search_distance=itf.search_distance)
+        op = operator(name, cs.master, cs.minion, None, itf.search_distance)
         out.append(ContactSpec(name, "interface", op, contact_law(itf, op.coords), itf,
-                               (cs.master_block, cs.minion_block), _segments(mesh, cs.master, op)))
+                               (cs.master_block, cs.minion_block), _cells(mesh, cs.master, op)))
     for bname, bc in scene.boundary_conditions.items():
         fd = bc.foundation
         if fd is None:
             continue
-        op = contact_operator_2d(mesh, V, bname, bname, None, axisymmetric=axi,
-                                 obstacle=(tuple(fd.point), tuple(fd.normal)), search_distance=fd.search_distance)
+        op = operator(bname, bname, None, (tuple(fd.point), tuple(fd.normal)), fd.search_distance)
         blocks = sorted({el.mat for el in _volume_neighbours(mesh, bname)})
         out.append(ContactSpec(bname, "foundation", op, contact_law(fd, op.coords), fd, (tuple(blocks), None),
-                               _segments(mesh, bname, op)))
+                               _cells(mesh, bname, op)))
     return out
 
 
@@ -107,14 +134,17 @@ def check_supported(specs: list[ContactSpec], floating, scene_name: str) -> None
 
 
 def interface_results(spec: ContactSpec, u: np.ndarray, lam_n: np.ndarray, lam_t: np.ndarray) -> dict:
-    """Nodal arrays of one contact at a solution u (vector of X): x, y (m), pressure p (Pa), traction q (Pa),
-    gap (m), slip (m), status (0 open, 1 stick, 2 slip), bound (the slip bound, Pa) and the node order
-    along the side (``order``, by arc length from one end)."""
+    """Nodal arrays of one contact at a solution u (vector of X): x, y (and z in 3D) (m), pressure p (Pa),
+    traction q (Pa), gap (m), slip (m; signed along t in 2D, the tangential length in 3D), status (0 open,
+    1 stick, 2 slip), bound (the slip bound, Pa) and the node order along the side (``order``, by arc length
+    from one end; 3D: by x, y, z)."""
     op = spec.op
     n = op.Bn.shape[1]
     w = np.maximum(op.weight, 1e-300)
     gap = (op.g0 + op.Bn @ u[:n]) / w
     slip = (op.Bt @ u[:n]) / w
+    if op.Bt2 is not None:
+        slip = np.hypot(slip, (op.Bt2 @ u[:n]) / w)
     law = spec.law
     if law.kind == "tresca":
         bound = np.broadcast_to(np.asarray(law.slip_bound, dtype=float), lam_n.shape).copy()
@@ -128,15 +158,22 @@ def interface_results(spec: ContactSpec, u: np.ndarray, lam_n: np.ndarray, lam_t
     else:
         sliding = (lam_n > 0) & (np.abs(lam_t) >= bound * (1 - 1e-9))
         status = np.where(sliding, STATUS_SLIP, status)
-    return {"x": op.coords[:, 0], "y": op.coords[:, 1], "pressure": lam_n, "traction": lam_t, "gap": gap,
-            "slip": slip, "status": status.astype(float), "bound": bound, "order": _arc_order(spec)}
+    out = {"x": op.coords[:, 0], "y": op.coords[:, 1]}
+    if op.coords.shape[1] == 3:
+        out["z"] = op.coords[:, 2]
+    return {**out, "pressure": lam_n, "traction": lam_t, "gap": gap, "slip": slip, "status": status.astype(float),
+            "bound": bound, "order": _arc_order(spec)}
 
 
 def _arc_order(spec: ContactSpec) -> np.ndarray:
-    """Node indices in order along the side (a chain through the segments from an end; by x if it branches)."""
+    """Node indices in order along the side (a chain through the segments from an end; by x if it branches;
+    surfaces (3D) by x, then y, then z)."""
     m = spec.op.size
+    c = spec.op.coords
+    if spec.cells.shape[1] != 2:
+        return np.lexsort(tuple(c[:, k] for k in reversed(range(c.shape[1]))))
     nb: dict[int, list[int]] = {j: [] for j in range(m)}
-    for a, b in spec.segments:
+    for a, b in spec.cells:
         nb[int(a)].append(int(b))
         nb[int(b)].append(int(a))
     ends = [j for j, k in nb.items() if len(k) == 1]
@@ -155,7 +192,7 @@ def _arc_order(spec: ContactSpec) -> np.ndarray:
 
 def resultant(op: ContactOperator, translations: np.ndarray, lam_n: np.ndarray, lam_t: np.ndarray,
               side_dofs: np.ndarray) -> np.ndarray:
-    """The contact force on S's body (N/m plane, N/rad axisymmetric) per coordinate direction: the
+    """The contact force on S's body (N/m plane, N/rad axisymmetric, N 3D) per coordinate direction: the
     translations' coefficient vectors (rows) applied to Bn^T lam_n + Bt^T lam_t on S's dofs."""
     n = op.Bn.shape[1]
     f = op.Bn.T @ lam_n + op.Bt.T @ lam_t

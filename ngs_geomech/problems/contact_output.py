@@ -1,7 +1,8 @@
 """The contact part of a mechanical run's output: nodal interface quantities at each mechanics time, the
 contact resultants and the global force balance for ``summary.json``.
 
-Force balance (per translation direction e: x and y in plane scenes, only z = y in axisymmetric ones):
+Force balance (per translation direction e: x and y in plane scenes, only z = y in axisymmetric ones, x, y
+and z in 3D):
 the applied loads L = e . f (body forces, tractions, pressures; thermal and initial stresses have no
 resultant), the support reactions S = e . (K u - f - B^T lam) on the fixed dofs, and the foundation
 forces F = e . B^T lam of the foundations sum to zero: imbalance = |L + S + F| / (the largest of |L|, |S|,
@@ -28,12 +29,14 @@ class ContactOutput:
         self.specs = specs
         V = forms.V
         axi = forms.setup.model == "axisymmetric"
-        self.directions = ["y"] if axi else ["x", "y"]
+        dim = forms.mesh.dim
+        self.directions = ["y"] if axi else ["x", "y", "z"][:dim]
+        self.units = "N/rad" if axi else ("N" if dim == 3 else "N/m")
         g = ngs.GridFunction(V)
         rows = []
         for d in self.directions:
-            comps = [0.0, 0.0]
-            comps["xy".index(d)] = 1.0
+            comps = [0.0] * dim
+            comps["xyz".index(d)] = 1.0
             g.Set(ngs.CoefficientFunction(tuple(comps)))
             rows.append(np.array(g.vec.FV().NumPy()))
         self.translations = np.array(rows)
@@ -91,7 +94,7 @@ class ContactOutput:
         entry["force_balance"] = {"directions": self.directions, "load": load.tolist(),
                                   "support_reactions": supports.tolist(), "foundations": foundation.tolist(),
                                   "imbalance_rel": float(np.max(np.abs(load + supports + foundation)) / scale),
-                                  "units": "N/rad" if len(self.directions) == 1 else "N/m"}
+                                  "units": self.units}
         infos = solver.contact_infos[-1] if solver.contact_infos else []
         entry["contact_iterations"] = [i.iterations for i in infos]
         self.history.append(entry)

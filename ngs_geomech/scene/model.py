@@ -113,7 +113,7 @@ class ContactMechanics:
 
     law: str = field(one_of(*CONTACT_LAWS), "frictionless",
                      doc="'frictionless' (2.27), 'tresca' (slip bound g_c, (2.24)-(2.26)) or 'coulomb' "
-                         "(slip bound friction * normal pressure)")
+                         "(slip bound friction * normal pressure); 3D scenes: 'frictionless' only")
     slip_bound: object = field(optional(expr), None,
                                doc="Tresca slip bound g_c, Pa: a number or an expression of x, y (z), "
                                    "evaluated at the contact nodes")
@@ -122,7 +122,7 @@ class ContactMechanics:
                         doc="'ssn': semi-smooth Newton / primal-dual active set on the augmented Lagrangian "
                             "(exact constraints; the default), 'penalty': plain penalty (penetration "
                             "~ pressure / augmentation), 'uzawa': the seed's Uzawa algorithm (2.66) for the "
-                            "friction multipliers (reference; slow)")
+                            "friction multipliers (reference; slow; 2D only)")
     augmentation: float | None = field(optional(number), None,
                                        doc="augmentation / penalty parameter c, Pa/m (default: the largest "
                                            "stiffness entry of the materials over the nodal size, E/h)")
@@ -146,9 +146,10 @@ class Interface(ContactMechanics):
 
 @dataclass(frozen=True, kw_only=True)
 class Foundation(ContactMechanics):
-    """``[boundary_conditions.NAME.foundation]``: a rigid, fixed, straight (2D) foundation the boundary NAME
-    may touch (Signorini contact with the law of the inherited keys). Initial gaps are the distances from
-    the boundary to the foundation line along the boundary's normal."""
+    """``[boundary_conditions.NAME.foundation]``: a rigid, fixed, straight (2D) or plane (3D) foundation the
+    boundary NAME may touch (Signorini contact with the law of the inherited keys; 3D: frictionless only).
+    Initial gaps are the distances from the boundary to the foundation line (plane) along the boundary's
+    normal."""
 
     point: list = field(list_of(number), doc="a point of the foundation surface, m")
     normal: list = field(list_of(number), doc="the foundation's outward normal (pointing towards the body)")

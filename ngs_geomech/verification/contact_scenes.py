@@ -10,6 +10,12 @@ e_zz = 0 (plane strain), and the law s = lam (A1/A_ref + delta)^(lam-1) C e - be
 contact pressure p = -sigma_xx; for lam = 1 in closed form, for lam != 1 from one scalar equation (sigma_yy
 (e_yy) = 0, solved by Brent's method). A uniform state is in the P1 space and the dual mortar multipliers
 reproduce a uniform pressure, so the discrete solution equals the exact one up to the solver tolerances.
+
+:func:`heated_bar_3d` : the same in 3D (lam = 1), a box L x H x W between rigid plane foundations at x = 0
+and x = L + g0, symmetry on the faces y = 0 and z = 0, free faces y = H and z = W: the closed state is
+uniaxial, sigma_yy = sigma_zz = 0, e_xx = g0 / L, so sigma_xx = E (e_xx - alpha (T1 - T0)) and the pressure
+p = E (alpha (T1 - T0) - g0 / L) when the free expansion alpha (T1 - T0) L exceeds g0 (else 0); the lateral
+strains are e_yy = e_zz = alpha (T1 - T0) + nu p / E.
 """
 
 from __future__ import annotations
@@ -79,7 +85,66 @@ def heated_bar(**kw) -> dict:
     params = {k: kw[k] for k in ("lam", "gap", "dT", "L", "E", "nu", "alpha") if k in kw}
     defaults = dict(lam=1.0, gap=1e-4, dT=60.0, L=1.0, E=20e9, nu=0.25, alpha=1e-5)
     p_ref, eyy = heated_bar_pressure(**{**defaults, **params})
-    result = run_scene(scene_from_dict(heated_bar_scene(**kw)), None, progress=False)
+    return _compare(heated_bar_scene(**kw), p_ref, eyy)[0]
+
+
+def heated_bar_3d_scene(*, gap: float = 1e-4, dT: float = 60.0, L: float = 1.0, H: float = 0.4, W: float = 0.4,
+                        E: float = 20e9, nu: float = 0.25, alpha: float = 1e-5, maxh: float = 0.2, order: int = 1,
+                        method: str = "ssn") -> dict:
+    """The scene dict of :func:`heated_bar_3d` (T0 = 0, T1 = dT; linear elasticity, frictionless)."""
+    found = {"law": "frictionless", "method": method}
+    return {
+        "scene": {"name": "heated_bar_3d", "dimension": "3d"},
+        "physics": {"thermal": "steady", "mechanics": "static"},
+        "mesh": {"maxh": maxh, "order": order},
+        "blocks": [{"name": "bar", "shape": "box", "origin": [0, 0, 0], "size": [L, H, W],
+                    "boundaries": {"left": "xmin", "right": "xmax", "bottom": "ymin", "top": "ymax",
+                                   "back": "zmin", "front": "zmax"}}],
+        "materials": {"bar": {"conductivity": 3.0, "youngs_modulus": E, "poisson_ratio": nu,
+                              "thermal_expansion": alpha, "stress_free_temperature": 0.0}},
+        "mechanics": {"tolerance": 1e-10},
+        "boundary_conditions": {
+            "left": {"temperature": dT, "foundation": {"point": [0.0, 0.0, 0.0], "normal": [1.0, 0.0, 0.0],
+                                                       **found}},
+            "right": {"temperature": dT, "foundation": {"point": [L + gap, 0.0, 0.0], "normal": [-1.0, 0.0, 0.0],
+                                                        **found}},
+            "bottom": {"temperature": dT, "symmetry": True},
+            "back": {"temperature": dT, "symmetry": True},
+            "top": {"temperature": dT},
+            "front": {"temperature": dT},
+        },
+        "output": {"vtk": False, "figures": False},
+    }
+
+
+def heated_bar_3d_pressure(*, gap: float, dT: float, L: float, E: float, nu: float,
+                           alpha: float) -> tuple[float, float]:
+    """(p, e_yy = e_zz): the closed-form contact pressure (Pa, 0 when the gap stays open) and lateral strain
+    of the 3D bar (uniaxial stress along x)."""
+    free = alpha * dT                 # free expansion along x (all stresses zero)
+    if free * L <= gap:
+        return 0.0, free
+    p = E * (free - gap / L)          # sigma_xx = E (gap / L - alpha dT) = -p
+    return float(p), float(free + nu * p / E)
+
+
+def heated_bar_3d(**kw) -> dict:
+    """Run the 3D scene and compare: the keys of :func:`heated_bar` (``e_yy_ref`` is also e_zz) and the
+    lateral strains e_yy, e_zz measured from the displacement at the corner (L, H, W) ("e_yy", "e_zz")."""
+    params = {k: kw[k] for k in ("gap", "dT", "L", "E", "nu", "alpha", "H", "W") if k in kw}
+    defaults = dict(gap=1e-4, dT=60.0, L=1.0, H=0.4, W=0.4, E=20e9, nu=0.25, alpha=1e-5)
+    prm = {**defaults, **params}
+    p_ref, eyy = heated_bar_3d_pressure(**{k: v for k, v in prm.items() if k not in ("H", "W")})
+    out, result = _compare(heated_bar_3d_scene(**kw), p_ref, eyy)
+    mesh = result.mesh
+    u = np.array(result.mechanics.forms.displacement()(mesh(prm["L"], prm["H"], prm["W"]))).ravel()
+    out["e_yy"], out["e_zz"] = float(u[1] / prm["H"]), float(u[2] / prm["W"])
+    return out
+
+
+def _compare(scene: dict, p_ref: float, eyy: float) -> tuple[dict, object]:
+    """Run a heated bar scene: (the comparison of the nodal pressures with p_ref, the RunResult)."""
+    result = run_scene(scene_from_dict(scene), None, progress=False)
     mech = result.mechanics
     out = {"p_ref": p_ref, "e_yy_ref": eyy}
     errs = []
@@ -94,4 +159,4 @@ def heated_bar(**kw) -> dict:
     out["iterations"] = summ["iterations"][-1]
     out["contact_iterations"] = summ["contact"]["iterations_per_solve"][-1]
     out["summary"] = result.summary
-    return out
+    return out, result
