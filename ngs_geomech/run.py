@@ -129,7 +129,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
             vtk.write(t)
         for spec, res in zip(mech.contacts if lines else [], mech.contact_output.latest if lines else []):
             lines[spec.name].write(t, np.column_stack([res[c] for c in "xyz" if c in res]), spec.cells,
-                                   {k: res[k] for k in ("pressure", "traction", "gap", "slip", "status", "bound")})
+                                   {k: res[k] for k in ("pressure", "traction", "traction_t1", "traction_t2", "gap",
+                                                        "slip", "status", "bound") if k in res})
 
     ts = scene.time
     transient = scene.physics.thermal == "transient" or (heat is None and ts is not None)

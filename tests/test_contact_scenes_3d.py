@@ -1,6 +1,6 @@
 """Contact mechanics in 3D scenes (frictionless): a heated bar between two rigid plane foundations against
 the closed form, two stacked boxes held by a contact interface (force balance, boundary VTK with triangles),
-and the validation of what 3D does not do yet (friction, Uzawa)."""
+and the validation of what 3D does not do (Uzawa). 3D friction: tests/test_contact_friction_3d.py."""
 
 from __future__ import annotations
 
@@ -170,20 +170,18 @@ def _problems(data: dict) -> dict[str, str]:
     return {p.item: p.message for p in exc.value.problems}
 
 
-def test_3d_friction_and_uzawa_are_refused():
+def test_3d_uzawa_is_refused_friction_accepted():
+    """3D friction (Tresca, Coulomb: tests/test_contact_friction_3d.py) is accepted; the Uzawa method is 2D only."""
     s = _stack(law="coulomb", friction=0.5)
     s["interfaces"][0]["name"] = "fault"
-    probs = _problems(s)
-    assert "friction in 3D is not implemented yet" in probs["interfaces[0] (fault).law"]
-    assert "use 'frictionless'" in probs["interfaces[0] (fault).law"]
+    validate(scene_from_dict(s))
     s = _stack(method="uzawa")
     assert "2D only" in _problems(s)["interfaces[0] (joint).method"]
     b = heated_bar_3d_scene()
     b["boundary_conditions"]["left"]["foundation"].update(law="tresca", slip_bound=1e6)
     b["boundary_conditions"]["right"]["foundation"].update(point=[1.0, 0.0])
     probs = _problems(b)
-    assert "friction in 3D" in probs["boundary_conditions.left.foundation.law"]
     assert "needs 3 components" in probs["boundary_conditions.right.foundation.point"]
-    assert set(probs) == {"boundary_conditions.left.foundation.law", "boundary_conditions.right.foundation.point"}
+    assert set(probs) == {"boundary_conditions.right.foundation.point"}
     validate(scene_from_dict(heated_bar_3d_scene(method="penalty")))      # frictionless ssn/penalty: accepted
     validate(scene_from_dict(_stack()))

@@ -7,10 +7,12 @@ lam_t the tangential traction along t = (-n_y, n_x) (n the outward normal of S's
 body is -p n - q t per unit area. The gap (m) and slip (m) are nodal: weighted values over the nodal
 weights. Forces are N per m of depth (plane), N per radian (axisymmetric, weight r) or N (3D).
 
-3D scenes (:func:`ngs_geomech.physics.contact3d.contact_operator_3d`): frictionless only (validated), so q = 0;
-the slip is the length of the tangential relative displacement (both tangential directions t1, t2), >= 0.
-The output cells are the side's boundary triangles (node index triples, ordered so that their right-hand
-normal points out of S's body) instead of segments.
+3D scenes (:func:`ngs_geomech.physics.contact3d.contact_operator_3d`): the tangential traction is a vector
+q = q1 t1 + q2 t2 (t1 the projection of e_x onto the side, e_y where the side faces x; t2 = n x t1; the
+solver's lam_t has the shape (m, 2)); the output ``traction`` is its magnitude |q| >= 0, with the components
+``traction_t1``, ``traction_t2`` for friction laws; the slip is the length of the tangential relative
+displacement (both tangential directions), >= 0. The output cells are the side's boundary triangles (node
+index triples, ordered so that their right-hand normal points out of S's body) instead of segments.
 """
 
 from __future__ import annotations
@@ -135,9 +137,10 @@ def check_supported(specs: list[ContactSpec], floating, scene_name: str) -> None
 
 def interface_results(spec: ContactSpec, u: np.ndarray, lam_n: np.ndarray, lam_t: np.ndarray) -> dict:
     """Nodal arrays of one contact at a solution u (vector of X): x, y (and z in 3D) (m), pressure p (Pa),
-    traction q (Pa), gap (m), slip (m; signed along t in 2D, the tangential length in 3D), status (0 open,
-    1 stick, 2 slip), bound (the slip bound, Pa) and the node order along the side (``order``, by arc length
-    from one end; 3D: by x, y, z)."""
+    traction q (Pa; 3D: the magnitude |q|, and for friction laws the components ``traction_t1``,
+    ``traction_t2`` along t1, t2), gap (m), slip (m; signed along t in 2D, the tangential length in 3D), status
+    (0 open, 1 stick, 2 slip), bound (the slip bound, Pa) and the node order along the side (``order``, by arc
+    length from one end; 3D: by x, y, z)."""
     op = spec.op
     n = op.Bn.shape[1]
     w = np.maximum(op.weight, 1e-300)
@@ -153,15 +156,18 @@ def interface_results(spec: ContactSpec, u: np.ndarray, lam_n: np.ndarray, lam_t
     else:
         bound = np.zeros_like(lam_n)
     status = np.where(lam_n > 0, STATUS_STICK, STATUS_OPEN)
+    q = np.linalg.norm(lam_t, axis=1) if lam_t.ndim == 2 else lam_t
     if law.kind == "frictionless":
         status = np.where(lam_n > 0, STATUS_SLIP, STATUS_OPEN)
     else:
-        sliding = (lam_n > 0) & (np.abs(lam_t) >= bound * (1 - 1e-9))
+        sliding = (lam_n > 0) & (np.abs(q) >= bound * (1 - 1e-9))
         status = np.where(sliding, STATUS_SLIP, status)
     out = {"x": op.coords[:, 0], "y": op.coords[:, 1]}
     if op.coords.shape[1] == 3:
         out["z"] = op.coords[:, 2]
-    return {**out, "pressure": lam_n, "traction": lam_t, "gap": gap, "slip": slip, "status": status.astype(float),
+    if lam_t.ndim == 2 and law.kind != "frictionless":
+        out["traction_t1"], out["traction_t2"] = lam_t[:, 0], lam_t[:, 1]
+    return {**out, "pressure": lam_n, "traction": q, "gap": gap, "slip": slip, "status": status.astype(float),
             "bound": bound, "order": _arc_order(spec)}
 
 
@@ -190,12 +196,23 @@ def _arc_order(spec: ContactSpec) -> np.ndarray:
     return np.array(order, dtype=int)
 
 
+def contact_forces(op: ContactOperator, lam_n: np.ndarray, lam_t: np.ndarray, *,
+                   normal: bool = True) -> np.ndarray:
+    """The nodal contact forces Bn^T lam_n + Bt^T lam_t (3D: + Bt^T lam_t[:, 0] + Bt2^T lam_t[:, 1]) on the
+    dofs of the displacement space; ``normal`` False: the tangential part only."""
+    if lam_t.ndim == 2:
+        f = op.Bt.T @ lam_t[:, 0] + op.Bt2.T @ lam_t[:, 1]
+    else:
+        f = op.Bt.T @ lam_t
+    return op.Bn.T @ lam_n + f if normal else f
+
+
 def resultant(op: ContactOperator, translations: np.ndarray, lam_n: np.ndarray, lam_t: np.ndarray,
               side_dofs: np.ndarray) -> np.ndarray:
     """The contact force on S's body (N/m plane, N/rad axisymmetric, N 3D) per coordinate direction: the
     translations' coefficient vectors (rows) applied to Bn^T lam_n + Bt^T lam_t on S's dofs."""
     n = op.Bn.shape[1]
-    f = op.Bn.T @ lam_n + op.Bt.T @ lam_t
+    f = contact_forces(op, lam_n, lam_t)
     return np.array([float(t[:n][side_dofs] @ f[side_dofs]) for t in translations])
 
 

@@ -9,6 +9,9 @@ forces F = e . B^T lam of the foundations sum to zero: imbalance = |L + S + F| /
 |F| and the contact resultants).
 Interfaces between bodies are internal: the forces on their two sides must be opposite (reported as
 ``action_reaction``: |F_side + F_opposite| / |F_side|).
+
+Tangential force: in 2D int q ds along t (signed); in 3D the tangential part of the contact force on S's
+body as a vector (``tangential_resultant_on_side``, x, y, z) and its magnitude (``tangential_force``).
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from __future__ import annotations
 import ngsolve as ngs
 import numpy as np
 
-from .contact import ContactSpec, interface_results, side_dofs
+from .contact import ContactSpec, contact_forces, interface_results, side_dofs
 
 _STATUS = ("open", "stick", "slip")
 
@@ -63,13 +66,19 @@ class ContactOutput:
             res = interface_results(spec, u, lam_n, lam_t)
             self.latest.append(res)
             op = spec.op
-            bt = op.Bn.T @ lam_n + op.Bt.T @ lam_t
+            bt = contact_forces(op, lam_n, lam_t)
             force[:n] -= bt
             on_side = self._resultant(bt, self.side[k])
             status = res["status"].astype(int)
             keep = op.coverage > 1 - 1e-6
+            if lam_t.ndim == 2:      # 3D: the tangential force as a vector on S's body and its magnitude
+                tang = self._resultant(contact_forces(op, lam_n, lam_t, normal=False), self.side[k])
+                tangential = {"tangential_force": float(np.linalg.norm(tang)),
+                              "tangential_resultant_on_side": dict(zip(self.directions, tang.tolist()))}
+            else:
+                tangential = {"tangential_force": float(np.dot(op.weight, lam_t))}
             item = {"kind": spec.kind, "law": spec.law.kind, "normal_force": float(np.dot(op.weight, lam_n)),
-                    "tangential_force": float(np.dot(op.weight, lam_t)),
+                    **tangential,
                     "resultant_on_side": dict(zip(self.directions, on_side.tolist())),
                     "max_pressure_Pa": float(np.max(lam_n, initial=0.0)),
                     "max_penetration_m": float(np.max(-res["gap"][keep], initial=0.0)),
@@ -88,9 +97,9 @@ class ContactOutput:
         load = self.translations @ rhs[:n]
         supports = self.translations @ reaction[:n]
         # relative to the largest force involved (a body squeezed between two foundations has no net load)
-        contact_forces = [abs(v) for item in entry["interfaces"].values() for v in item["resultant_on_side"].values()]
+        side_forces = [abs(v) for item in entry["interfaces"].values() for v in item["resultant_on_side"].values()]
         scale = max(float(np.max(np.abs(np.concatenate([load, supports, foundation])), initial=0.0)),
-                    max(contact_forces, default=0.0), 1e-300)
+                    max(side_forces, default=0.0), 1e-300)
         entry["force_balance"] = {"directions": self.directions, "load": load.tolist(),
                                   "support_reactions": supports.tolist(), "foundations": foundation.tolist(),
                                   "imbalance_rel": float(np.max(np.abs(load + supports + foundation)) / scale),

@@ -113,7 +113,8 @@ class ContactMechanics:
 
     law: str = field(one_of(*CONTACT_LAWS), "frictionless",
                      doc="'frictionless' (2.27), 'tresca' (slip bound g_c, (2.24)-(2.26)) or 'coulomb' "
-                         "(slip bound friction * normal pressure); 3D scenes: 'frictionless' only")
+                         "(slip bound friction * normal pressure); in 3D the tangential traction is a vector with "
+                         "|q| <= the slip bound")
     slip_bound: object = field(optional(expr), None,
                                doc="Tresca slip bound g_c, Pa: a number or an expression of x, y (z), "
                                    "evaluated at the contact nodes")
@@ -147,7 +148,7 @@ class Interface(ContactMechanics):
 @dataclass(frozen=True, kw_only=True)
 class Foundation(ContactMechanics):
     """``[boundary_conditions.NAME.foundation]``: a rigid, fixed, straight (2D) or plane (3D) foundation the
-    boundary NAME may touch (Signorini contact with the law of the inherited keys; 3D: frictionless only).
+    boundary NAME may touch (Signorini contact with the law of the inherited keys).
     Initial gaps are the distances from the boundary to the foundation line (plane) along the boundary's
     normal."""
 

@@ -201,11 +201,8 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
         other = next(p for p, c in contacts if c.method != "uzawa")
         problems.append(Problem(f"{other}.method", f"the Uzawa reference method ({uzawa[0]}) solves all contacts "
                                 "of a scene at once: use method = 'uzawa' on every contact or on none"))
-    if ph.mechanics is not None and dim == 3:     # 3D contact mechanics: frictionless, methods ssn and penalty
+    if ph.mechanics is not None and dim == 3:     # 3D contact mechanics: all laws, methods ssn and penalty
         for p, c in contacts:
-            if c.law != "frictionless":
-                problems.append(Problem(f"{p}.law", f"friction in 3D is not implemented yet (the solver has one "
-                                        f"tangential direction): use 'frictionless', not {c.law!r}"))
             if c.method == "uzawa":
                 problems.append(Problem(f"{p}.method", "the Uzawa reference method is implemented in 2D only: use "
                                         "'ssn' or 'penalty' in 3D"))

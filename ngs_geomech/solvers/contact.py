@@ -19,8 +19,34 @@ piecewise linear conditions means the step solved them exactly. Measured on the 
 (verification/contact_problems.py, P1, h = a/5 ... a/40): 6, 8, 9, 9 iterations. Friction acts on nodes in
 contact only (an open node carries no traction).
 
-Linear algebra: one saddle-point matrix per solve with a fixed sparsity pattern (:class:`_Pattern`); a fixed
-multiplier (open node, Tresca slip) keeps its row as an identity row scaled like the penalty rows, so the
+3D (the operator has ``Bt2``): lam_t,j, s~_j and z_j are vectors of R^2 (components along t1, t2 = n x t1),
+the cone is |lam_t,j| <= b_j, and the slip condition lam_t = b z / |z| is nonlinear. The slip rows are the
+Newton linearization at the current iterate (z_k, b_k) of the projection form of C_t,
+lam_t - b z / max(b, |z|) (C_t above divided by max(b, |z|): the same zeros), with e = z_k / |z_k|,
+T = I - e e^T (the projection onto the plane normal to the slip direction) and kappa = b_k / max(|z_k|, b_k)
+(b_k = g_c, or F_c lam_n,k as in the 2D rows):
+
+    lam_t,j - kappa T (lam_t,j - c_t s~_j) = g_c e (Tresca),     ... = F_c lam_n,j e (Coulomb)
+
+(d(b z/|z|)/dz = b/|z| T). In 2D T = 0 and these are the rows above, so the 2D iteration is unchanged. Why this
+form rather than the full Newton rows of HSW's max(b, |z|) lam_t - b z, whose derivative
+|z| dlam + lam_k e^T dz - b dz - z db carries lam_k: the two coincide when lam_k = b e (at the solution), but
+for lam_k off the cone (just after stick -> slip) those rows need lam_k damped back into the cone
+(HSW's modified algorithm) to keep the 2 x 2 block regular, while here I - kappa T has the eigenvalues 1 (along e) and
+1 - kappa in [0, 1) across, and the across direction always keeps the penalty-like coupling kappa c_t T s~ (a
+stick row in the limit kappa -> 1): the block is regular for any iterate, and nothing of lam_k enters. A node
+forced to slip with |z_k| < b (the twice-switched nodes below) gets kappa = 1: lam_t . e = b with no slip
+across e. The sets no longer settle the solution: the iteration stops when they repeat and the slip rows'
+residual max |lam_t - b z / |z|| over the nodes slipping in both of the last two iterates is below
+NEWTON_TOL (1e-11) of the largest bound (superlinear, e.g. 9e-3, 1e-4, 3e-11, 4e-16 in the last steps; 5 to 10
+iterations on the block tests, tests/test_contact_friction_3d.py). The slip rows change at every iteration, so
+a 3D solve with more than a few slipping nodes factors at every iteration (no Woodbury reuse). The multipliers
+of a 3D interface are (lam_n (m,), lam_t (m, 2)).
+
+Linear algebra: one saddle-point matrix per solve with a fixed sparsity pattern (:class:`_Pattern`; in 3D a
+third multiplier block per interface, the rows of t1 and t2 on the union of the patterns of Bt and Bt2, and
+the 2 x 2 multiplier blocks); a fixed multiplier (open node, 2D Tresca slip) keeps its row as an identity row
+scaled like the penalty rows, so the
 matrices of consecutive iterations differ only in the rows of the nodes whose state changed. A matrix is
 factored (UMFPACK) when more than ``reuse_rows`` (12) rows changed since the last factorization without a
 cached solve; otherwise the old factorization is reused through the Sherman-Morrison-Woodbury formula
@@ -45,6 +71,8 @@ from ..physics.contact import ContactOperator
 from .linear import check_finite, inverse
 
 LAWS = ("frictionless", "tresca", "coulomb")
+NEWTON_TOL = 1e-11     # 3D slip rows: converged when max |lam_t - b z / |z|| <= NEWTON_TOL x the largest bound
+POLYGON = 16           # 3D solvability check: the friction disc |lam_t| <= b inside a regular 16-gon
 
 
 @dataclass
@@ -93,6 +121,7 @@ class ContactInfo:
     unheld_sets: int = 0
     reused_solves: int = 0
     woodbury_columns: int = 0
+    newton_residual: list = field(default_factory=list)
 
 
 class _Interface:
@@ -103,15 +132,20 @@ class _Interface:
         keep = op.coverage > 1.0 - 1e-6     # dual multipliers need the whole support projected
         self.keep = keep
         m = op.size
-        self.offset = offset               # first multiplier index (normal block; tangential at offset + m)
+        # first multiplier index: the normal block, then the tangential block(s) at offset + m (3D: t1) and
+        # offset + 2 m (3D: t2 = n x t1)
+        self.offset = offset
+        self.dim3 = op.Bt2 is not None
+        self.blocks = 3 if self.dim3 else 2
         pad = sp.csr_matrix((m, ndof - op.Bn.shape[1]))
         self.Bn = sp.hstack([op.Bn, pad]).tocsr()
         self.Bt = sp.hstack([op.Bt, pad]).tocsr()
-        # the equilibrium rows' entries -Bn^T lam_n - Bt^T lam_t (constant): COO rows, cols, values
-        cn, ct = self.Bn.tocoo(), self.Bt.tocoo()
-        self.transposed = (np.concatenate([cn.col, ct.col]).astype(np.int64),
-                           np.concatenate([cn.row + offset, ct.row + offset + m]).astype(np.int64),
-                           -np.concatenate([cn.data, ct.data]))
+        self.Bt2 = sp.hstack([op.Bt2, pad]).tocsr() if self.dim3 else None
+        # the equilibrium rows' entries -Bn^T lam_n - Bt^T lam_t (- Bt2^T lam_t2) (constant): COO rows, cols, values
+        cs = [B.tocoo() for B in (self.Bn, self.Bt, self.Bt2) if B is not None]
+        self.transposed = (np.concatenate([c.col for c in cs]).astype(np.int64),
+                           np.concatenate([c.row + offset + k * m for k, c in enumerate(cs)]).astype(np.int64),
+                           -np.concatenate([c.data for c in cs]))
         w = np.maximum(op.weight, 1e-300)
         if law.augmentation is not None:
             self.c = np.full(m, float(law.augmentation))
@@ -134,6 +168,9 @@ class _Interface:
         self.stick = self.active & (law.kind != "frictionless")
         self.slip = np.zeros(m, dtype=bool)
         self.sign = np.zeros(m)
+        # 3D slip rows: the unit direction e = z / |z| and kappa = b / max(|z|, b) of the current iterate
+        self.dir = np.zeros((m, 2))
+        self.kappa = np.zeros(m)
         self.flips = np.zeros(m, dtype=int)     # contact <-> separation switches of each node in this solve
 
     @property
@@ -172,7 +209,7 @@ class ContactSolver:
             out, off = [], ndof
             for op, law in self.items:
                 out.append(_Interface(op, law, self.modulus, off, ndof))
-                off += 2 * op.size
+                off += out[-1].blocks * op.size
             self._state = out
         return self._state
 
@@ -182,7 +219,7 @@ class ContactSolver:
         tic = time.perf_counter()
         n = len(x0)
         ifs = self._interfaces(n)
-        N = n + sum(2 * it.m for it in ifs)
+        N = n + sum(it.blocks * it.m for it in ifs)
         kr, kc, kv = (np.asarray(a) for a in matrix.COO())
         kr, kc = kr.astype(np.int64), kc.astype(np.int64)
         f = np.asarray(rhs, dtype=float)
@@ -205,7 +242,7 @@ class ContactSolver:
         x = np.zeros(N)
         x[:n] = x0
         lam_n = [np.zeros(it.m) for it in ifs]
-        lam_t = [np.zeros(it.m) for it in ifs]
+        lam_t = [np.zeros((it.m, 2) if it.dim3 else it.m) for it in ifs]
         # the first phase (and the whole solve of method 'penalty'); a solve that starts from the sets of a
         # converged one (the next secant iteration, the next time) starts with the exact constraints: the
         # penalty phase moved those good sets away and back (measured: 7 instead of 3 factorizations per
@@ -218,7 +255,7 @@ class ContactSolver:
         freemask = np.zeros(N, dtype=bool)
         freemask[:n] = free
         for it in ifs:
-            freemask[it.offset:it.offset + (2 * it.m if it.law.kind != "frictionless" else it.m)] = True
+            freemask[it.offset:it.offset + (it.blocks * it.m if it.law.kind != "frictionless" else it.m)] = True
         freedofs = ngs.BitArray(freemask.tolist())
         factored = None      # (the inverse, the COO values it was computed from)
         what = f"contact solve{' at ' + where if where else ''}"
@@ -237,7 +274,10 @@ class ContactSolver:
                 # (the identity rows of fixed multipliers scaled like the penalty rows: -weight / c)
                 vals[seg["diag_n"]] = np.where(A & (not pen_i), 0.0, -it.w / it.c)
                 if it.law.kind == "frictionless":
-                    x[ot:ot + it.m] = 0.0
+                    x[ot:it.offset + it.blocks * it.m] = 0.0
+                    continue
+                if it.dim3:
+                    _rows_3d(it, seg, vals, b, x, A, pen_i)
                     continue
                 stick = A & it.stick
                 slip = A & it.slip
@@ -308,7 +348,10 @@ class ContactSolver:
                 A = it.active & it.keep
                 x[on:on + it.m] = np.where(A, x[on:on + it.m], 0.0)
                 if it.law.kind == "frictionless":
-                    x[ot:ot + it.m] = 0.0
+                    x[ot:it.offset + it.blocks * it.m] = 0.0
+                elif it.dim3:
+                    x[ot:ot + it.m] = np.where(A, x[ot:ot + it.m], 0.0)
+                    x[ot + it.m:ot + 2 * it.m] = np.where(A, x[ot + it.m:ot + 2 * it.m], 0.0)
                 else:
                     x[ot:ot + it.m] = np.where(~A, 0.0, np.where(A & it.slip & (it.law.kind == "tresca"),
                                                                  it.bound0 * it.sign, x[ot:ot + it.m]))
@@ -332,6 +375,7 @@ class ContactSolver:
                         it.stick, it.slip = it.active.copy(), np.zeros(it.m, dtype=bool)
                 info.iterations = it_nr
                 info.changes.append(-1)
+                info.newton_residual.append(float("nan"))
                 info.active.append(int(sum(it.active.sum() for it in ifs)))
                 info.stick.append(int(sum(it.stick.sum() for it in ifs)))
                 info.slip.append(0)
@@ -340,9 +384,19 @@ class ContactSolver:
             changes = 0
             n_act = n_stick = n_slip = 0
             u = x[:n]
+            newton = 0.0      # 3D: the largest residual |lam_t - b z / |z|| of the slip rows / the largest bound
             for k, it in enumerate(ifs):
                 on, ot = it.offset, it.offset + it.m
                 lam_n[k] = x[on:on + it.m].copy()
+                if it.dim3:
+                    lam_t[k] = np.column_stack([x[ot:ot + it.m], x[ot + it.m:ot + 2 * it.m]])
+                    ch, res = _sets_3d(it, lam_n[k], lam_t[k], u)
+                    changes += ch
+                    newton = max(newton, res)
+                    n_act += int(it.active.sum())
+                    n_stick += int(it.stick.sum())
+                    n_slip += int(it.slip.sum())
+                    continue
                 lam_t[k] = x[ot:ot + it.m].copy()
                 gap = (it.op.g0 + it.Bn @ u) / it.w
                 zn = lam_n[k] - it.c * gap
@@ -379,13 +433,20 @@ class ContactSolver:
             info.stick.append(n_stick)
             info.slip.append(n_slip)
             info.changes.append(changes)
+            info.newton_residual.append(newton)
             if changes == 0:
                 if penalty and self.method == "ssn":
                     penalty = False
                     info.penalty_iterations = it_nr
                     continue
-                break
+                if newton <= NEWTON_TOL:
+                    break
         else:
+            if info.changes[-1] == 0:
+                raise SolverError(f"contact solve{' at ' + where if where else ''}: the slip directions have not "
+                                  f"converged after {self.maxit} iterations (residual of the slip rows "
+                                  f"{info.newton_residual[-1]:.1e} of the slip bound); refine the mesh or change "
+                                  "the augmentation")
             raise SolverError(f"contact solve{' at ' + where if where else ''}: the active sets still change after "
                               f"{self.maxit} iterations ({info.changes[-1]} changes in the last one): the contact "
                               "state cycles; refine the mesh or change the augmentation")
@@ -406,11 +467,16 @@ class ContactSolver:
         """Stop with a SolverError naming the body and the rigid motion when no admissible contact forces
         balance the load on the free rigid motions of the floating bodies: an LP for lam_n >= 0,
         |lam_t| <= g_c (Tresca) or F_c lam_n (Coulomb), lam_t = 0 (frictionless) with
-        R^T (f + Bn^T lam_n + Bt^T lam_t) = 0 (a necessary condition of (P))."""
+        R^T (f + Bn^T lam_n + Bt^T lam_t) = 0 (a necessary condition of (P)). In 3D the disc |lam_t| <= b is
+        not linear: it is replaced by the circumscribed regular POLYGON-gon (16: d_k . lam_t <= b for the unit
+        vectors d_k at the angles 2 pi k / 16), which contains the disc, so the LP is a relaxation and the
+        refusal only fires for loads that no admissible traction balances. A load between the two (at most
+        1/cos(pi/16) - 1 = 2 % above the capacity, in the worst direction) passes the check, and the solve
+        itself then fails (the sets leave the body unheld, or they cycle)."""
         from scipy.optimize import linprog
         R = np.hstack([b.modes for b in self.floating])
         labels = [(b, nm) for b in self.floating for nm in b.names]
-        cols_eq, bounds, ub_rows = [], [], []
+        cols_eq, bounds, ub_rows, ub_poly = [], [], [], []
         nvar = 0
         for it in ifs:
             kidx = np.where(it.keep)[0]
@@ -418,7 +484,21 @@ class ContactSolver:
             bounds += [(0, None)] * len(kidx)
             jn = np.arange(nvar, nvar + len(kidx))
             nvar += len(kidx)
-            if it.law.kind == "tresca":
+            if it.dim3 and it.law.kind != "frictionless":
+                # |lam_t| <= b replaced by the circumscribed regular polygon d_k . lam_t <= b (k < POLYGON):
+                # an outer approximation, so a load it cannot balance no admissible traction balances
+                cols_eq += [(it.Bt[kidx] @ R).T, (it.Bt2[kidx] @ R).T]
+                bounds += [(None, None)] * (2 * len(kidx))
+                j1 = np.arange(nvar, nvar + len(kidx))
+                j2 = j1 + len(kidx)
+                nvar += 2 * len(kidx)
+                ang = 2 * np.pi * np.arange(POLYGON) / POLYGON
+                for ca, sa in zip(np.cos(ang), np.sin(ang)):
+                    if it.law.kind == "tresca":
+                        ub_poly.append((j1, j2, ca, sa, None, 0.0, it.bound0[kidx]))
+                    else:
+                        ub_poly.append((j1, j2, ca, sa, jn, it.law.friction, np.zeros(len(kidx))))
+            elif it.law.kind == "tresca":
                 cols_eq.append((it.Bt[kidx] @ R).T)
                 bounds += [(-float(g), float(g)) for g in it.bound0[kidx]]
                 nvar += len(kidx)
@@ -438,18 +518,33 @@ class ContactSolver:
         sigma = b_s / a_s
         bounds = [(None if lo is None else lo / sigma, None if hi is None else hi / sigma) for lo, hi in bounds]
         Aub = None
-        if ub_rows:
-            Aub = np.zeros((2 * len(ub_rows), nvar))
-            for k, (jt_, jn_, F) in enumerate(ub_rows):      # lam_t - F lam_n <= 0, -lam_t - F lam_n <= 0
-                Aub[2 * k, jt_], Aub[2 * k, jn_] = 1.0, -F
-                Aub[2 * k + 1, jt_], Aub[2 * k + 1, jn_] = -1.0, -F
-        bub = np.zeros(Aub.shape[0]) if Aub is not None else None
-        # the smallest unbalanced load: minimise sum |residual| with slacks s+ - s- on the equations
+        bub = None
         k = R.shape[1]
+        if ub_rows or ub_poly:
+            rr, cc, vv, bb = [], [], [], []
+            for q, (jt_, jn_, F) in enumerate(ub_rows):      # lam_t - F lam_n <= 0, -lam_t - F lam_n <= 0
+                rr += [2 * q, 2 * q, 2 * q + 1, 2 * q + 1]
+                cc += [jt_, jn_, jt_, jn_]
+                vv += [1.0, -F, -1.0, -F]
+            nrow = 2 * len(ub_rows)
+            bb.append(np.zeros(nrow))
+            for j1, j2, ca, sa, jn_, F, rhs in ub_poly:       # cos lam_t1 + sin lam_t2 (- F lam_n) <= g_c / sigma
+                rows = nrow + np.arange(len(j1))
+                rr += [rows, rows] + ([rows] if jn_ is not None else [])
+                cc += [j1, j2] + ([jn_] if jn_ is not None else [])
+                vv += [np.full(len(j1), ca), np.full(len(j1), sa)] + ([np.full(len(j1), -F)] if jn_ is not None
+                                                                      else [])
+                bb.append(rhs / sigma)
+                nrow += len(j1)
+            rr = np.concatenate([np.atleast_1d(np.asarray(a)) for a in rr])
+            cc = np.concatenate([np.atleast_1d(np.asarray(a)) for a in cc])
+            vv = np.concatenate([np.atleast_1d(np.asarray(a, dtype=float)) for a in vv])
+            Aub = sp.csr_matrix((vv, (rr, cc)), shape=(nrow, nvar + 2 * k))
+            bub = np.concatenate(bb)
+        # the smallest unbalanced load: minimise sum |residual| with slacks s+ - s- on the equations
         A2 = np.hstack([Aeq / a_s, np.eye(k), -np.eye(k)])
         c = np.concatenate([np.zeros(nvar), np.ones(2 * k)])
-        Aub2 = None if Aub is None else np.hstack([Aub, np.zeros((Aub.shape[0], 2 * k))])
-        res = linprog(c, A_ub=Aub2, b_ub=bub, A_eq=A2, b_eq=beq / b_s, bounds=bounds + [(0, None)] * (2 * k),
+        res = linprog(c, A_ub=Aub, b_ub=bub, A_eq=A2, b_eq=beq / b_s, bounds=bounds + [(0, None)] * (2 * k),
                       method="highs")
         if res.status != 0:
             return   # undecided: let the solve itself report
@@ -470,10 +565,93 @@ class ContactSolver:
                               "support (displacement or symmetry condition) or change the load")
 
 
+def _rows_3d(it: _Interface, seg: dict, vals: np.ndarray, b: np.ndarray, x: np.ndarray, A: np.ndarray,
+             pen: bool) -> None:
+    """The tangential rows of a 3D frictional interface for the current sets (module docstring): per node the
+    2 x 2 blocks R (on the rows -Bt u, -Bt2 u), L (on lam_t) and the Coulomb column on lam_n, right-hand side
+    and start values. Stick: R = I, L = 0 (-weight / ct I in the penalty phase); slip: R = kappa T,
+    L = -weight / ct (I - kappa T), T = I - e e^T; open: R = 0, L = -weight / ct I (lam_t = 0)."""
+    m = it.m
+    ot = it.offset + m
+    stick = A & it.stick
+    slip = A & it.slip
+    s = it.w / it.ct
+    e = it.dir
+    T = np.eye(2)[None] - e[:, :, None] * e[:, None, :]                 # (m, 2, 2)
+    kT = it.kappa[:, None, None] * T
+    R = np.where(stick[:, None, None], np.eye(2)[None], np.where(slip[:, None, None], kT, 0.0))
+    L = -s[:, None, None] * np.where(slip[:, None, None], np.eye(2)[None] - kT, np.eye(2)[None])
+    L = np.where((stick & (not pen))[:, None, None], 0.0, L)
+    node = seg["rows_t_node"]
+    a1, a2 = seg["rows_t_a"], seg["rows_t_b"]
+    vals[seg["rows_t"]] = R[node, 0, 0] * a1 + R[node, 0, 1] * a2
+    vals[seg["rows_t2"]] = R[node, 1, 0] * a1 + R[node, 1, 1] * a2
+    vals[seg["diag_t"]] = L[:, 0, 0]
+    vals[seg["off_t"]] = L[:, 0, 1]
+    vals[seg["off_t2"]] = L[:, 1, 0]
+    vals[seg["diag_t2"]] = L[:, 1, 1]
+    coulomb_slip = slip if it.law.kind == "coulomb" else np.zeros(m, dtype=bool)
+    vals[seg["couple"]] = np.where(coulomb_slip, s * it.law.friction * e[:, 0], 0.0)
+    vals[seg["couple2"]] = np.where(coulomb_slip, s * it.law.friction * e[:, 1], 0.0)
+    tresca_slip = slip if it.law.kind == "tresca" else np.zeros(m, dtype=bool)
+    b[ot:ot + m] = np.where(tresca_slip, -s * it.bound0 * e[:, 0], 0.0)
+    b[ot + m:ot + 2 * m] = np.where(tresca_slip, -s * it.bound0 * e[:, 1], 0.0)
+    x[ot:ot + m] = np.where(A, x[ot:ot + m], 0.0)
+    x[ot + m:ot + 2 * m] = np.where(A, x[ot + m:ot + 2 * m], 0.0)
+
+
+def _sets_3d(it: _Interface, lam_n: np.ndarray, lam_t: np.ndarray, u: np.ndarray) -> tuple[int, float]:
+    """The new sets and slip linearization of a 3D interface from the iterate (lam_n, lam_t (m, 2), u): the
+    number of set changes and the residual max |lam_t - b z / |z|| of the nodes slipping before and now,
+    relative to the largest bound (0 for a frictionless interface)."""
+    m = it.m
+    gap = (it.op.g0 + it.Bn @ u) / it.w
+    zn = lam_n - it.c * gap
+    act = (zn > 0) & it.keep
+    stick = np.zeros(m, dtype=bool)
+    slip = np.zeros(m, dtype=bool)
+    res = 0.0
+    if it.law.kind != "frictionless":
+        sl = np.column_stack([it.Bt @ u, it.Bt2 @ u]) / it.w[:, None]
+        z = lam_t - it.ct[:, None] * sl
+        nz = np.linalg.norm(z, axis=1)
+        bound = it.bound0 if it.law.kind == "tresca" else it.law.friction * np.maximum(zn, 0.0)
+        stick = act & (nz < bound)
+        slip = act & ~stick
+        prone = it.flips >= 2          # as in 2D: twice switched nodes go through the slip state
+        to_slip = prone & ((~act & it.active & it.stick & it.keep) | (act & ~it.active & stick))
+        act = act | to_slip
+        stick = stick & ~to_slip
+        slip = slip | to_slip
+        e = np.zeros((m, 2))
+        pos = nz > 0
+        e[pos] = z[pos] / nz[pos, None]
+        e[~pos, 0] = 1.0
+        # the bound of the slip rows: g_c, or F_c lam_n (as the 2D rows; = F_c zn at an iterate of the exact
+        # phase, where the nodes in contact have g~ = 0, while the penalty phase has zn = 2 lam_n and z = 2 lam_t
+        # on its stick rows: the sets compare the doubled values, the slip rows the plain ones)
+        brow = it.bound0 if it.law.kind == "tresca" else it.law.friction * np.maximum(lam_n, 0.0)
+        it.dir = np.where(slip[:, None], e, 0.0)
+        it.kappa = np.where(slip, np.divide(brow, np.maximum(nz, brow), out=np.zeros(m),
+                                            where=np.maximum(nz, brow) > 0), 0.0)
+        both = slip & it.slip & it.active
+        if both.any():
+            r = np.linalg.norm(lam_t[both] - brow[both, None] * e[both], axis=1)
+            scale = max(float(np.max(brow[act], initial=0.0)), float(np.max(bound[act], initial=0.0)), 1e-300)
+            res = float(np.max(r)) / scale
+    changes = int(np.sum(act != (it.active & it.keep)) + np.sum(stick != (it.stick & it.active))
+                  + np.sum(slip != (it.slip & it.active)))
+    it.flips += act != (it.active & it.keep)
+    it.active, it.stick, it.slip = act, stick, slip
+    return changes, res
+
+
 class _Pattern:
     """The saddle-point matrix of a solve with one sparsity pattern for all iterations: K (with the shift eps
     on the floating bodies' free dofs), the columns -Bn^T, -Bt^T, the constraint rows -Bn, -Bt of every node,
-    the multipliers' diagonal and the Coulomb coupling (lam_t, lam_n); an iteration only changes values (the
+    the multipliers' diagonal and the Coulomb coupling (lam_t, lam_n); in 3D also -Bt2^T, the rows of t1 and
+    t2 on the union of the node's Bt and Bt2 entries, the 2 x 2 multiplier blocks and the coupling of t2 to
+    lam_n; an iteration only changes values (the
     rows of the multipliers it fixes are left out of the factorization by the free-dof mask). Building the
     matrix once saves NGSolve's CreateFromCOO at every iteration (0.75 s of 2.2 s per iteration at 140k dofs).
     The entries are distinct by construction (the blocks are disjoint), so the storage order is a permutation
@@ -514,7 +692,27 @@ class _Pattern:
             seg["rows_n_values"] = -cn.data
             seg["rows_n_node"] = cn.row
             seg["diag_n"] = add(on + j, on + j, np.zeros(it.m))
-            if frictional:
+            if frictional and it.dim3:
+                # the rows of t1 and t2 combine -Bt u and -Bt2 u of the node: the union of their patterns
+                c1, c2 = it.Bt.tocoo(), it.Bt2.tocoo()
+                U = sp.csr_matrix((np.ones(len(c1.row) + len(c2.row)),
+                                   (np.concatenate([c1.row, c2.row]), np.concatenate([c1.col, c2.col]))),
+                                  shape=it.Bt.shape).tocoo()
+                a1 = -np.asarray(it.Bt[U.row, U.col]).ravel()
+                a2 = -np.asarray(it.Bt2[U.row, U.col]).ravel()
+                nz = (a1 != 0) | (a2 != 0)         # the operators store the zero components of t1, t2
+                ot2 = ot + it.m
+                seg["rows_t"] = add(ot + U.row[nz], U.col[nz], np.zeros(int(nz.sum())))
+                seg["rows_t2"] = add(ot2 + U.row[nz], U.col[nz], np.zeros(int(nz.sum())))
+                seg["rows_t_node"] = U.row[nz]
+                seg["rows_t_a"], seg["rows_t_b"] = a1[nz], a2[nz]
+                seg["diag_t"] = add(ot + j, ot + j, np.zeros(it.m))
+                seg["off_t"] = add(ot + j, ot2 + j, np.zeros(it.m))
+                seg["off_t2"] = add(ot2 + j, ot + j, np.zeros(it.m))
+                seg["diag_t2"] = add(ot2 + j, ot2 + j, np.zeros(it.m))
+                seg["couple"] = add(ot + j, on + j, np.zeros(it.m))
+                seg["couple2"] = add(ot2 + j, on + j, np.zeros(it.m))
+            elif frictional:
                 ct = it.Bt.tocoo()
                 seg["rows_t"] = add(ot + ct.row, ct.col, -ct.data)
                 seg["rows_t_values"] = -ct.data
