@@ -6,6 +6,7 @@ Errors are printed (pytest -s)."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from ngs_geomech.verification import contact_problems as cp
@@ -46,6 +47,40 @@ def test_friction_block_sticks_below_capacity(one_thread, law):
     assert r["normal_force"] == pytest.approx(r["load"], rel=1e-8)
     assert r["stick"] > 0
     assert abs(r["friction_force"]) < r["capacity"]
+
+
+@pytest.mark.parametrize("law", ["tresca", "coulomb"])
+@pytest.mark.parametrize("ratio,h", [(0.9, 0.1), (0.99, 0.05)])
+def test_floating_block_sticks_near_capacity(one_thread, law, ratio, h):
+    """Held only by friction, pushed at 90 % and 99 % of the capacity: a few nodes still stick and the friction
+    balances the push (Tresca failed here with 'not held by the active contact set' while its penalty phase
+    compared doubled tractions with the bound)."""
+    r = cp.friction_block("traction", law=law, ratio=ratio, h=h)
+    print(f"\n{law} block at {ratio:.0%} of capacity (h = {h}): {r['stick']} stick, {r['slip']} slip nodes, "
+          f"{r['iterations']} iterations")
+    assert r["friction_force"] == pytest.approx(r["applied"], rel=1e-8)
+    assert r["stick"] > 0 and r["slip"] > 0
+    assert r["iterations"] <= 15
+
+
+def test_penalty_tresca_approaches_the_exact_solution(one_thread):
+    """method 'penalty' with a stiff augmentation gives the exact (ssn) Tresca tractions up to O(1/c): a
+    node sticks while the trial traction c_t |slip| is below g_c (not half of it)."""
+    from ngs_geomech.solvers.contact import ContactLaw, ContactSolver
+
+    exact = cp.friction_block("traction", law="tresca", ratio=0.75)
+    devs = []
+    for c in (1e13, 1e14):
+        def factory(items, **kw):
+            (op, law), = items
+            return ContactSolver([(op, ContactLaw("tresca", slip_bound=law.slip_bound, augmentation=c))],
+                                 method="penalty", **kw)
+        r = cp.friction_block("traction", law="tresca", ratio=0.75, solver_factory=factory)
+        devs.append(float(np.max(np.abs(r["lam_t"] - exact["lam_t"]))) / 1e6)
+        assert r["friction_force"] == pytest.approx(r["applied"], rel=1e-8)
+        assert r["stick"] == exact["stick"]
+    print(f"\npenalty Tresca: max |q - q_exact| / g_c = {devs[0]:.2e}, {devs[1]:.2e} at c = 1e13, 1e14 Pa/m")
+    assert devs[1] < 0.2 * devs[0] and devs[1] < 1e-2
 
 
 @pytest.mark.parametrize("law", ["tresca", "coulomb"])

@@ -390,7 +390,7 @@ class ContactSolver:
                 lam_n[k] = x[on:on + it.m].copy()
                 if it.dim3:
                     lam_t[k] = np.column_stack([x[ot:ot + it.m], x[ot + it.m:ot + 2 * it.m]])
-                    ch, res = _sets_3d(it, lam_n[k], lam_t[k], u)
+                    ch, res = _sets_3d(it, lam_n[k], lam_t[k], u, penalty or it.law.penalty)
                     changes += ch
                     newton = max(newton, res)
                     n_act += int(it.active.sum())
@@ -399,14 +399,17 @@ class ContactSolver:
                     continue
                 lam_t[k] = x[ot:ot + it.m].copy()
                 gap = (it.op.g0 + it.Bn @ u) / it.w
-                zn = lam_n[k] - it.c * gap
+                pen_i = penalty or it.law.penalty
+                # penalty rows: the trial tractions -c g~, -c_t s~ (lam - c g~ would double them, and a Tresca
+                # node would start slipping at half its bound)
+                zn = (0.0 if pen_i else lam_n[k]) - it.c * gap
                 act = (zn > 0) & it.keep
                 stick = np.zeros(it.m, dtype=bool)
                 slip = np.zeros(it.m, dtype=bool)
                 sign = it.sign.copy()
                 if it.law.kind != "frictionless":
                     sl = (it.Bt @ u) / it.w
-                    z = lam_t[k] - it.ct * sl
+                    z = (0.0 if pen_i else lam_t[k]) - it.ct * sl
                     bound = it.bound0 if it.law.kind == "tresca" else it.law.friction * np.maximum(zn, 0.0)
                     stick = act & (np.abs(z) < bound)
                     slip = act & ~stick
@@ -580,7 +583,8 @@ def _rows_3d(it: _Interface, seg: dict, vals: np.ndarray, b: np.ndarray, x: np.n
     T = np.eye(2)[None] - e[:, :, None] * e[:, None, :]                 # (m, 2, 2)
     kT = it.kappa[:, None, None] * T
     R = np.where(stick[:, None, None], np.eye(2)[None], np.where(slip[:, None, None], kT, 0.0))
-    L = -s[:, None, None] * np.where(slip[:, None, None], np.eye(2)[None] - kT, np.eye(2)[None])
+    # (penalty rows: the slip law lam_t = b z / |z| with z = -c_t s, so no kappa T on lam_t)
+    L = -s[:, None, None] * np.where((slip & (not pen))[:, None, None], np.eye(2)[None] - kT, np.eye(2)[None])
     L = np.where((stick & (not pen))[:, None, None], 0.0, L)
     node = seg["rows_t_node"]
     a1, a2 = seg["rows_t_a"], seg["rows_t_b"]
@@ -600,20 +604,21 @@ def _rows_3d(it: _Interface, seg: dict, vals: np.ndarray, b: np.ndarray, x: np.n
     x[ot + m:ot + 2 * m] = np.where(A, x[ot + m:ot + 2 * m], 0.0)
 
 
-def _sets_3d(it: _Interface, lam_n: np.ndarray, lam_t: np.ndarray, u: np.ndarray) -> tuple[int, float]:
+def _sets_3d(it: _Interface, lam_n: np.ndarray, lam_t: np.ndarray, u: np.ndarray, pen: bool) -> tuple[int, float]:
     """The new sets and slip linearization of a 3D interface from the iterate (lam_n, lam_t (m, 2), u): the
     number of set changes and the residual max |lam_t - b z / |z|| of the nodes slipping before and now,
-    relative to the largest bound (0 for a frictionless interface)."""
+    relative to the largest bound (0 for a frictionless interface). ``pen``: penalty rows, whose sets use the
+    trial tractions z = -c_t s~, zn = -c g~ (as in 2D)."""
     m = it.m
     gap = (it.op.g0 + it.Bn @ u) / it.w
-    zn = lam_n - it.c * gap
+    zn = (0.0 if pen else lam_n) - it.c * gap
     act = (zn > 0) & it.keep
     stick = np.zeros(m, dtype=bool)
     slip = np.zeros(m, dtype=bool)
     res = 0.0
     if it.law.kind != "frictionless":
         sl = np.column_stack([it.Bt @ u, it.Bt2 @ u]) / it.w[:, None]
-        z = lam_t - it.ct[:, None] * sl
+        z = (0.0 if pen else lam_t) - it.ct[:, None] * sl
         nz = np.linalg.norm(z, axis=1)
         bound = it.bound0 if it.law.kind == "tresca" else it.law.friction * np.maximum(zn, 0.0)
         stick = act & (nz < bound)
@@ -628,8 +633,7 @@ def _sets_3d(it: _Interface, lam_n: np.ndarray, lam_t: np.ndarray, u: np.ndarray
         e[pos] = z[pos] / nz[pos, None]
         e[~pos, 0] = 1.0
         # the bound of the slip rows: g_c, or F_c lam_n (as the 2D rows; = F_c zn at an iterate of the exact
-        # phase, where the nodes in contact have g~ = 0, while the penalty phase has zn = 2 lam_n and z = 2 lam_t
-        # on its stick rows: the sets compare the doubled values, the slip rows the plain ones)
+        # phase, where the nodes in contact have g~ = 0, and of the penalty rows, where zn = -c g~ = lam_n)
         brow = it.bound0 if it.law.kind == "tresca" else it.law.friction * np.maximum(lam_n, 0.0)
         it.dir = np.where(slip[:, None], e, 0.0)
         it.kappa = np.where(slip, np.divide(brow, np.maximum(nz, brow), out=np.zeros(m),
