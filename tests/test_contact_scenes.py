@@ -219,3 +219,16 @@ def test_uzawa_must_be_used_on_every_contact():
     s = heated_bar_scene()
     s["boundary_conditions"]["left"]["foundation"]["method"] = "uzawa"
     assert "boundary_conditions.right.foundation.method" in _problems(s)
+
+
+def test_axisymmetric_heated_cylinder_between_plates(one_thread):
+    """Axisymmetric contact (weight r): a heated cylinder squeezed between two rigid plates, held along the
+    axis by the contacts alone; the uniaxial closed form p = E (alpha dT - g0 / H) at every node."""
+    from ngs_geomech.verification.contact_scenes import heated_cylinder
+
+    r = heated_cylinder()
+    print(f"\nheated cylinder (axisymmetric): p_ref {r['p_ref'] / 1e6:.6f} MPa, max nodal error {r['p_error']:.1e}, "
+          f"imbalance {r['imbalance_rel']:.1e}")
+    assert r["p_ref"] == pytest.approx(20e9 * (1e-5 * 60 - 1e-4))
+    assert r["p_error"] < 1e-8
+    assert r["imbalance_rel"] < 1e-8

@@ -275,3 +275,24 @@ def test_rigid_motion_analysis(bcs, free):
         with pytest.raises(SceneError) as err:
             run(scene_from_dict(d), None, progress=False)
         assert f"not held against {free}" in str(err.value)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_axisymmetric_solid_cylinder_touching_the_axis(order):
+    """A solid cylinder (elements on the axis r = 0) compressed by p on its top, u_z = 0 at the base: the
+    exact uniaxial state u_z = -p z / E, u_r = nu p r / E (the degree-2 triangle rule had points on the axis
+    edge, where u_r / r gave NaN)."""
+    E, nu, p = 20e9, 0.25, 1e6
+    d = {"scene": {"name": "rod", "dimension": "axisymmetric"}, "physics": {"mechanics": "static"},
+         "mesh": {"maxh": 0.15, "order": order},
+         "blocks": [{"name": "rod", "shape": "rectangle", "origin": [0, 0], "size": [0.3, 1.0],
+                     "boundaries": {"base": "ymin", "cap": "ymax"}}],
+         "materials": {"rod": {"youngs_modulus": E, "poisson_ratio": nu}},
+         "boundary_conditions": {"base": {"symmetry": True}, "cap": {"pressure": p}},
+         "output": {"vtk": False, "figures": False}}
+    res = run(scene_from_dict(d), None, progress=False)
+    mesh = res.mesh
+    u = res.mechanics.forms.displacement()
+    for x, y in ((0.0, 1.0), (0.3, 1.0), (0.15, 0.5), (0.0, 0.4)):
+        val = np.array(u(mesh(x, y))).ravel()
+        assert val == pytest.approx([nu * p * x / E, -p * y / E], abs=1e-9 * p / E)

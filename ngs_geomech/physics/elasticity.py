@@ -166,6 +166,11 @@ class ElasticForms:
         # thermal stress was integrated exactly by the linear form, not by the energy), so Newton and the
         # secant method solved different discrete problems (1e-2 apart in H1 on a thermal P2 case)
         order2 = 2 * setup.order
+        if setup.model == "axisymmetric" and order2 < 4:
+            # the degree-2 triangle rule has its points on the edge midpoints: on an edge on the axis r = 0 the
+            # hoop strain u_r / r was 0 / 0 (NaN in the matrix and the load of every element touching the axis)
+            order2 = 4
+        self.rule_order = order2
         self.intrules = {et: ngs.IntegrationRule(et, order2) for et in (ngs.ET.TRIG, ngs.ET.QUAD, ngs.ET.TET,
                                                                          ngs.ET.PRISM, ngs.ET.PYRAMID, ngs.ET.HEX)}
         self.bnd_intrules = {et: ngs.IntegrationRule(et, order2) for et in (ngs.ET.SEGM, ngs.ET.TRIG, ngs.ET.QUAD)}

@@ -222,7 +222,11 @@ class ContactSolver:
         N = n + sum(it.blocks * it.m for it in ifs)
         kr, kc, kv = (np.asarray(a) for a in matrix.COO())
         kr, kc = kr.astype(np.int64), kc.astype(np.int64)
-        f = np.asarray(rhs, dtype=float)
+        f = np.where(free, np.asarray(rhs, dtype=float), 0.0)   # (fixed dofs: their load is the support's)
+        if not np.all(np.isfinite(f)):
+            bad = int(np.count_nonzero(~np.isfinite(f)))
+            raise SolverError(f"contact solve{' at ' + where if where else ''}: the load vector has {bad} NaN or "
+                              "infinite entries on free dofs; check the loads, temperatures and material data")
         info = ContactInfo()
         for it in ifs:
             it.flips[:] = 0

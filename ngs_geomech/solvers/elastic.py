@@ -338,7 +338,7 @@ class _PrimalDual:
         f = self.f = forms
         s = f.setup
         mesh = f.mesh
-        self.S = IntegrationRuleSpace(mesh, order=s.order)   # the rules of order 2 order of the forms
+        self.S = IntegrationRuleSpace(mesh, order=f.rule_order // 2)   # the rules of the forms (order 2 order)
         self.intrules = self.S.GetIntegrationRules()
         self.points = mesh.MapToAllElements(self.intrules, ngs.VOL)
         self.nv = len(next(iter(f.D.values())))

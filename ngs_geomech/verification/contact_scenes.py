@@ -16,6 +16,9 @@ and x = L + g0, symmetry on the faces y = 0 and z = 0, free faces y = H and z = 
 uniaxial, sigma_yy = sigma_zz = 0, e_xx = g0 / L, so sigma_xx = E (e_xx - alpha (T1 - T0)) and the pressure
 p = E (alpha (T1 - T0) - g0 / L) when the free expansion alpha (T1 - T0) L exceeds g0 (else 0); the lateral
 strains are e_yy = e_zz = alpha (T1 - T0) + nu p / E.
+
+:func:`heated_cylinder` : axisymmetric, a solid cylinder between two rigid plates (the contact weight r):
+the same uniaxial closed form along the axis.
 """
 
 from __future__ import annotations
@@ -140,6 +143,39 @@ def heated_bar_3d(**kw) -> dict:
     u = np.array(result.mechanics.forms.displacement()(mesh(prm["L"], prm["H"], prm["W"]))).ravel()
     out["e_yy"], out["e_zz"] = float(u[1] / prm["H"]), float(u[2] / prm["W"])
     return out
+
+
+def heated_cylinder_scene(*, gap: float = 1e-4, dT: float = 60.0, R: float = 0.3, H: float = 1.0,
+                          E: float = 20e9, nu: float = 0.25, alpha: float = 1e-5, maxh: float = 0.15,
+                          order: int = 1) -> dict:
+    """The scene dict of :func:`heated_cylinder` (axisymmetric, T0 = 0, T1 = dT, frictionless)."""
+    found = {"law": "frictionless"}
+    return {
+        "scene": {"name": "heated_cylinder", "dimension": "axisymmetric"},
+        "physics": {"thermal": "steady", "mechanics": "static"},
+        "mesh": {"maxh": maxh, "order": order},
+        "blocks": [{"name": "rod", "shape": "rectangle", "origin": [0, 0], "size": [R, H],
+                    "boundaries": {"base": "ymin", "cap": "ymax", "mantle": "xmax"}}],
+        "materials": {"rod": {"conductivity": 3.0, "youngs_modulus": E, "poisson_ratio": nu,
+                              "thermal_expansion": alpha, "stress_free_temperature": 0.0}},
+        "mechanics": {"tolerance": 1e-10},
+        "boundary_conditions": {
+            "base": {"temperature": dT, "foundation": {"point": [0.0, 0.0], "normal": [0.0, 1.0], **found}},
+            "cap": {"temperature": dT, "foundation": {"point": [0.0, H + gap], "normal": [0.0, -1.0], **found}},
+            "mantle": {"temperature": dT},
+        },
+        "output": {"vtk": False, "figures": False},
+    }
+
+
+def heated_cylinder(**kw) -> dict:
+    """A solid cylinder (axisymmetric, radius R, height H) heated uniformly between two rigid plates, at z = 0
+    and z = H + g0, free mantle: the closed state is uniaxial along z, p = E (alpha dT - g0 / H) (the 3D
+    bar's closed form with L = H); the contact weight is r. The keys of :func:`heated_bar`."""
+    params = {k: kw[k] for k in ("gap", "dT", "E", "nu", "alpha") if k in kw}
+    defaults = dict(gap=1e-4, dT=60.0, E=20e9, nu=0.25, alpha=1e-5)
+    p_ref, err = heated_bar_3d_pressure(**{**defaults, **params}, L=kw.get("H", 1.0))
+    return _compare(heated_cylinder_scene(**kw), p_ref, err)[0]
 
 
 def _compare(scene: dict, p_ref: float, eyy: float) -> tuple[dict, object]:
