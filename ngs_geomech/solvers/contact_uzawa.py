@@ -85,7 +85,8 @@ for the measured stability limits."""
 class UzawaInfo:
     """History of one Uzawa solve: per outer step the relative change of lam_t and the numbers of nodes in
     contact, sticking (|lam_t| < b) and slipping (|lam_t| = b); the inner (active set) iterations in total;
-    the step rho per interface (Pa/m); final penetration and pressure as :class:`ContactInfo`; wall time."""
+    the step rho per interface (Pa/m, the last one used) and ``rho_halvings`` (the safeguard's); final
+    penetration and pressure as :class:`ContactInfo`; wall time."""
 
     iterations: int = 0
     inner_iterations: int = 0
@@ -95,6 +96,7 @@ class UzawaInfo:
     stick: list = field(default_factory=list)
     slip: list = field(default_factory=list)
     rho: list = field(default_factory=list)
+    rho_halvings: int = 0
     max_penetration: float = 0.0
     min_pressure: float = 0.0
     wall_s: float = 0.0
@@ -190,7 +192,10 @@ class UzawaSolver:
 
     ``rho``: the step (Pa/m) for every interface (default ``RHO_FACTOR`` x modulus / extent of the side);
     ``tol``: the relative change of lam_t that stops; ``maxit``: outer steps; ``inner_maxit``: active set
-    iterations of each frictionless subproblem; ``floating``: as ContactSolver."""
+    iterations of each frictionless subproblem; ``floating``: as ContactSolver. rho is halved after ``STALL``
+    steps without a new smallest change of lam_t (a step above the stability limit oscillates)."""
+
+    STALL = 30
 
     def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float,
                  maxit: int = 1000, rho: float | None = None, tol: float = 1e-10, inner_maxit: int = 50,
@@ -271,6 +276,7 @@ class UzawaSolver:
         b = np.concatenate([s.bound(None) for s in sides]) if sides else np.zeros(0)
         lam = project(self._last if self._last is not None and len(self._last) == len(W) else np.zeros_like(W), b)
         change = float("inf")
+        best, since_best = float("inf"), 0
         for it_nr in range(1, self.maxit + 1):
             load = f.copy()
             for s, lt in zip(sides, split(lam)):
@@ -302,6 +308,19 @@ class UzawaSolver:
             if not any(s.frictional for s in sides) or change < self.tol:
                 break
             lam = new
+            # safeguard: a step above the stability limit makes the change oscillate without decreasing (two
+            # elastic bodies on the default rho: still 0.49 after 1000 steps); halve rho after STALL steps
+            # without a new smallest change
+            if change < best:
+                best, since_best = change, 0
+            else:
+                since_best += 1
+                if since_best >= self.STALL:
+                    for side in sides:
+                        side.rho *= 0.5
+                    info.rho = [side.rho for side in sides]
+                    info.rho_halvings += 1
+                    best, since_best = change, 0
         else:
             raise SolverError(f"{at}: the friction multipliers on {names} still change by {change:.2e} (relative) "
                               f"after {self.maxit} Uzawa steps (tol {self.tol:.1e}, rho "

@@ -10,6 +10,9 @@ by :class:`ngs_geomech.solvers.contact.ContactSolver` on the operators of :mod:`
   the push), by a displacement it slides (the friction force is the capacity).
 * :func:`patch_test`: two blocks with non-matching meshes, frictionless, under a uniform top pressure p: the
   exact solution is a uniform stress, so the contact pressure must be p at every node.
+* :func:`two_blocks_coulomb`: two elastic blocks (non-matching meshes, the upper one held by the contact alone)
+  with Coulomb friction under a top pressure and a side push below the friction capacity: a slip zone
+  between stick zones (a benchmark problem, no closed form).
 * :func:`cattaneo`: Cattaneo-Mindlin partial slip (verification.md section 3): an elastic half cylinder
   pressed on an elastic block of the same material (non-matching meshes, Coulomb friction mu) by P and pushed
   sideways by Q < mu P in one static step: the stick-zone half width c against c/a = sqrt(1 - Q/(mu P)) and
@@ -21,6 +24,7 @@ dict and prints nothing. Units: m, Pa, N/m.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import ngsolve as ngs
@@ -63,7 +67,8 @@ def _translation(forms, direction) -> np.ndarray:
     return out
 
 
-def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float | None = None) -> dict:
+def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float | None = None,
+          solver_factory=None, return_system: bool = False) -> dict:
     """Hertz line contact of a quarter cylinder on a rigid flat (module docstring); ``h_contact`` (m) is the
     element size along the contact arc (the arc up to 4a from the axis), ``maxh`` (m) the size elsewhere
     (default R/4).
@@ -72,8 +77,10 @@ def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float 
     node in contact), "a_next" (the first open node), "a_error" (|a_num - a|), "h" (node spacing at a),
     "profile_max_error" (max |p - p_ref| / p0 over the nodes with x < 0.9 a), "pressure_l2_error" (the
     same region: sqrt(int (p - p_ref)^2 dx / a) / p0, trapezoidal over the nodes), "force_balance" (|int p - P/2| /
-    (P/2)), "max_penetration" (m), "iterations", "penalty_iterations", "ndof", "wall_s" (contact solve),
-    "x", "p", "p_ref" (nodal profile)}."""
+    (P/2)), "max_penetration" (m), "iterations", "penalty_iterations", "factorizations", "ndof", "wall_s"
+    (contact solve), "x", "p", "p_ref" (nodal profile)}; with ``return_system`` also "system" (the assembled
+    problem the contact solver got: :func:`_system_dict`). ``solver_factory(interfaces, modulus=, floating=)``
+    builds the solver as in :func:`friction_block` (default :class:`ContactSolver` with ``method``)."""
     R, E, nu = R_HERTZ, E_HERTZ, NU_HERTZ
     E_star = cc.effective_modulus(E, nu)
     a_ref = R / 50
@@ -99,8 +106,9 @@ def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float 
     forms, K, f, free, x0 = _system(mesh, setup)
     op = contact_operator_2d(mesh, forms.V, "hertz", "contact", None, axisymmetric=False,
                              obstacle=((0.0, 0.0), (0.0, 1.0)))
-    solver = ContactSolver([(op, ContactLaw())], modulus=nodal_modulus(props), method=method,
-                           floating=forms.floating_bodies())
+    floating = forms.floating_bodies()
+    factory = solver_factory or functools.partial(ContactSolver, method=method)
+    solver = factory([(op, ContactLaw())], modulus=nodal_modulus(props), floating=floating)
     u, info = solver.solve(K, f, free, x0, "hertz")
     lam_n, _ = solver.multipliers[0]
     x = op.coords[:, 0]
@@ -113,14 +121,24 @@ def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float 
     l2 = math.sqrt(float(np.trapezoid((ps[inner] - pref[inner]) ** 2, xs[inner])) / ref.a) / ref.p0
     # the vertical resultant of the discrete contact forces Bn^T lam_n (on the cylinder: -int p n ds)
     force = float(_translation(forms, (0.0, 1.0))[:op.Bn.shape[1]] @ (op.Bn.T @ lam_n))
-    return {"a": ref.a, "p0": ref.p0, "P": P, "p0_num": float(ps[0]), "p0_rel_error": float(ps[0] / ref.p0 - 1),
-            "a_num": float(xs[last]), "a_next": float(xs[min(last + 1, len(xs) - 1)]),
-            "a_error": abs(float(xs[last]) - ref.a), "h": float(xs[min(last + 1, len(xs) - 1)] - xs[last]),
-            "profile_max_error": float(np.max(np.abs(ps[inner] - pref[inner])) / ref.p0), "pressure_l2_error": l2,
-            "force_balance": abs(force - P / 2) / (P / 2), "max_penetration": info.max_penetration,
-            "iterations": info.iterations, "penalty_iterations": info.penalty_iterations,
-            "ndof": int(forms.X.ndof), "wall_s": info.wall_s,
-            "x": xs.tolist(), "p": ps.tolist(), "p_ref": np.asarray(pref).tolist()}
+    out = {"a": ref.a, "p0": ref.p0, "P": P, "p0_num": float(ps[0]), "p0_rel_error": float(ps[0] / ref.p0 - 1),
+           "a_num": float(xs[last]), "a_next": float(xs[min(last + 1, len(xs) - 1)]),
+           "a_error": abs(float(xs[last]) - ref.a), "h": float(xs[min(last + 1, len(xs) - 1)] - xs[last]),
+           "profile_max_error": float(np.max(np.abs(ps[inner] - pref[inner])) / ref.p0), "pressure_l2_error": l2,
+           "force_balance": abs(force - P / 2) / (P / 2), "max_penetration": info.max_penetration,
+           "iterations": info.iterations, "penalty_iterations": info.penalty_iterations,
+           "factorizations": info.factorizations, "ndof": int(forms.X.ndof), "wall_s": info.wall_s,
+           "x": xs.tolist(), "p": ps.tolist(), "p_ref": np.asarray(pref).tolist()}
+    if return_system:
+        out["system"] = _system_dict(K, f, free, x0, floating)
+    return out
+
+
+def _system_dict(K, f, free, x0, floating) -> dict:
+    """The assembled linear elastic problem a contact solve got (for timing a plain linear solve on the same
+    mesh): {"matrix" (the NGSolve bulk matrix K), "rhs", "free" (bool mask), "x0" (Dirichlet values),
+    "floating" (the semi-coercive bodies, :meth:`ElasticForms.floating_bodies`)}."""
+    return {"matrix": K, "rhs": f, "free": free, "x0": x0, "floating": floating}
 
 
 def _foundation_block(L: float, H: float, h: float, order: int):
@@ -176,25 +194,36 @@ def friction_block(push: str, *, law: str = "tresca", g_c: float = 1e6, friction
             "lam_n": lam_n, "lam_t": lam_t, "u": u, "info": info}
 
 
+def _stacked_blocks(L: float, H: float, y0: float, h_lower: float, h_upper: float, order: int, sides: dict):
+    """The mesh of two blocks [0, L] x [y0, y0 + H] ("lower") and [0, L] x [y0 + H, y0 + 2H] ("upper"), meshed
+    independently (a Compound, not glued: non-matching meshes of sizes ``h_lower``, ``h_upper``); boundaries
+    "bottom", "lower_top", "upper_bottom", "top" and the vertical sides named by ``sides`` = {block: (left
+    name, right name or None)}."""
+    lower = Rectangle(L, H).Face().Move((0, y0, 0))
+    upper = Rectangle(L, H).Face().Move((0, y0 + H, 0))
+    lower.name, upper.name = "lower", "upper"
+    lower.edges.Min(Y).name = "bottom"
+    lower.edges.Max(Y).name = "lower_top"
+    upper.edges.Min(Y).name = "upper_bottom"
+    upper.edges.Max(Y).name = "top"
+    for face, (left, right) in ((lower, sides["lower"]), (upper, sides["upper"])):
+        face.edges.Min(X).name = left
+        if right is not None:
+            face.edges.Max(X).name = right
+    lower.maxh, upper.maxh = h_lower, h_upper
+    shape = Compound([lower, upper])     # not glued: independent meshes on the two sides
+    mesh = ngs.Mesh(OCCGeometry(shape, dim=2).GenerateMesh(maxh=max(h_lower, h_upper)))
+    mesh.Curve(order)
+    return mesh
+
+
 def patch_test(p: float = 1e6, *, h_lower: float = 0.1, h_upper: float = 0.07, order: int = 1,
                E: float = 10e9, nu: float = 0.25) -> dict:
     """Two blocks [0, 1] x [0, 0.5] and [0, 1] x [0.5, 1] meshed independently (sizes ``h_lower``,
     ``h_upper``), frictionless contact (multipliers on the upper block's bottom), u_x = 0 on x = 0, u_y = 0 on
     y = 0, pressure ``p`` on top. Returns {"max_deviation" (max |lam_n - p| / p), "force_balance",
     "max_penetration", "iterations", "nodes"}."""
-    lower = Rectangle(1.0, 0.5).Face()
-    upper = Rectangle(1.0, 0.5).Face().Move((0, 0.5, 0))
-    lower.name, upper.name = "lower", "upper"
-    lower.edges.Min(Y).name = "bottom"
-    lower.edges.Max(Y).name = "lower_top"
-    upper.edges.Min(Y).name = "upper_bottom"
-    upper.edges.Max(Y).name = "top"
-    lower.edges.Min(X).name = "left"
-    upper.edges.Min(X).name = "left"
-    lower.maxh, upper.maxh = h_lower, h_upper
-    shape = Compound([lower, upper])     # not glued: independent meshes on the two sides
-    mesh = ngs.Mesh(OCCGeometry(shape, dim=2).GenerateMesh(maxh=max(h_lower, h_upper)))
-    mesh.Curve(order)
+    mesh = _stacked_blocks(1.0, 0.5, 0.0, h_lower, h_upper, order, {"lower": ("left", None), "upper": ("left", None)})
     props = _props(E, nu, ["lower", "upper"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order, symmetry=["left", "bottom"])
     setup.pressure["top"] = expression_function(p)
@@ -207,6 +236,60 @@ def patch_test(p: float = 1e6, *, h_lower: float = 0.1, h_upper: float = 0.07, o
     return {"max_deviation": float(np.max(np.abs(lam_n[keep] - p)) / p),
             "force_balance": abs(float(np.dot(op.weight, lam_n)) - p) / p,
             "max_penetration": info.max_penetration, "iterations": info.iterations, "nodes": int(keep.sum())}
+
+
+def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio: float = 0.7,
+                       p_top: float = 5e6, L: float = 1.0, H: float = 0.5, h_ratio: float = 0.7,
+                       E: float = 10e9, nu: float = 0.25, solver_factory=None,
+                       return_system: bool = False) -> dict:
+    """Two elastic blocks with Coulomb friction, plane strain: a lower block [0, L] x [-H, 0] fixed at its base
+    (u = 0 on y = -H) and an upper block [0, L] x [0, H] on it, meshed independently (non-matching meshes,
+    sizes ``h`` below and ``h_ratio`` x ``h`` above, as :func:`patch_test`). The upper block is held by the
+    contact alone (semi-coercive, ``floating``): the pressure ``p_top`` on its top and on its left side a
+    uniform traction with the resultant Q = ``ratio`` x F_c p_top L (F_c = ``friction``), i.e. at ``ratio``
+    of the friction capacity. The moment Q H / 2 of the push tilts the pressure (0.67 p_top at the left end,
+    1.22 p_top at the right one, h = 0.05). The shear vanishes at both ends of the interface (the blocks'
+    traction-free sides meet it there; the push is normal to the left side), so slip starts inside, under the
+    push: with the default ``ratio`` 0.7 a slip zone x ~ 0.1 L ... 0.45 L lies between a stick zone at the left
+    end and one over the right half (measured at P2, h = 0.05; both zones present at h = 0.16 ... 0.01); at
+    ratio 0.5 every node sticks (max |lam_t| / (F_c lam_n) = 0.71), at 0.8 the left 70 % slips. Multipliers
+    on the upper block's bottom.
+
+    Returns (no assertion) {"ndof", "iterations", "factorizations", "penalty_iterations", "wall_s" (contact
+    solve), "stick", "slip", "active" (solver's node counts at the end), "friction_force" (int lam_t ds),
+    "normal_force" (int lam_n ds), "applied" (Q), "load" (p_top L), "force_balance_n" (|int lam_n - p_top L| /
+    (p_top L)), "force_balance_t" (|int lam_t - Q| / Q), "max_penetration", "info" (the solver's history)};
+    with ``return_system`` also "system" (:func:`_system_dict`). ``solver_factory(interfaces, modulus=,
+    floating=)`` builds the solver (default :class:`ContactSolver`; e.g.
+    :class:`ngs_geomech.solvers.contact_uzawa.UzawaSolver`: then "iterations" counts its outer steps and
+    "inner_iterations" the active set iterations of its frictionless subproblems, 0 for ContactSolver)."""
+    mesh = _stacked_blocks(L, H, -H, h, h_ratio * h, order,
+                           {"lower": ("lower_side", "lower_side"), "upper": ("left", "right")})
+    props = _props(E, nu, ["lower", "upper"])
+    setup = ElasticSetup(props=props, model="plane_strain", order=order)
+    setup.dirichlet["bottom"] = [expression_function(0.0), expression_function(0.0)]
+    setup.pressure["top"] = expression_function(p_top)
+    applied = ratio * friction * p_top * L
+    setup.traction["left"] = [expression_function(applied / H), expression_function(0.0)]
+    forms, K, f, free, x0 = _system(mesh, setup)
+    floating = forms.floating_bodies()
+    op = contact_operator_2d(mesh, forms.V, "blocks", "upper_bottom", "lower_top", axisymmetric=False)
+    solver = (solver_factory or ContactSolver)([(op, ContactLaw("coulomb", friction=friction))],
+                                               modulus=nodal_modulus(props), floating=floating)
+    u, info = solver.solve(K, f, free, x0, "two blocks")
+    lam_n, lam_t = solver.multipliers[0]
+    normal, tangential = float(np.dot(op.weight, lam_n)), float(np.dot(op.weight, lam_t))
+    out = {"ndof": int(forms.X.ndof), "iterations": info.iterations, "factorizations": info.factorizations,
+           "penalty_iterations": getattr(info, "penalty_iterations", 0),
+           "inner_iterations": getattr(info, "inner_iterations", 0), "wall_s": info.wall_s,
+           "stick": info.stick[-1], "slip": info.slip[-1], "active": info.active[-1],
+           "friction_force": tangential, "normal_force": normal, "applied": applied, "load": p_top * L,
+           "force_balance_n": abs(normal - p_top * L) / (p_top * L),
+           "force_balance_t": abs(abs(tangential) - applied) / applied,
+           "max_penetration": info.max_penetration, "info": info}
+    if return_system:
+        out["system"] = _system_dict(K, f, free, x0, floating)
+    return out
 
 
 def cattaneo(h_contact: float, order: int = 1, *, Q_ratio: float = 0.5, friction: float = 0.3,

@@ -11,11 +11,26 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
 from ..io.atomic import write_json_atomic
+
+
+@contextmanager
+def one_ngsolve_thread():
+    """Run a block on one NGSolve thread (restored afterwards): studies that compare wall times run on one
+    thread, since idle worker threads spin and make small problems several times slower on a shared machine."""
+    import ngsolve as ngs
+
+    threads = ngs.GetNumThreads()
+    ngs.SetNumThreads(1)
+    try:
+        yield
+    finally:
+        ngs.SetNumThreads(threads)
 
 
 def observed_order(hs, errors) -> float:

@@ -32,10 +32,8 @@ import math
 import time
 from pathlib import Path
 
-import ngsolve as ngs
-
 from ngs_geomech.verification import nonlinear_law as nl
-from ngs_geomech.verification.study import convergence_entry, metrics_lines, study_cli, study_main
+from ngs_geomech.verification.study import convergence_entry, metrics_lines, one_ngsolve_thread, study_cli, study_main
 
 STUDY = "secant_convergence"
 LEVELS = {
@@ -66,12 +64,8 @@ def run(level: int) -> tuple[dict, dict]:
     which makes these small problems several times slower on a shared machine."""
     if level not in LEVELS:
         raise ValueError(f"level must be one of {sorted(LEVELS)}, got {level}")
-    threads = ngs.GetNumThreads()
-    ngs.SetNumThreads(1)
-    try:
+    with one_ngsolve_thread():
         return _run(level)
-    finally:
-        ngs.SetNumThreads(threads)
 
 
 def _run(level: int) -> tuple[dict, dict]:

@@ -1,0 +1,492 @@
+"""Performance of the frictional contact solvers (issue 4, section 8): semi-smooth Newton / active set
+iterations, factorizations and wall time against one linear elastic solve on the same mesh, and the seed's Uzawa
+method (2.66) as the reference.
+
+Physics. Plane strain, P2, both problems of :mod:`ngs_geomech.verification.contact_problems`:
+(1) Hertz line contact, frictionless (:func:`hertz`: a quarter cylinder R = 1 m, E = 200 GPa, nu = 0.3 on a
+rigid flat, a = R/50, held vertically by the contact alone), refined as h_contact = a/5 / 2^k on the contact
+arc and maxh = R/4 / 2^k elsewhere (k = 0 ... 5: 1.1k ... 140k dofs); the p0 relative error against the
+closed form. (2) Two elastic blocks with Coulomb friction F_c = 0.3 (:func:`two_blocks_coulomb`, not
+:func:`cattaneo`): a lower block 1 m x 0.5 m fixed at its base, an upper one meshed independently
+(non-matching, 0.7 h) and held by the contact alone, top pressure 5 MPa and a left-side push at 0.7 of the
+friction capacity: a slip zone between two stick zones at every h (h = 0.16 / 2^k m: 0.7k ... 148k dofs).
+(3) The seed's Uzawa algorithm (:class:`UzawaSolver`, tol 1e-10) on problem (2) on the coarse meshes: its
+outer steps grow like L / h (a fixed step rho); rho = 1.0 x modulus / L = 1.2e10 Pa/m (the solver's default
+factor 2 alone did not converge here (change 0.49 after 1000 steps at h = 0.16), presumably as two elastic bodies
+are more compliant than one on a rigid foundation; factor 1.5 still changes by 0.2 after 3000 steps, factor 0.5
+needs 98 steps instead of 80; the solver now halves rho after 30 steps without progress, and with its default
+it converges in 112 and 142 steps at h = 0.16 and 0.08).
+
+Per level: dofs, Newton (active set) iterations, factorizations, the contact solve's wall and CPU time (the
+solver only: no assembly, no contact operators), and in the same run the time of ONE linear elastic solve on
+the same mesh: K (with the contact solver's shift 1e-10 x mean diagonal on the free dofs of the floating body,
+without which K is singular: same pattern, same cost) factored by NGSolve's sparsecholesky on the free dofs
+plus one solve; the assembly is not counted on either side. Their ratio is the headline (``time_ratio_*``, wall
+times, finest level); the CPU-time ratio (``*_cpu``) is the same figure without the waiting for the other jobs
+on the shared machine (one thread: CPU = wall when alone); the UMFPACK factorization of K (what the product's
+ElasticSolver uses) is reported beside it. One NGSolve thread and one thread in every loaded OpenBLAS
+(NGSolve's under UMFPACK, numpy's, scipy's: :func:`single_threaded_blas`), restored afterwards, for both sides:
+with two BLAS threads the contact solve used ~1.5 x its wall time in CPU for no gain, and while other jobs held
+the cores the spinning BLAS threads made UMFPACK up to 10 x slower.
+
+Targets (issue 4, section 8): at most 15 Newton iterations at every level (``target_newton_iterations_met``);
+time ratio at most 2 frictionless and 3 with friction at the finest level (``target_time_ratio_*_met``).
+The study measures, it does not gate: the solver misses the time targets by factors 10 - 16 (frictionless)
+and 3.5 - 6 (Coulomb), below.
+
+Command: ``python studies/contact_performance/run.py --level 1 --out out/contact_performance``
+(writes ``results.json``; prints the tables). Levels: 0 Hertz k = 0 ... 3 (up to 13k dofs), blocks h = 0.16,
+0.08, 0.04 (9.6k), Uzawa at h = 0.16, 0.08; 1 Hertz k = 0 ... 5 (140k), blocks down to h = 0.01 (148k), Uzawa
+down to h = 0.04; 2 as 1 with Uzawa also at h = 0.02 (37k dofs, 385 steps, ~3 min).
+
+Measured twice at level 2, one NGSolve and one BLAS thread, the machine shared but nearly idle (CPU = wall
+within 2 %). "Newton" counts ContactInfo.iterations (its penalty start phase included), "fact" its
+factorizations; times in s: "contact" the contact solve, "lin" one sparsecholesky factorization + solve of K,
+"ratio" contact / lin, "r umf" contact / (UMFPACK factorization + solve of K).
+
+(a) ContactSolver of commit 272c047: one UMFPACK factorization of the saddle-point system per iteration, the
+matrix built by CreateFromCOO each time.
+
+    Hertz  k    dofs  p0 err  Newton fact  contact    lin  ratio  r umf
+           0    1068  1.02e-3      6    6     0.07  0.002     28     21
+           1    1988  4.54e-3      7    7     0.14  0.004     35     22
+           2    4692  2.96e-3      8    8     0.37  0.010     38     23
+           3   13086  3.15e-3      9    9     1.30  0.034     38     22
+           4   41062  3.06e-3     11   11     5.85  0.140     42     26
+           5  139844  2.81e-3     12   12    27.14  0.888     31     25
+    blocks h    dofs  stick/slip  Newton fact  contact    lin  ratio  r umf
+        0.16     678     8 /  2      3    3     0.02  0.002     15     16
+        0.08    2434    14 /  5      5    5     0.12  0.005     22     11
+        0.04    9558    25 / 12      7    7     0.68  0.025     27     22
+        0.02   37250    48 / 24      7    7     3.27  0.143     23     20
+        0.01  148478    96 / 48      7    7    16.30  0.873     19     15
+    Uzawa  h    dofs  steps  inner  wall (s)  / lin  Newton (s)  max |lam_t - lam_t(Newton)| / (F_c p_top)
+        0.16     678     80     81      0.76    486        0.02  1.1e-10
+        0.08    2434    110    111      2.80    523        0.12  1.9e-09
+        0.04    9558    206    207     21.30    859        0.68  5.3e-09
+        0.02   37250    385    386    196.44   1373        3.27  1.4e-08
+
+(b) ContactSolver of commit f1dc121 (one saddle-point pattern per solve, values updated in place, factorization
+reuse by Sherman-Morrison-Woodbury): the same iterations, p0 errors, stick/slip sets, Uzawa steps and
+multiplier differences; fewer factorizations:
+
+    Hertz  k    dofs  fact  contact    lin  ratio  r umf      blocks h    dofs  fact  contact    lin  ratio  r umf
+           0    1068     1     0.02  0.002     10      7          0.16     678     2     0.01  0.001      9      8
+           1    1988     2     0.05  0.004     12      8          0.08    2434     2     0.04  0.005      9      7
+           2    4692     3     0.15  0.010     15      9          0.04    9558     2     0.26  0.023     11      9
+           3   13086     4     0.66  0.033     20     11          0.02   37250     3     1.53  0.133     12      8
+           4   41062     6     3.41  0.148     23     15          0.01  148478     3    10.02  0.946     11      9
+           5  139844     7    16.58  0.796     21     16
+    Uzawa wall (s) at h = 0.16 ... 0.02: 0.63, 2.64, 19.96, 172.09 (/ lin 446, 511, 853, 1297).
+
+Headline: hertz_p0_rel_error 2.8e-3 (flat in h: the model error of a finite cylinder against the half-space
+closed form dominates), hertz_newton_iterations_max 12 (one more per refinement, 6 ... 12),
+friction_newton_iterations_max 7, time_ratio_frictionless 31 (a) / 21 (b) (target 2), time_ratio_coulomb 19 (a)
+/ 11 (b) (target 3), uzawa_iterations_finest 385 (h = 0.02, 37k dofs; steps ~ h^-0.9 on the two finest Uzawa
+meshes). A level 1 run with (a) the same hour gave the finest-level figures within 5 % (ratios 31.9 and 18.1;
+the millisecond timings of the coarse levels vary more). At the finest level one contact iteration costs 2.5
+(Hertz) and 2.7 (blocks) sparsecholesky solves of K with (a), and the solve per factorization 3.0 and 3.5 with
+(b): a solve with a single UMFPACK factorization of the saddle-point system would still miss the factor 2.
+
+Cost (the same conditions): (a) level 0 8.4 s (Hertz 3.1 s, blocks 1.6 s, Uzawa 3.7 s); level 1 102 s (Hertz
+45 s, of it 34 s at 140k dofs; blocks 32 s; Uzawa 25 s); level 2 300 s (Uzawa at h = 0.02 alone 198 s);
+(b) level 0 6.4 s (Hertz 1.9 s, blocks 1.0 s, Uzawa 3.5 s); level 2 251 s (Hertz 31 s, blocks 23 s, Uzawa
+197 s), so level 1 about 80 s.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import gc
+import math
+import time
+from pathlib import Path
+
+import ngsolve as ngs
+import numpy as np
+import scipy.linalg  # noqa: F401  (loads scipy's OpenBLAS before single_threaded_blas; linprog uses it)
+import scipy.optimize  # noqa: F401
+
+from ngs_geomech.elastic_materials import isotropic
+from ngs_geomech.solvers.contact_uzawa import UzawaSolver
+from ngs_geomech.verification import contact_problems as cp
+from ngs_geomech.verification.study import convergence_entry, metrics_lines, one_ngsolve_thread, study_cli, study_main
+
+STUDY = "contact_performance"
+LEVELS = {
+    0: {"hertz_k": (0, 1, 2, 3), "blocks_h": (0.16, 0.08, 0.04), "uzawa_h": (0.16, 0.08)},
+    1: {"hertz_k": (0, 1, 2, 3, 4, 5), "blocks_h": (0.16, 0.08, 0.04, 0.02, 0.01), "uzawa_h": (0.16, 0.08, 0.04)},
+    2: {"hertz_k": (0, 1, 2, 3, 4, 5), "blocks_h": (0.16, 0.08, 0.04, 0.02, 0.01),
+        "uzawa_h": (0.16, 0.08, 0.04, 0.02)},
+}
+"""Per level: the Hertz refinements k (h_contact = a/5 / 2^k, maxh = R/4 / 2^k), the block mesh sizes (m) of
+the Newton runs and those of the (slow) Uzawa runs."""
+ORDER = 2
+FRICTION = 0.3
+RATIO = 0.7
+"""Coulomb coefficient and the push of the blocks as a fraction of the friction capacity."""
+UZAWA_RHO_FACTOR = 1.0
+UZAWA_TOL = 1e-10
+UZAWA_MAXIT = 3000
+TARGET_NEWTON = 15
+TARGET_RATIO_FRICTIONLESS = 2.0
+TARGET_RATIO_COULOMB = 3.0
+
+
+class _Timed:
+    """A contact solver wrapper that also measures the CPU time of ``solve`` (process time: with one thread
+    the work done, whatever else runs on the machine) and keeps the solver for its multipliers."""
+
+    def __init__(self, factory, interfaces, **kw):
+        self.inner = factory(interfaces, **kw)
+        self.cpu_s = math.nan
+
+    @property
+    def multipliers(self):
+        return self.inner.multipliers
+
+    def solve(self, *args, **kw):
+        c0 = time.process_time()
+        out = self.inner.solve(*args, **kw)
+        self.cpu_s = time.process_time() - c0
+        return out
+
+
+def _factory(store: dict, base):
+    def make(interfaces, **kw):
+        store["solver"] = _Timed(base, interfaces, **kw)
+        return store["solver"]
+    return make
+
+
+def linear_solve_time(system: dict) -> dict:
+    """One linear elastic solve with the assembled K of a contact problem: factor K on the free dofs (NGSolve
+    sparsecholesky, and UMFPACK for comparison) and solve once for the load; the floating body's free dofs get
+    the contact solver's shift (1e-10 x their mean diagonal entry), without which K is singular. Returns wall
+    and CPU seconds (factor + solve) per method and the relative residual of the Cholesky solve."""
+    K, free, f, x0 = system["matrix"], system["free"], np.asarray(system["rhs"]), system["x0"]
+    n = len(x0)
+    kr, kc, kv = (np.asarray(a) for a in K.COO())
+    kr, kc, kv = kr.astype(np.int64), kc.astype(np.int64), np.array(kv, dtype=float)
+    mask = np.zeros(n, dtype=bool)
+    for body in system["floating"]:
+        mask |= np.any(np.abs(body.modes[:n]) > 0, axis=1)
+    reg = np.where(mask & free)[0]
+    d = kr == kc
+    diag = np.zeros(n)
+    np.add.at(diag, kr[d], kv[d])
+    eps = 1e-10 * float(np.mean(np.abs(diag[reg]))) if len(reg) else 0.0
+    shift = np.zeros(n)
+    shift[reg] = eps
+    kv[d] += shift[kr[d]]
+    A = ngs.la.SparseMatrixd.CreateFromCOO(kr, kc, kv, n, n)
+    fd = ngs.BitArray(free.tolist())
+    x = A.CreateColVector()
+    x.FV().NumPy()[:] = x0
+    r = A.CreateColVector()
+    r.data = A * x
+    r.FV().NumPy()[:] = (f - r.FV().NumPy()) * free
+    out = {"shift": eps}
+    for name in ("sparsecholesky", "umfpack"):
+        dx = A.CreateColVector()
+        t0, c0 = time.perf_counter(), time.process_time()
+        inv = A.Inverse(fd, inverse=name)
+        dx.data = inv * r
+        out[name] = {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
+        if name == "sparsecholesky":
+            y = A.CreateColVector()
+            y.data = x + dx
+            res = A.CreateColVector()
+            res.data = A * y
+            out["residual"] = float(np.linalg.norm((f - res.FV().NumPy()) * free) / np.linalg.norm(f * free))
+        del inv
+    return out
+
+
+def _pos(t: float) -> float:
+    """A time to divide by (never 0)."""
+    return max(t, 1e-9)
+
+
+def _row(r: dict, store: dict, lin: dict, wall_total: float) -> dict:
+    solver = store["solver"]
+    ch, um = lin["sparsecholesky"], lin["umfpack"]
+    return {"ndof": r["ndof"], "iterations": r["iterations"], "factorizations": r["factorizations"],
+            "penalty_iterations": r["penalty_iterations"], "wall_s": r["wall_s"], "cpu_s": solver.cpu_s,
+            "linear_wall_s": ch["wall_s"], "linear_cpu_s": ch["cpu_s"], "umfpack_wall_s": um["wall_s"],
+            "umfpack_cpu_s": um["cpu_s"], "ratio": r["wall_s"] / _pos(ch["wall_s"]),
+            "ratio_cpu": solver.cpu_s / _pos(ch["cpu_s"]), "ratio_umfpack": r["wall_s"] / _pos(um["wall_s"]),
+            "linear_residual": lin["residual"],
+            "run_s": wall_total}
+
+
+def _loaded_openblas() -> list[str]:
+    """The OpenBLAS libraries loaded in this process (Linux: from /proc/self/maps; elsewhere none)."""
+    try:
+        with open("/proc/self/maps") as fh:
+            paths = {line.split()[-1] for line in fh if "openblas" in line.lower()}
+    except OSError:
+        return []
+    return sorted(p for p in paths if p.startswith("/"))
+
+
+@contextlib.contextmanager
+def single_threaded_blas():
+    """Set every loaded OpenBLAS (NGSolve's, under UMFPACK; numpy's; scipy's) to one thread, restored on exit;
+    yields the number of libraries changed. Two BLAS threads made the contact solve take ~1.5 x its wall time in
+    CPU, and with the other jobs on the 2 cores their spinning made UMFPACK ~10 x slower (measured: Hertz at
+    13k dofs, 12.3 s instead of 1.7 s)."""
+    changed = []
+    for path in _loaded_openblas():
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for prefix, suffix in (("openblas", ""), ("scipy_openblas", "64_"), ("scipy_openblas", "")):
+            setter, getter = getattr(lib, f"{prefix}_set_num_threads{suffix}", None), \
+                getattr(lib, f"{prefix}_get_num_threads{suffix}", None)
+            if setter is not None and getter is not None:
+                changed.append((setter, int(getter())))
+                setter(1)
+                break
+    try:
+        yield len(changed)
+    finally:
+        for setter, old in changed:
+            setter(old)
+
+
+def _level(solve, extra) -> tuple[dict, list]:
+    """One level of the ssn runs: ``solve(solver_factory)`` returns the problem's dict with its "system", timed
+    against one linear solve; the row (with ``extra(result)``) and the contact solver's multipliers."""
+    t0 = time.perf_counter()
+    store: dict = {}
+    r = solve(_factory(store, cp.ContactSolver))
+    lin = linear_solve_time(r.pop("system"))
+    row = _row(r, store, lin, 0.0)
+    row.update(extra(r))
+    multipliers = [np.array(v) for v in store["solver"].multipliers[0]]
+    del r, store, lin
+    gc.collect()
+    row["run_s"] = time.perf_counter() - t0
+    return row, multipliers
+
+
+def _ratio_entry(name: str, rows: list) -> dict:
+    """The convergence entry of the time ratios of a sequence of levels (no order expected)."""
+    return convergence_entry(name, [row["h"] for row in rows], [row["ndof"] for row in rows],
+                             [row["ratio"] for row in rows], None,
+                             note="contact solve wall time / one linear solve (sparsecholesky)",
+                             **{key: [row[key] for row in rows] for key in
+                                ("wall_s", "linear_wall_s", "ratio_cpu", "cpu_s", "linear_cpu_s",
+                                 "umfpack_wall_s", "ratio_umfpack")})
+
+
+def run(level: int) -> tuple[dict, dict]:
+    """The results dict of ``level`` and the per-level rows (for the report), on one NGSolve thread and one BLAS
+    thread (:func:`single_threaded_blas`), both restored afterwards."""
+    if level not in LEVELS:
+        raise ValueError(f"level must be one of {sorted(LEVELS)}, got {level}")
+    with one_ngsolve_thread(), single_threaded_blas() as n_blas:
+        result, tables = _run(level)
+    result["blas_libraries_single_threaded"] = n_blas
+    return result, tables
+
+
+def _run(level: int) -> tuple[dict, dict]:
+    p = LEVELS[level]
+    t_start = time.perf_counter()
+    timing: dict[str, float] = {}
+    metrics: dict[str, float] = {}
+    convergence: list[dict] = []
+    tables: dict = {"hertz": [], "blocks": [], "uzawa": []}
+
+    # (1) Hertz, frictionless
+    a = cp.R_HERTZ / 50
+    tic = time.perf_counter()
+    for k in p["hertz_k"]:
+        row, _ = _level(lambda factory, k=k: cp.hertz(a / 5 / 2 ** k, ORDER, maxh=cp.R_HERTZ / 4 / 2 ** k,
+                                                      return_system=True, solver_factory=factory),
+                        lambda r, k=k: dict(k=k, h=a / 5 / 2 ** k, maxh=cp.R_HERTZ / 4 / 2 ** k,
+                                            p0_rel_error=r["p0_rel_error"], a_error_over_h=r["a_error"] / r["h"],
+                                            force_balance=r["force_balance"], max_penetration=r["max_penetration"]))
+        timing[f"hertz_k{k}_s"] = row["run_s"]
+        tables["hertz"].append(row)
+    timing["hertz_s"] = time.perf_counter() - tic
+    hz = tables["hertz"]
+    hs, dofs = [row["h"] for row in hz], [row["ndof"] for row in hz]
+    convergence.append(convergence_entry("hertz_p0_rel_error", hs, dofs, [abs(row["p0_rel_error"]) for row in hz],
+                                         None, note="|p0_num / p0 - 1|; h = h_contact (m); maxh refined with it; "
+                                         "dominated by the model error of the finite cylinder (no order)",
+                                         maxh=[row["maxh"] for row in hz]))
+    convergence.append(convergence_entry("hertz_newton_iterations", hs, dofs, [row["iterations"] for row in hz], 0,
+                                         **{key: [row[key] for row in hz] for key in
+                                            ("factorizations", "penalty_iterations", "wall_s", "cpu_s")}))
+    convergence.append(_ratio_entry("hertz_time_ratio", hz))
+
+    # (2) two blocks with Coulomb friction (ssn)
+    tic = time.perf_counter()
+    lam_ref = {}
+    for h in p["blocks_h"]:
+        row, multipliers = _level(lambda factory, h=h: cp.two_blocks_coulomb(h, ORDER, friction=FRICTION, ratio=RATIO,
+                                                                           return_system=True,
+                                                                           solver_factory=factory),
+                                  lambda r, h=h: dict(h=h, stick=r["stick"], slip=r["slip"], active=r["active"],
+                                                      force_balance_n=r["force_balance_n"],
+                                                      force_balance_t=r["force_balance_t"],
+                                                      max_penetration=r["max_penetration"]))
+        if h in p["uzawa_h"]:
+            lam_ref[h] = multipliers
+        timing[f"blocks_h{h:g}_s"] = row["run_s"]
+        tables["blocks"].append(row)
+    timing["blocks_s"] = time.perf_counter() - tic
+    bl = tables["blocks"]
+    hs, dofs = [row["h"] for row in bl], [row["ndof"] for row in bl]
+    convergence.append(convergence_entry("friction_newton_iterations", hs, dofs, [row["iterations"] for row in bl],
+                                         0, **{key: [row[key] for row in bl] for key in
+                                               ("factorizations", "penalty_iterations", "stick", "slip", "wall_s",
+                                                "cpu_s")}))
+    convergence.append(_ratio_entry("friction_time_ratio", bl))
+
+    # (3) Uzawa (2.66) on the blocks, coarse meshes
+    tic = time.perf_counter()
+    modulus = float(np.max(np.diag(isotropic(10e9, 0.25))))   # the blocks' nodal_modulus: 12 GPa
+    rho = UZAWA_RHO_FACTOR * modulus / 1.0                     # / L (the extent of the contact side, 1 m)
+
+    def uzawa(interfaces, **kw):
+        return UzawaSolver(interfaces, rho=rho, tol=UZAWA_TOL, maxit=UZAWA_MAXIT, **kw)
+
+    for h in p["uzawa_h"]:
+        t0 = time.perf_counter()
+        store = {}
+        r = cp.two_blocks_coulomb(h, ORDER, friction=FRICTION, ratio=RATIO, solver_factory=_factory(store, uzawa))
+        row = {"h": h, "ndof": r["ndof"], "iterations": r["iterations"], "inner_iterations": r["inner_iterations"],
+               "factorizations": r["factorizations"], "wall_s": r["wall_s"], "cpu_s": store["solver"].cpu_s,
+               "stick": r["stick"], "slip": r["slip"], "rho": rho}
+        ln, lt = store["solver"].multipliers[0]
+        if h in lam_ref:
+            scale = FRICTION * 5e6
+            row["lam_t_diff"] = float(np.max(np.abs(lt - lam_ref[h][1]))) / scale
+            row["lam_n_diff"] = float(np.max(np.abs(ln - lam_ref[h][0]))) / 5e6
+        nl = next((b for b in bl if b["h"] == h), None)
+        if nl is not None:
+            row["ratio"] = r["wall_s"] / _pos(nl["linear_wall_s"])
+            row["ratio_cpu"] = row["cpu_s"] / _pos(nl["linear_cpu_s"])
+            row["newton_wall_s"] = nl["wall_s"]
+        del r, store
+        gc.collect()
+        row["run_s"] = time.perf_counter() - t0
+        timing[f"uzawa_h{h:g}_s"] = row["run_s"]
+        tables["uzawa"].append(row)
+    timing["uzawa_s"] = time.perf_counter() - tic
+    uz = tables["uzawa"]
+    if len(uz) >= 2:
+        convergence.append(convergence_entry("uzawa_iterations", [row["h"] for row in uz], [row["ndof"] for row in uz],
+                                             [row["iterations"] for row in uz], -1,
+                                             note="outer Uzawa steps (tol 1e-10) at a fixed rho: ~ L / h",
+                                             rho=rho, **{key: [row[key] for row in uz] for key in
+                                                         ("inner_iterations", "factorizations", "wall_s",
+                                                          "cpu_s")}))
+
+    # metrics
+    hf, bf = hz[-1], bl[-1]
+    metrics["hertz_p0_rel_error"] = abs(hf["p0_rel_error"])
+    metrics["hertz_newton_iterations_max"] = max(row["iterations"] for row in hz)
+    metrics["friction_newton_iterations_max"] = max(row["iterations"] for row in bl)
+    metrics["time_ratio_frictionless"] = hf["ratio"]
+    metrics["time_ratio_coulomb"] = bf["ratio"]
+    metrics["uzawa_iterations_finest"] = uz[-1]["iterations"]
+    metrics["uzawa_finest_h"] = uz[-1]["h"]
+    metrics["uzawa_finest_ndof"] = uz[-1]["ndof"]
+    metrics["target_newton_iterations_met"] = float(max(metrics["hertz_newton_iterations_max"],
+                                                        metrics["friction_newton_iterations_max"]) <= TARGET_NEWTON)
+    metrics["target_time_ratio_frictionless_met"] = float(hf["ratio"] <= TARGET_RATIO_FRICTIONLESS)
+    metrics["target_time_ratio_coulomb_met"] = float(bf["ratio"] <= TARGET_RATIO_COULOMB)
+    metrics["time_ratio_frictionless_cpu"] = hf["ratio_cpu"]
+    metrics["time_ratio_coulomb_cpu"] = bf["ratio_cpu"]
+    metrics["time_ratio_frictionless_vs_umfpack"] = hf["ratio_umfpack"]
+    metrics["time_ratio_coulomb_vs_umfpack"] = bf["ratio_umfpack"]
+    metrics["hertz_ndof_finest"] = hf["ndof"]
+    metrics["friction_ndof_finest"] = bf["ndof"]
+    metrics["hertz_factorizations_finest"] = hf["factorizations"]
+    metrics["friction_factorizations_finest"] = bf["factorizations"]
+    metrics["hertz_contact_wall_s_finest"] = hf["wall_s"]
+    metrics["friction_contact_wall_s_finest"] = bf["wall_s"]
+    metrics["hertz_linear_wall_s_finest"] = hf["linear_wall_s"]
+    metrics["friction_linear_wall_s_finest"] = bf["linear_wall_s"]
+    metrics["friction_stick_nodes_finest"] = bf["stick"]
+    metrics["friction_slip_nodes_finest"] = bf["slip"]
+    metrics["friction_stick_and_slip_every_level"] = float(all(row["stick"] > 0 and row["slip"] > 0 for row in bl))
+    metrics["uzawa_wall_s_finest"] = uz[-1]["wall_s"]
+    if "lam_t_diff" in uz[-1]:
+        metrics["uzawa_newton_lam_t_max_diff_finest"] = uz[-1]["lam_t_diff"]
+    metrics = {k: float(v) for k, v in metrics.items() if isinstance(v, (int, float)) and math.isfinite(v)}
+    timing["total_s"] = time.perf_counter() - t_start
+    result = {"study": STUDY, "level": level, "metrics": metrics, "convergence": convergence, "timing_s": timing,
+              "rows": tables}
+    return result, tables
+
+
+def _targets(m: dict) -> list[str]:
+    def ok(key):
+        return "met" if m.get(key) == 1.0 else "NOT met"
+    return ["", "targets (issue 4, section 8):",
+            f"  Newton iterations <= {TARGET_NEWTON} at every level: Hertz max "
+            f"{m['hertz_newton_iterations_max']:.0f}, Coulomb max {m['friction_newton_iterations_max']:.0f}: "
+            f"{ok('target_newton_iterations_met')}",
+            f"  time ratio frictionless <= {TARGET_RATIO_FRICTIONLESS:g} at the finest level: "
+            f"{m['time_ratio_frictionless']:.1f} (CPU {m.get('time_ratio_frictionless_cpu', math.nan):.1f}): "
+            f"{ok('target_time_ratio_frictionless_met')}",
+            f"  time ratio Coulomb <= {TARGET_RATIO_COULOMB:g} at the finest level: {m['time_ratio_coulomb']:.1f} "
+            f"(CPU {m.get('time_ratio_coulomb_cpu', math.nan):.1f}): {ok('target_time_ratio_coulomb_met')}"]
+
+
+def _cols(row: dict) -> str:
+    return (f"{row['iterations']:4d} {row['factorizations']:4d} {row['wall_s']:7.2f} {row['cpu_s']:7.2f} "
+            f"{row['linear_wall_s']:6.3f} {row['ratio']:6.1f} {row['ratio_cpu']:6.1f} {row['umfpack_wall_s']:6.3f} "
+            f"{row['ratio_umfpack']:6.1f} {row['run_s']:6.1f}")
+
+
+def tables_text(rows: dict) -> list[str]:
+    """The per-level tables (Hertz, blocks, Uzawa) as text lines."""
+    lines = ["", "Hertz, frictionless, P2 (times in s; lin = one sparsecholesky factor + solve of K; umf = UMFPACK)",
+             f"{'k':>2} {'h_c':>8} {'dofs':>7} {'p0 err':>9} {'Newt':>4} {'fact':>4} {'wall':>7} {'cpu':>7} "
+             f"{'lin':>6} {'ratio':>6} {'r cpu':>6} {'umf':>6} {'r umf':>6} {'run':>6}"]
+    for row in rows["hertz"]:
+        lines.append(f"{row['k']:2d} {row['h']:8.2e} {row['ndof']:7d} {row['p0_rel_error']:9.2e} " + _cols(row))
+    lines += ["", f"two blocks, Coulomb F_c = {FRICTION:g}, push {RATIO:g} x capacity, P2 (stick / slip: nodes)",
+              f"{'h':>6} {'dofs':>7} {'stick':>5} {'slip':>5} {'Newt':>4} {'fact':>4} {'wall':>7} {'cpu':>7} "
+              f"{'lin':>6} {'ratio':>6} {'r cpu':>6} {'umf':>6} {'r umf':>6} {'run':>6}"]
+    for row in rows["blocks"]:
+        lines.append(f"{row['h']:6.3f} {row['ndof']:7d} {row['stick']:5d} {row['slip']:5d} " + _cols(row))
+    if rows["uzawa"]:
+        rho = rows["uzawa"][0]["rho"]
+        lines += ["", f"Uzawa (2.66) on the blocks, rho = {rho:.3g} Pa/m, tol {UZAWA_TOL:g} (|dlam|: max difference "
+                  "to the Newton multipliers, / F_c p_top)",
+                  f"{'h':>6} {'dofs':>7} {'steps':>5} {'inner':>5} {'wall':>7} {'cpu':>7} {'ratio':>6} "
+                  f"{'Newton':>6} {'|dlam_t|':>9}"]
+        for row in rows["uzawa"]:
+            lines.append(f"{row['h']:6.3f} {row['ndof']:7d} {row['iterations']:5d} {row['inner_iterations']:5d} "
+                         f"{row['wall_s']:7.2f} {row['cpu_s']:7.2f} {row.get('ratio', math.nan):6.0f} "
+                         f"{row.get('newton_wall_s', math.nan):6.2f} {row.get('lam_t_diff', math.nan):9.1e}")
+    return lines
+
+
+def report(result: dict) -> str:
+    """A plain-text report: the per-level tables, the targets next to the measured values, the metrics."""
+    m = result["metrics"]
+    lines = [f"study {result['study']}, level {result['level']}"] + tables_text(result["rows"]) + _targets(m)
+    lines.append(f"  Uzawa outer steps at the finest Uzawa level (h = {m['uzawa_finest_h']:g} m, "
+                 f"{m['uzawa_finest_ndof']:.0f} dofs): {m['uzawa_iterations_finest']:.0f}")
+    return "\n".join(lines + metrics_lines(result, width=44))
+
+
+def main(level: int = 0, out: str | Path | None = None) -> dict:
+    """Run the study at ``level`` (0 quick, 1 up to 140k dofs, 2 also Uzawa at 37k dofs); write
+    ``out/results.json`` if ``out`` is given."""
+    return study_main(run, level, out)
+
+
+if __name__ == "__main__":
+    study_cli(__doc__, run, report)
