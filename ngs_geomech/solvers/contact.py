@@ -201,6 +201,7 @@ class ContactSolver:
         self.reuse_rows = reuse_rows
         self.infos: list[ContactInfo] = []
         self._state: list[_Interface] | None = None
+        self._pattern: _Pattern | None = None
         self._converged = False
         self.multipliers: list[tuple[np.ndarray, np.ndarray]] = []
 
@@ -252,7 +253,13 @@ class ContactSolver:
         # penalty phase moved those good sets away and back (measured: 7 instead of 3 factorizations per
         # secant iteration on a wedge on a Coulomb fault)
         penalty = self.method == "penalty" or not self._converged
-        pattern = _Pattern(n, N, kr, kc, kv, reg_dofs, eps, ifs)
+        # one pattern for all solves with the same K sparsity (a time series, the secant loop): building it
+        # (CreateFromCOO) cost as much as a factorization (0.22 s at 41k dofs)
+        pattern = self._pattern
+        if pattern is not None and pattern.matches(N, kr, kc):
+            pattern.set_bulk(n, kv, reg_dofs, eps)
+        else:
+            pattern = self._pattern = _Pattern(n, N, kr, kc, kv, reg_dofs, eps, ifs)
         mat = pattern.matrix
         # the free unknowns are the same at every iteration: a fixed multiplier (open node, Tresca slip) has
         # an identity row, so consecutive matrices differ only in the rows of the nodes whose state changed
@@ -331,10 +338,12 @@ class ContactSolver:
                     break
                 # the correction relative to the solution (the residual mixes forces and lengths), without its
                 # rigid-motion part: a free motion without load (a frictionless body sliding sideways) is
-                # left at the small value the shift gives it
+                # left at the small value the shift gives it. The corrections contract by about the relative
+                # shift (1e-10) when the sets hold the bodies: one of 1e-6 leaves an error of ~1e-16 (a third
+                # solve, needed with the threshold 1e-10, cost 10 % of a warm solve)
                 d = dx.FV().NumPy()[:n]
                 d = d - rigid @ np.linalg.lstsq(rigid, d, rcond=None)[0]
-                if float(np.linalg.norm(d)) <= 1e-10 * max(float(np.linalg.norm(xv.FV().NumPy()[:n])), 1e-300):
+                if float(np.linalg.norm(d)) <= 1e-6 * max(float(np.linalg.norm(xv.FV().NumPy()[:n])), 1e-300):
                     break
             else:
                 held = False
@@ -666,12 +675,8 @@ class _Pattern:
     of the COO order, read back once from the values 1, 2, ..., nnz."""
 
     def __init__(self, n: int, N: int, kr, kc, kv, reg_dofs, eps: float, ifs: list):
-        kv = np.array(kv, dtype=float)
-        if len(reg_dofs):
-            diag = np.where(kr == kc)[0]
-            shift = np.zeros(n)
-            shift[reg_dofs] = eps
-            kv[diag] += shift[kr[diag]]
+        self.kr, self.kc, self.N = kr.copy(), kc.copy(), N
+        kv = self._shifted(n, kr, kc, kv, reg_dofs, eps)
         rows, cols, vals = [kr], [kc], [kv]
         count = len(kr)
         self.segments = []
@@ -737,6 +742,24 @@ class _Pattern:
         self.order = np.rint(stored).astype(np.int64) - 1
         self.matrix = mat
         self.rows = R
+
+    @staticmethod
+    def _shifted(n: int, kr, kc, kv, reg_dofs, eps: float) -> np.ndarray:
+        kv = np.array(kv, dtype=float)
+        if len(reg_dofs):
+            diag = np.where(kr == kc)[0]
+            shift = np.zeros(n)
+            shift[reg_dofs] = eps
+            kv[diag] += shift[kr[diag]]
+        return kv
+
+    def matches(self, N: int, kr, kc) -> bool:
+        """Whether a bulk matrix has this pattern's sparsity (the next solve of a time series or secant loop)."""
+        return N == self.N and len(kr) == len(self.kr) and np.array_equal(kr, self.kr) and np.array_equal(kc, self.kc)
+
+    def set_bulk(self, n: int, kv, reg_dofs, eps: float) -> None:
+        """New values of K (the multiplier entries are set by every iteration)."""
+        self.values[:len(self.kr)] = self._shifted(n, self.kr, self.kc, kv, reg_dofs, eps)
 
     def changed_rows(self, reference: np.ndarray) -> np.ndarray:
         """The matrix rows whose values differ from ``reference`` (COO values)."""

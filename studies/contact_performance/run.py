@@ -126,6 +126,8 @@ ORDER = 2
 FRICTION = 0.3
 RATIO = 0.7
 """Coulomb coefficient and the push of the blocks as a fraction of the friction capacity."""
+WARM_LOAD_FACTOR = 1.02
+"""The load of the warm solve (the next step of a load or time history): 2 % more than the first."""
 UZAWA_RHO_FACTOR = 1.0
 UZAWA_TOL = 1e-10
 UZAWA_MAXIT = 3000
@@ -263,14 +265,28 @@ def _level(solve, extra) -> tuple[dict, list]:
     t0 = time.perf_counter()
     store: dict = {}
     r = solve(_factory(store, cp.ContactSolver))
-    lin = linear_solve_time(r.pop("system"))
+    system = r.pop("system")
+    lin = linear_solve_time(system)
     row = _row(r, store, lin, 0.0)
     row.update(extra(r))
     multipliers = [np.array(v) for v in store["solver"].multipliers[0]]
+    row.update(_warm(store["solver"], system, lin))
     del r, store, lin
     gc.collect()
     row["run_s"] = time.perf_counter() - t0
     return row, multipliers
+
+
+def _warm(solver, system: dict, lin: dict) -> dict:
+    """A warm solve, as in a quasi-static time series or the secant loop of the lambda law: the same solver
+    instance (its contact sets kept) on the load scaled by WARM_LOAD_FACTOR; its iterations, factorizations,
+    wall time and ratio to the linear solve."""
+    t0 = time.perf_counter()
+    _, info = solver.solve(system["matrix"], WARM_LOAD_FACTOR * np.asarray(system["rhs"]), system["free"],
+                           system["x0"], "warm")
+    wall = time.perf_counter() - t0
+    return {"warm_iterations": info.iterations, "warm_factorizations": info.factorizations, "warm_wall_s": wall,
+            "warm_ratio": wall / _pos(lin["sparsecholesky"]["wall_s"])}
 
 
 def _ratio_entry(name: str, rows: list) -> dict:
@@ -396,6 +412,10 @@ def _run(level: int) -> tuple[dict, dict]:
     metrics["friction_newton_iterations_max"] = max(row["iterations"] for row in bl)
     metrics["time_ratio_frictionless"] = hf["ratio"]
     metrics["time_ratio_coulomb"] = bf["ratio"]
+    metrics["time_ratio_frictionless_warm"] = hf["warm_ratio"]
+    metrics["time_ratio_coulomb_warm"] = bf["warm_ratio"]
+    metrics["hertz_warm_iterations_max"] = max(row["warm_iterations"] for row in hz)
+    metrics["friction_warm_iterations_max"] = max(row["warm_iterations"] for row in bl)
     metrics["uzawa_iterations_finest"] = uz[-1]["iterations"]
     metrics["uzawa_finest_h"] = uz[-1]["h"]
     metrics["uzawa_finest_ndof"] = uz[-1]["ndof"]
@@ -445,19 +465,23 @@ def _targets(m: dict) -> list[str]:
 def _cols(row: dict) -> str:
     return (f"{row['iterations']:4d} {row['factorizations']:4d} {row['wall_s']:7.2f} {row['cpu_s']:7.2f} "
             f"{row['linear_wall_s']:6.3f} {row['ratio']:6.1f} {row['ratio_cpu']:6.1f} {row['umfpack_wall_s']:6.3f} "
-            f"{row['ratio_umfpack']:6.1f} {row['run_s']:6.1f}")
+            f"{row['ratio_umfpack']:6.1f} {row['run_s']:6.1f} {row['warm_iterations']:4d} "
+            f"{row['warm_factorizations']:4d} {row['warm_ratio']:6.1f}")
 
 
 def tables_text(rows: dict) -> list[str]:
     """The per-level tables (Hertz, blocks, Uzawa) as text lines."""
-    lines = ["", "Hertz, frictionless, P2 (times in s; lin = one sparsecholesky factor + solve of K; umf = UMFPACK)",
+    lines = ["", "Hertz, frictionless, P2 (times in s; lin = one sparsecholesky factor + solve of K; umf = UMFPACK; "
+             f"w...: a warm solve at {WARM_LOAD_FACTOR:g} x the load from the converged sets)",
              f"{'k':>2} {'h_c':>8} {'dofs':>7} {'p0 err':>9} {'Newt':>4} {'fact':>4} {'wall':>7} {'cpu':>7} "
-             f"{'lin':>6} {'ratio':>6} {'r cpu':>6} {'umf':>6} {'r umf':>6} {'run':>6}"]
+             f"{'lin':>6} {'ratio':>6} {'r cpu':>6} {'umf':>6} {'r umf':>6} {'run':>6} {'wNwt':>4} {'wfac':>4} "
+             f"{'wratio':>6}"]
     for row in rows["hertz"]:
         lines.append(f"{row['k']:2d} {row['h']:8.2e} {row['ndof']:7d} {row['p0_rel_error']:9.2e} " + _cols(row))
     lines += ["", f"two blocks, Coulomb F_c = {FRICTION:g}, push {RATIO:g} x capacity, P2 (stick / slip: nodes)",
               f"{'h':>6} {'dofs':>7} {'stick':>5} {'slip':>5} {'Newt':>4} {'fact':>4} {'wall':>7} {'cpu':>7} "
-              f"{'lin':>6} {'ratio':>6} {'r cpu':>6} {'umf':>6} {'r umf':>6} {'run':>6}"]
+              f"{'lin':>6} {'ratio':>6} {'r cpu':>6} {'umf':>6} {'r umf':>6} {'run':>6} {'wNwt':>4} {'wfac':>4} "
+              f"{'wratio':>6}"]
     for row in rows["blocks"]:
         lines.append(f"{row['h']:6.3f} {row['ndof']:7d} {row['stick']:5d} {row['slip']:5d} " + _cols(row))
     if rows["uzawa"]:
