@@ -27,7 +27,7 @@ from .io.vtk import VtkSeries
 from .physics.elasticity import ElasticForms, stress_measures
 from .physics.thermal import HeatForms
 from .probes import ProbeSet
-from .problems.contact import check_supported, contact_specs
+from .problems.contact import check_supported, contact_specs, contact_warnings
 from .problems.contact_output import ContactOutput
 from .problems.heat import heat_setup, initial_temperature
 from .problems.mechanics import elastic_setup, mechanics_warnings
@@ -226,7 +226,7 @@ class _Mechanics:
                 raise SceneError([Problem("boundary_conditions", f"the bodies are not held against "
                                           f"{', '.join(free)}: add displacement or symmetry conditions that stop "
                                           "it, or a foundation")], source=f"scene {scene.scene.name!r}")
-        self.warnings = mechanics_warnings(scene, self.setup)
+        self.warnings = mechanics_warnings(scene, self.setup) + contact_warnings(self.contacts, geo)
         u = self.forms.displacement()
         sigma = self.forms.stress_tensor(u)
         measures = stress_measures(sigma)

@@ -5,6 +5,9 @@ Rules:
 - blocks that touch must have a declared interface; ``glued`` ones share their mesh nodes (netgen ``Glue``),
   ``contact`` ones get independent copies of the common side (non-matching meshes allowed), named
   ``<interface>__<block>`` on each side;
+- a ``contact`` interface between blocks that do not touch (an initial gap) names its two sides with
+  ``sides = [name on the first block, name on the second block]``: boundary names of the blocks' own sides
+  (selectors, polygon/profile edge names), each only on its block; they keep their names;
 - sides without a name are called ``default`` by netgen; they are insulated / traction free.
 """
 
@@ -25,19 +28,30 @@ AXIS = "axis"
 
 @dataclass
 class ContactSide:
-    """The two sides of a contact interface: boundary names and blocks."""
+    """The two sides of a contact interface: boundary names and blocks.
+
+    Blocks that touch: the shared side's two copies ``<interface>__<block>``. Blocks with an initial gap
+    (``Interface.sides``): ``side_names`` = (the master block's side, the minion block's side), the scene's
+    own boundary names, and ``gap`` the smallest distance between them (m)."""
 
     name: str
     master_block: str
     minion_block: str
+    side_names: tuple[str, str] | None = None
+    gap: float = 0.0
+
+    @property
+    def initial_gap(self) -> bool:
+        """Whether the blocks do not touch (sides named by the scene; no heat crosses the gap)."""
+        return self.side_names is not None
 
     @property
     def master(self) -> str:
-        return f"{self.name}__{self.master_block}"
+        return self.side_names[0] if self.side_names else f"{self.name}__{self.master_block}"
 
     @property
     def minion(self) -> str:
-        return f"{self.name}__{self.minion_block}"
+        return self.side_names[1] if self.side_names else f"{self.name}__{self.minion_block}"
 
 
 @dataclass
@@ -51,6 +65,7 @@ class GeometryModel:
     glued: dict[str, tuple[str, str]] = field(default_factory=dict)
     contacts: dict[str, ContactSide] = field(default_factory=dict)
     bounding_box: tuple = ()
+    block_boundaries: dict[str, set[str]] = field(default_factory=dict)   # block -> names of its outer sides
 
     def occ_geometry(self):
         return occ.OCCGeometry(self.shape, dim=self.dim)
@@ -119,8 +134,17 @@ def build_geometry(scene: Scene) -> GeometryModel:
                     shared += list(sides(ca, dim) * sides(cb, dim))
             if shared:
                 touching[frozenset((a, b))] = shared
+    shared_keys = [_key(s) for shared in touching.values() for s in shared]
+
+    def outer_sides(block: str, name: str | None) -> list:
+        """The sides of ``block`` called ``name`` (any name: None) that it shares with no other block."""
+        return [s for c in block_cells[block] for s in sides(c, dim)
+                if (name is None or s.name == name) and not any(_same(_key(s), k, tol) for k in shared_keys)]
     # interfaces
     declared = {}
+    paths = {}
+    gap_sides: dict[str, tuple[list, list]] = {}
+    masters_taken: dict[str, str] = {}
     for k, itf in enumerate(scene.interfaces):
         path = f"interfaces[{k}] ({itf.name})"
         unknown = [b for b in itf.blocks if b not in names]
@@ -134,13 +158,40 @@ def build_geometry(scene: Scene) -> GeometryModel:
         if pair in declared:
             problems.append(Problem(path, f"blocks {itf.blocks} already have interface {declared[pair].name!r}"))
             continue
-        if pair not in touching:
-            problems.append(Problem(path, f"blocks {itf.blocks[0]!r} and {itf.blocks[1]!r} do not touch"))
-            continue
         if itf.master is not None and itf.master not in itf.blocks:
             problems.append(Problem(f"{path}.master", f"{itf.master!r} is not one of {itf.blocks}"))
             continue
+        if itf.sides is not None:
+            if itf.type != "contact":
+                problems.append(Problem(f"{path}.sides", "applies to type = 'contact' only (a contact with an "
+                                                         "initial gap between blocks that do not touch)"))
+            elif pair in touching:
+                problems.append(Problem(f"{path}.sides", f"blocks {itf.blocks[0]!r} and {itf.blocks[1]!r} touch: "
+                                        "their shared side is the contact side (found automatically); 'sides' "
+                                        "is for blocks that do not touch (an initial gap): remove it"))
+            if itf.type != "contact" or pair in touching:
+                if pair in touching:      # declared all the same (no second 'touch but no interface' problem)
+                    declared[pair], paths[itf.name] = itf, path
+                continue
+            found = _gap_sides(itf, path, names, outer_sides, problems)
+            if found is None:
+                continue
+            master = itf.master or itf.blocks[0]
+            mside = itf.sides[itf.blocks.index(master)]
+            if mside in masters_taken:
+                problems.append(Problem(f"{path}.sides", f"{mside!r} is already the contact side (master) of "
+                                        f"interface {masters_taken[mside]!r}: a side carries one interface's "
+                                        "multipliers; name another side or swap master"))
+                continue
+            masters_taken[mside] = itf.name
+            gap_sides[itf.name] = found
+        elif pair not in touching:
+            hint = (f" (for a contact with an initial gap name the two sides: sides = [boundary on "
+                    f"{itf.blocks[0]!r}, boundary on {itf.blocks[1]!r}])" if itf.type == "contact" else "")
+            problems.append(Problem(path, f"blocks {itf.blocks[0]!r} and {itf.blocks[1]!r} do not touch{hint}"))
+            continue
         declared[pair] = itf
+        paths[itf.name] = path
     for pair in touching:
         if pair not in declared:
             a, b = sorted(pair)
@@ -162,18 +213,26 @@ def build_geometry(scene: Scene) -> GeometryModel:
             parent[find(a)] = find(b)
     for itf in declared.values():
         if itf.type == "contact" and find(itf.blocks[0]) == find(itf.blocks[1]):
-            problems.append(Problem(f"interfaces ({itf.name})", "a contact interface between blocks that are "
-                                    "also joined through glued interfaces is not supported"))
+            problems.append(Problem(paths[itf.name], "a contact interface between blocks that are also joined "
+                                    "through glued interfaces is not supported"))
     if problems:
         raise SceneError(problems, source="geometry")
     model = GeometryModel(shape=None, dim=dim, regions=names, boundaries=set(), bounding_box=(lo, hi))
     contact_keys = {}
     for pair, itf in declared.items():
-        shared = touching[pair]
+        shared = touching.get(pair, [])
         if itf.type == "glued":
             for s in shared:
                 s.name = itf.name
             model.glued[itf.name] = tuple(itf.blocks)
+        elif itf.name in gap_sides:
+            master = itf.master or itf.blocks[0]
+            minion = [b for b in itf.blocks if b != master][0]
+            by_block = dict(zip(itf.blocks, itf.sides))
+            a, b = gap_sides[itf.name]
+            gap = min(float(sa.Distance(sb)) for sa in a for sb in b)
+            model.contacts[itf.name] = ContactSide(itf.name, master, minion, (by_block[master], by_block[minion]),
+                                                   gap)
         else:
             master = itf.master or itf.blocks[0]
             minion = [b for b in itf.blocks if b != master][0]
@@ -196,6 +255,8 @@ def build_geometry(scene: Scene) -> GeometryModel:
         group_shapes.append((members, gshape))
     for members, gshape in group_shapes:
         for cs in model.contacts.values():
+            if cs.initial_gap:       # the scene's own names stay
+                continue
             for block, bname in ((cs.master_block, cs.master), (cs.minion_block, cs.minion)):
                 if block not in members:
                     continue
@@ -221,4 +282,32 @@ def build_geometry(scene: Scene) -> GeometryModel:
                     s.name = AXIS
     model.shape = final
     model.boundaries = {s.name or DEFAULT for s in sides(final, dim)}
+    for cell in cells(final, dim):
+        model.block_boundaries.setdefault(cell.name, set()).update(s.name or DEFAULT for s in sides(cell, dim))
     return model
+
+
+def _gap_sides(itf, path: str, names: list[str], outer_sides, problems: list[Problem]):
+    """The sides ``itf.sides`` names on its two blocks (lists of OCC sides), or None after adding Problems:
+    each name must be a side of its block that no other block has (and no block shares)."""
+    if itf.sides[0] == itf.sides[1]:
+        problems.append(Problem(f"{path}.sides", f"both sides are called {itf.sides[0]!r}: give the side on each "
+                                                 "block a name of its own"))
+        return None
+    found, bad = [], False
+    for block, name in zip(itf.blocks, itf.sides):
+        own = outer_sides(block, name)
+        others = [b for b in names if b != block and outer_sides(b, name)]
+        if not own:
+            known = sorted({s.name for s in outer_sides(block, None)} - {"", None})
+            where = f"it is on block(s) {others}" if others else (
+                f"the named sides of {block!r} are {known}" if known else f"block {block!r} has no named sides "
+                "(name them with 'boundaries' selectors or polygon/profile edge names)")
+            problems.append(Problem(f"{path}.sides", f"no boundary {name!r} on block {block!r}: {where}"))
+            bad = True
+        elif others:
+            problems.append(Problem(f"{path}.sides", f"boundary {name!r} is also on block(s) {others}: the contact "
+                                    f"side needs a name of its own on block {block!r}"))
+            bad = True
+        found.append(own)
+    return None if bad else tuple(found)

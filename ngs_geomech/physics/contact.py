@@ -46,7 +46,8 @@ class ContactOperator:
     (m x ndof of the vector space); ``g0``: weighted initial gaps (m x 1); ``weight``: int_S w phi_j ds (so
     g_j / weight_j is a nodal gap in m, and sum_j lam_j weight_j = int_S w p ds); ``length``: int_S phi_j ds
     (m, the nodal mesh size); ``coverage``: the fraction of int_S w phi_j ds whose rays meet O (the solver
-    constrains only fully covered nodes)."""
+    constrains only fully covered nodes); ``search_distance``: the largest |g0| seen (m; the default's value
+    when none was given)."""
 
     name: str
     side: str
@@ -60,6 +61,7 @@ class ContactOperator:
     length: np.ndarray
     coverage: np.ndarray
     Bt2: sp.csr_matrix | None = None
+    search_distance: float | None = None
 
     @property
     def size(self) -> int:
@@ -250,4 +252,4 @@ def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, 
     Bt.sum_duplicates()
     coverage = np.divide(covered, weight, out=np.zeros(m), where=weight > 0)
     return ContactOperator(name, side, opposite, np.array(list(vert), dtype=int), coords, Bn, Bt, g0, weight, length,
-                           coverage)
+                           coverage, search_distance=reach)

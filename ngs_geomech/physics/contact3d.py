@@ -277,4 +277,4 @@ def contact_operator_3d(mesh, V, name: str, side: str, opposite: str | None, *, 
             Bs[k] = B
     coverage = np.divide(covered, weight, out=np.zeros(m), where=weight > 0)
     return ContactOperator(name, side, opposite, nodes.astype(int), coords, Bs[0], Bs[1], g0, weight, length,
-                           coverage, Bt2=Bs[2])
+                           coverage, Bt2=Bs[2], search_distance=reach)

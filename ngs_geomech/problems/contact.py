@@ -111,6 +111,22 @@ def contact_specs(scene: Scene, geo: GeometryModel, mesh, V) -> list[ContactSpec
     return out
 
 
+def contact_warnings(specs: list[ContactSpec], geo: GeometryModel) -> list[str]:
+    """Contacts that can never close: no ray from the contact side meets the other side (or the foundation)
+    within the search distance, e.g. an initial gap wider than the default search distance (a quarter of the
+    side's extent)."""
+    out = []
+    for s in specs:
+        if s.op.size and float(np.max(s.op.coverage, initial=0.0)) <= 1e-9:
+            cs = geo.contacts.get(s.name) if s.kind == "interface" else None
+            what = f"interfaces ({s.name})" if s.kind == "interface" else f"boundary_conditions.{s.name}.foundation"
+            other = f"side {s.op.opposite!r}" if s.op.opposite else "the foundation"
+            gap = f" (the sides are {cs.gap:.4g} m apart)" if cs is not None and cs.initial_gap else ""
+            out.append(f"{what}: no point of {s.op.side!r} sees {other} along its normal within search_distance "
+                       f"{s.op.search_distance:.4g} m{gap}: this contact can never close; raise search_distance")
+    return out
+
+
 def _volume_neighbours(mesh, boundary: str):
     """The volume elements having a vertex on the boundary (to name the blocks a foundation supports)."""
     verts = {v.nr for el in mesh.Boundaries(boundary).Elements() for v in el.vertices}

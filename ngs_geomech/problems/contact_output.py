@@ -10,6 +10,9 @@ forces F = e . B^T lam of the foundations sum to zero: imbalance = |L + S + F| /
 Interfaces between bodies are internal: the forces on their two sides must be opposite (reported as
 ``action_reaction``: |F_side + F_opposite| / |F_side|).
 
+``initial_gap_m``: [min, max] of the nodal initial gaps g0 over the nodes whose rays meet the other side
+within ``search_distance_m`` (None if none does: the contact cannot close).
+
 Tangential force: in 2D int q ds along t (signed); in 3D the tangential part of the contact force on S's
 body as a vector (``tangential_resultant_on_side``, x, y, z) and its magnitude (``tangential_force``).
 """
@@ -83,6 +86,8 @@ class ContactOutput:
                     "max_pressure_Pa": float(np.max(lam_n, initial=0.0)),
                     "max_penetration_m": float(np.max(-res["gap"][keep], initial=0.0)),
                     "max_slip_m": float(np.max(np.abs(res["slip"][lam_n > 0]), initial=0.0)),
+                    "initial_gap_m": _range(op.g0[keep] / op.weight[keep]) if np.any(keep) else None,
+                    "search_distance_m": op.search_distance,
                     "nodes": {s: int(np.sum(status == i)) for i, s in enumerate(_STATUS)}}
             if spec.kind == "foundation":
                 foundation += on_side
@@ -120,3 +125,7 @@ class ContactOutput:
                                                    "tangential_force": v["tangential_force"],
                                                    "nodes": v["nodes"]}
                                             for name, v in h["interfaces"].items()}} for h in self.history]}}
+
+
+def _range(v: np.ndarray) -> list[float]:
+    return [float(np.min(v)), float(np.max(v))]

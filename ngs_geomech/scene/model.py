@@ -129,20 +129,32 @@ class ContactMechanics:
                                            "stiffness entry of the materials over the nodal size, E/h)")
     search_distance: float | None = field(optional(number), None,
                                           doc="largest initial gap seen as contact, m (default a quarter of "
-                                              "the side's extent)")
+                                              "the contact side's extent); points of the side farther from the "
+                                              "other side never come into contact")
 
 
 @dataclass(frozen=True, kw_only=True)
 class Interface(ContactMechanics):
     """``[[interfaces]]``: where two blocks touch; ``glued`` (conforming mesh) or ``contact``
     (independent, possibly non-matching meshes, coupled weakly). A contact interface carries heat (mortar
-    coupling) and, in mechanical scenes, the contact law of the inherited keys (law, friction, ...)."""
+    coupling) and, in mechanical scenes, the contact law of the inherited keys (law, friction, ...).
+
+    A ``contact`` interface between blocks that do not touch (an initial gap, e.g. a canister in a borehole)
+    names its two sides with ``sides``: the gap closes under load (mechanics, initial gaps measured along the
+    contact side's normal up to ``search_distance``); it carries no heat (an open gap is insulating: thermal
+    contact resistance is not modelled), so for heat both sides are outer boundaries (insulated unless a
+    thermal condition is given there)."""
 
     name: str = field(string, doc="interface name")
     blocks: list = field(list_of(string, 2), doc="the two block names")
     type: str = field(one_of("glued", "contact"), "glued", doc="'glued' or 'contact'")
     master: str | None = field(optional(string), None,
                                doc="contact: block whose side carries the coupling (default the first)")
+    sides: list | None = field(optional(list_of(string, 2)), None,
+                               doc="contact between blocks that do not touch (initial gap): [boundary name on "
+                                   "the first block, boundary name on the second block], from the blocks' "
+                                   "boundaries selectors or polygon/profile edge names; each name only on its "
+                                   "block. Touching blocks leave it out (their shared side is found)")
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -275,11 +275,21 @@ def _check_materials(scene: Scene, problems: list[Problem]) -> None:
                 problems.append(Problem(f"materials.{name}.density", "gravity is on: every region needs a density"))
 
 
+def _mechanical_kinds(bc) -> list[str]:
+    kinds = [k for k, v in (("displacement", bc.displacement), ("traction", bc.traction), ("pressure", bc.pressure),
+                            ("foundation", bc.foundation)) if v is not None]
+    return kinds + (["symmetry"] if bc.symmetry else [])
+
+
 def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
     regions = set(geo.regions)
     interface_sides = set(geo.glued)
+    gap_sides: dict[str, str] = {}       # sides of contacts with an initial gap -> interface
     for cs in geo.contacts.values():
-        interface_sides |= {cs.master, cs.minion}
+        if cs.initial_gap:
+            gap_sides.update({cs.master: cs.name, cs.minion: cs.name})
+        else:
+            interface_sides |= {cs.master, cs.minion}
     outer = geo.boundaries - interface_sides
     for r in geo.regions:
         if r not in scene.materials:
@@ -288,6 +298,11 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
         if name not in regions:
             problems.append(Problem(f"materials.{name}", f"no region {name!r} in the geometry "
                                                          f"(regions: {', '.join(geo.regions)})"))
+    for name, bc in scene.boundary_conditions.items():
+        if name in gap_sides and _mechanical_kinds(bc):
+            problems.append(Problem(f"boundary_conditions.{name}", f"{name!r} is a side of contact interface "
+                                    f"{gap_sides[name]!r}: mechanical conditions ({_mechanical_kinds(bc)[0]}) are "
+                                    "not allowed there (thermal ones are: the gap carries no heat)"))
     for name in scene.boundary_conditions:
         if name in interface_sides:
             problems.append(Problem(f"boundary_conditions.{name}", f"{name!r} is an interface, not an outer "
@@ -319,6 +334,23 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
         if not fixes:
             problems.append(Problem("boundary_conditions", "a steady heat problem needs a temperature or a "
                                     "heat_transfer_coefficient condition somewhere, or its solution is not unique"))
+        else:
+            for members in _thermal_bodies(geo):
+                if not any(n in fixes for b in members for n in geo.block_boundaries.get(b, ())):
+                    gaps = sorted(cs.name for cs in geo.contacts.values() if cs.initial_gap
+                                  and {cs.master_block, cs.minion_block} & set(members))
+                    why = (f" (interface(s) {gaps} have an initial gap and carry no heat)" if gaps else "")
+                    problems.append(Problem("boundary_conditions", f"a steady heat problem needs a temperature or "
+                                            f"heat_transfer_coefficient condition on every body heat cannot leave "
+                                            f"otherwise: block(s) {members} have none{why}"))
+    if scene.physics.mechanics is not None:
+        for i, itf in enumerate(scene.interfaces):
+            cs = geo.contacts.get(itf.name)
+            sd = itf.search_distance
+            if cs is not None and cs.initial_gap and sd is not None and sd < cs.gap:
+                problems.append(Problem(f"interfaces[{i}] ({itf.name}).search_distance", f"{sd:g} m is smaller than "
+                                        f"the initial gap {cs.gap:.6g} m between {cs.master!r} and {cs.minion!r}: "
+                                        "the sides could never come into contact"))
     for i, pr in enumerate(scene.output.probes):
         p = f"output.probes[{i}] ({pr.name})"
         targets = [k for k in ("point", "region", "boundary") if getattr(pr, k) is not None]
@@ -348,6 +380,25 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
     for n in set(names):
         if names.count(n) > 1:
             problems.append(Problem("output.probes", f"probe name {n!r} is used twice"))
+
+
+def _thermal_bodies(geo: GeometryModel) -> list[list[str]]:
+    """The blocks heat can pass between (joined by glued interfaces or contact interfaces without a gap), as
+    sorted lists of block names."""
+    parent = {b: b for b in geo.regions}
+
+    def find(b):
+        while parent[b] != b:
+            b = parent[b]
+        return b
+    pairs = list(geo.glued.values()) + [(cs.master_block, cs.minion_block) for cs in geo.contacts.values()
+                                        if not cs.initial_gap]
+    for a, b in pairs:
+        parent[find(a)] = find(b)
+    groups: dict[str, list[str]] = {}
+    for b in geo.regions:
+        groups.setdefault(find(b), []).append(b)
+    return [sorted(g) for g in groups.values()]
 
 
 def _flat(geo: GeometryModel, name: str) -> bool:
