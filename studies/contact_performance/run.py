@@ -79,11 +79,36 @@ multiplier differences; fewer factorizations:
            5  139844     7    16.58  0.796     21     16
     Uzawa wall (s) at h = 0.16 ... 0.02: 0.63, 2.64, 19.96, 172.09 (/ lin 446, 511, 853, 1297).
 
+(c) the current ContactSolver (also: the pattern kept across solves, refinement to a 1e-6 correction), level 1,
+the machine otherwise idle; "w" a warm solve (the same solver, its sets kept, at 1.02 x the load: the next
+step of a load or time history, the next secant iteration):
+
+    Hertz  k    dofs  Newton fact  contact    lin  ratio | w: Newton fact  ratio
+           0    1068      6    1     0.02  0.002    9.4 |        1    1    3.2
+           1    1988      7    2     0.05  0.004   11.2 |        1    1    2.6
+           2    4692      8    3     0.14  0.010   13.4 |        1    1    2.3
+           3   13086      9    4     0.62  0.030   20.4 |        1    1    2.6
+           4   41062     11    6     2.91  0.141   20.6 |        1    1    2.1
+           5  139844     12    7    15.79  0.839   18.8 |        3    1    3.0
+    blocks h    dofs  Newton fact  contact    lin  ratio | w: Newton fact  ratio
+        0.16     678      3    2     0.01  0.001   10.6 |        1    1    4.7
+        0.08    2434      5    2     0.04  0.005    8.0 |        1    1    2.4
+        0.04    9558      7    2     0.24  0.023   10.6 |        1    1    2.0
+        0.02   37250      7    3     1.45  0.135   10.7 |        1    1    1.9
+        0.01  148478      7    3     9.62  0.856   11.2 |        1    1    1.6
+    Uzawa steps at h = 0.16, 0.08, 0.04: 80, 110, 206 (0.37, 1.32, 9.18 s).
+
+A cold solve is dominated by the active-set iterations of the Hertz contact zone, which shrinks geometrically
+from the first guess (186, 143, 115, 99, 90, 85, 83, 82, 81 nodes at 41k dofs): each big change is a new UMFPACK
+factorization of the saddle-point system (1.1 - 1.5 x a sparsecholesky factorization of K, its solves 2 x),
+the small ones are Woodbury updates. A warm solve takes one factorization: ratio 1.6 - 3.
+
 Headline: hertz_p0_rel_error 2.8e-3 (flat in h: the model error of a finite cylinder against the half-space
 closed form dominates), hertz_newton_iterations_max 12 (one more per refinement, 6 ... 12),
-friction_newton_iterations_max 7, time_ratio_frictionless 31 (a) / 21 (b) (target 2), time_ratio_coulomb 19 (a)
-/ 11 (b) (target 3), uzawa_iterations_finest 385 (h = 0.02, 37k dofs; steps ~ h^-0.9 on the two finest Uzawa
-meshes). A level 1 run with (a) the same hour gave the finest-level figures within 5 % (ratios 31.9 and 18.1;
+friction_newton_iterations_max 7, time_ratio_frictionless 31 (a) / 21 (b) / 18.8 (c) (target 2; warm 3.0),
+time_ratio_coulomb 19 (a) / 11 (b) / 11.2 (c) (target 3; warm 1.6), uzawa_iterations_finest 385 (h = 0.02, 37k
+dofs; steps ~ h^-0.9 on the two finest Uzawa meshes). A level 1 run with (a) the same hour gave the
+finest-level figures within 5 % (ratios 31.9 and 18.1;
 the millisecond timings of the coarse levels vary more). At the finest level one contact iteration costs 2.5
 (Hertz) and 2.7 (blocks) sparsecholesky solves of K with (a), and the solve per factorization 3.0 and 3.5 with
 (b): a solve with a single UMFPACK factorization of the saddle-point system would still miss the factor 2.
