@@ -232,3 +232,38 @@ def test_axisymmetric_heated_cylinder_between_plates(one_thread):
     assert r["p_ref"] == pytest.approx(20e9 * (1e-5 * 60 - 1e-4))
     assert r["p_error"] < 1e-8
     assert r["imbalance_rel"] < 1e-8
+
+
+def test_tresca_slip_bound_varying_along_the_interface(one_thread):
+    """g_c(x) = 1 MPa (1 + x): a block dragged by a displacement slides everywhere, the friction force is
+    int g_c dx = 1.5 MPa m over x in [0, 1]."""
+    s = _block_scene(0.0, law="tresca", slip_bound="1e6*(1 + x)")
+    s["boundary_conditions"]["base"]["foundation"].pop("friction")
+    s["boundary_conditions"]["left"] = {"displacement": [1e-3, "free"]}
+    r = run_scene(scene_from_dict(s), None, progress=False)
+    base = r.summary["mechanics"]["contact"]["interfaces"]["base"]
+    res = r.mechanics.contact_output.latest[0]
+    print(f"\nTresca g_c(x): friction force {base['tangential_force']:.6e} N/m (exact 1.5e6), nodes {base['nodes']}")
+    assert abs(base["tangential_force"]) == pytest.approx(1.5e6, rel=1e-9)
+    assert base["nodes"]["stick"] == 0
+    assert np.allclose(np.abs(res["traction"]), 1e6 * (1 + res["x"]), rtol=1e-9)
+
+
+def test_fault_wedge_scene(one_thread):
+    """The built-in scene with everything of (P): heat across the fault, thermal stress, gravity, the lambda law
+    (secant loop) and a Coulomb fault holding a wedge that only contact supports; coarse."""
+    from ngs_geomech.scene.parse import load_scene
+
+    scene = load_scene("fault_wedge", ["mesh.maxh=80.0", "blocks.wedge.maxh=50.0", "mesh.order=1",
+                                       "output.vtk=false", "output.figures=false"])
+    r = run_scene(scene, None, progress=False)
+    c = r.summary["mechanics"]["contact"]
+    fault = c["interfaces"]["fault"]
+    print(f"\nfault_wedge (coarse): {r.summary['mechanics']['iterations']} secant iterations, "
+          f"{c['iterations_per_solve']} active-set steps, nodes {fault['nodes']}, imbalance "
+          f"{c['force_balance']['imbalance_rel']:.1e}, action-reaction {fault['action_reaction']:.1e}")
+    assert c["force_balance"]["imbalance_rel"] < 1e-8
+    assert fault["action_reaction"] < 1e-10
+    assert fault["nodes"]["stick"] > 0 and fault["nodes"]["slip"] > 0
+    assert abs(fault["tangential_force"]) <= 0.6 * fault["normal_force"] * (1 + 1e-9)
+    assert r.summary["mechanics"]["iterations"][-1] <= 30
