@@ -25,7 +25,8 @@ def validate_scene(scene: str | Path | Scene, overrides: list[str] | None = None
 
 
 def run(scene: str | Path | Scene, out: str | Path | None, *, overrides: list[str] | None = None,
-        progress: bool = True, threads: int | None = None) -> RunResult:
-    """Load (if needed) and run a scene, writing into ``out`` (None: write nothing)."""
+        progress: bool = True, threads: int | None = None, resume: bool = False) -> RunResult:
+    """Load (if needed) and run a scene, writing into ``out`` (None: write nothing). ``resume=True`` continues
+    the interrupted time-dependent run into ``out`` from its last checkpoint."""
     sc = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
-    return run_scene(sc, out, progress=progress, threads=threads)
+    return run_scene(sc, out, progress=progress, threads=threads, resume=resume)

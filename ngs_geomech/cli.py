@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from .errors import GeomechError
@@ -14,7 +15,11 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     p_run = sub.add_parser("run", help="run a scene and write VTK, figures and summary.json")
     p_run.add_argument("scene", help="scene file or built-in scene name")
-    p_run.add_argument("--out", required=True, help="output directory (replaced when the run succeeds)")
+    p_run.add_argument("--out", help="output directory (replaced when the run succeeds)")
+    p_run.add_argument("--resume", nargs="?", const=True, default=None, metavar="DIR",
+                       help="continue the interrupted (killed, failed) time-dependent run into --out (or DIR) from "
+                            "its last checkpoint; give the same scene and --set values (time steps, solver and "
+                            "output settings may change)")
     p_run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                        help="override a scene value, e.g. --set mesh.maxh=2 --set time.end='10 year'")
     p_run.add_argument("--quiet", action="store_true", help="no progress display")
@@ -24,6 +29,13 @@ def main(argv: list[str] | None = None) -> int:
     p_val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     sub.add_parser("list", help="list the built-in scenes")
     args = parser.parse_args(argv)
+    if args.command == "run":
+        if isinstance(args.resume, str):
+            if args.out is not None and os.path.realpath(args.out) != os.path.realpath(args.resume):
+                parser.error(f"--out {args.out} and --resume {args.resume} name different directories")
+            args.out = args.resume
+        if args.out is None:
+            parser.error("the following arguments are required: --out")
 
     from .api import list_builtin, run, validate_scene
     try:
@@ -36,14 +48,16 @@ def main(argv: list[str] | None = None) -> int:
             print(summary)
             return 0
         result = run(args.scene, args.out, overrides=args.overrides, progress=not args.quiet,
-                     threads=args.threads)
-        print(f"wrote {result.out} ({result.summary['wall_time_s']['total_s']:.1f} s)")
+                     threads=args.threads, resume=bool(args.resume))
+        resumed = result.summary.get("resumed")
+        note = f", resumed at step {resumed[-1]['step']} of {result.summary['steps']}" if resumed else ""
+        print(f"wrote {result.out} ({result.summary['wall_time_s']['total_s']:.1f} s{note})")
         return 0
     except GeomechError as exc:
         print(f"ngs-geomech: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("ngs-geomech: interrupted; no output written", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        print(f"ngs-geomech: interrupted; {exc or 'no output written'}", file=sys.stderr)
         return 130
 
 

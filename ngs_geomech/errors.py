@@ -36,3 +36,7 @@ class SceneError(GeomechError):
 
 class SolverError(GeomechError):
     """A solve failed (divergence, stagnation, NaN); the message says which solve, where and what to change."""
+
+
+class ResumeError(GeomechError):
+    """A run cannot be resumed: no checkpoint, or the scene or mesh differs from the checkpointed run's."""

@@ -2,6 +2,13 @@
 
 Output (into ``out``, written completely or not at all): ``<scene>.pvd`` + ``<scene>_stepNNNNN.vtu``
 (VTK series with every computed field and the region id), ``figures/*.png`` and ``summary.json``.
+
+Time-dependent runs write checkpoints (:mod:`ngs_geomech.checkpoint`) into ``checkpoint/`` of their staging
+directory ``.<out>.partial-*``: every ``output.checkpoint_every`` steps (default every tenth of the steps
+and after any step ending 5 minutes of wall time after the last checkpoint), and the last good state when a
+step fails or the run is interrupted (Ctrl-C). A killed, failed or interrupted run that holds a checkpoint
+leaves its staging directory behind (``out`` itself is untouched); ``run_scene(..., resume=True)`` (the
+command line's ``--resume``) continues it from its last checkpoint and commits ``out`` at the end as usual.
 """
 
 from __future__ import annotations
@@ -14,11 +21,14 @@ from pathlib import Path
 import ngsolve as ngs
 import numpy as np
 
-from .errors import Problem, SceneError
+from .checkpoint import CHECKPOINT_WALL_S, Plan, RunState, Snapshot, check_scene, plan_steps
+from .checkpoint import where as checkpoint_where
+from .errors import Problem, ResumeError, SceneError, SolverError
 from .geometry.assemble import GeometryModel
 from .geometry.mesh import make_mesh
 from .io import figures, stress_figures
-from .io.atomic import OutputDir, write_json_atomic
+from .io.atomic import OutputDir, is_locked, staging_dirs, write_json_atomic
+from .io.checkpoint import Checkpoint, find_resumable, has_checkpoint, scene_hash
 from .io.lines_vtk import LineSeries
 from .io.meshdata import mesh_arrays, vertex_values
 from .io.progress import Progress
@@ -39,7 +49,6 @@ from .solvers.contact_uzawa import UzawaSolver
 from .solvers.elastic import ElasticSolver
 from .solvers.elastic_contact import ElasticContactSolver
 from .solvers.heat import HeatSolver
-from .solvers.timesteps import schedule
 from .units import YEAR, format_time
 
 
@@ -56,18 +65,30 @@ class RunResult:
 
 
 def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, threads: int | None = None,
-              geometry: GeometryModel | None = None) -> RunResult:
-    """Run a scene. ``out=None`` writes nothing (for tests and studies)."""
+              geometry: GeometryModel | None = None, resume: bool = False) -> RunResult:
+    """Run a scene. ``out=None`` writes nothing (for tests and studies). ``resume=True`` continues the
+    interrupted run into ``out`` from its last checkpoint (:class:`ResumeError` when there is none, or when
+    the scene or the mesh differs from the checkpointed run's)."""
     timings: dict[str, float] = {}
     t0 = _time.perf_counter()
     geo = geometry or validate(scene)
     timings["validate_s"] = _time.perf_counter() - t0
+    cp = None
+    if resume:
+        cp = _checkpoint_to_resume(scene, out)
     if threads:
         ngs.SetNumThreads(threads)
-    staging = OutputDir(Path(out)) if out is not None else None
+    staging = None
+    if out is not None:
+        if cp is None and progress:
+            _note_resumable(Path(out))
+        try:
+            staging = OutputDir(Path(out), resume=cp.staging if cp is not None else None)
+        except BlockingIOError as exc:
+            raise ResumeError(f"cannot resume: {exc}") from None
     try:
         with ngs.TaskManager():
-            result = _run(scene, geo, staging, progress, timings)
+            result = _run(scene, geo, staging, progress, timings, cp)
         timings["total_s"] = _time.perf_counter() - t0
         result.summary["wall_time_s"] = finite(timings)
         if staging is not None:
@@ -76,11 +97,35 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
         return result
     except BaseException:
         if staging is not None:
-            staging.abort()
+            # a staging directory with a checkpoint stays for --resume (out itself is untouched)
+            staging.abort(keep=has_checkpoint(staging.path))
         raise
 
 
-def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool, timings: dict) -> RunResult:
+def _checkpoint_to_resume(scene: Scene, out) -> Checkpoint:
+    if out is None:
+        raise ResumeError("resume needs the output directory of the interrupted run")
+    transient = scene.physics.thermal == "transient" or (not scene.physics.thermal and scene.time is not None)
+    if not transient:
+        raise ResumeError(f"scene {scene.scene.name!r} is not time-dependent: only time-dependent runs write "
+                          "checkpoints; run without --resume")
+    found = find_resumable(Path(out))
+    d = to_dict(scene)
+    cp = next((c for c in found if c.meta.get("scene_hash") == scene_hash(d)), found[0])   # else: say why not
+    check_scene(cp, d)
+    return cp
+
+
+def _note_resumable(out: Path) -> None:
+    """Tell (on stdout) about checkpoints of interrupted runs into ``out`` that this run will supersede."""
+    for d in staging_dirs(out):
+        if has_checkpoint(d) and not is_locked(d):
+            print(f"note: {d} holds a checkpoint of an interrupted run into {out}; it is removed when this run "
+                  "finishes (stop it and add --resume to continue that run instead)", flush=True)
+
+
+def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool, timings: dict,
+         cp: Checkpoint | None = None) -> RunResult:
     tic = _time.perf_counter()
     mesh = make_mesh(geo, scene.mesh)
     timings["mesh_s"] = _time.perf_counter() - tic
@@ -134,6 +179,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
 
     ts = scene.time
     transient = scene.physics.thermal == "transient" or (heat is None and ts is not None)
+    state = RunState(to_dict(scene), mesh, heat, solver, mech, probes, vtk, lines, history)
     if not transient:
         tic = _time.perf_counter()
         if heat is not None:
@@ -145,15 +191,33 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         solve_s += _time.perf_counter() - tic
         nsteps = 0
     else:
-        if heat is not None:
-            heat.t_new.Set(ts.start)
-            T.Set(initial_temperature(scene, mesh, heat.t_new))
-            solver.set_dirichlet()
-        output(ts.start, None, True, f"t = {format_time(ts.start)}")
-        steps = list(schedule(ts.start, ts.end, ts.dt, ts.dt_growth, ts.dt_max))
+        plan = plan_steps(ts, cp)
+        nsteps = plan.total
+        if cp is None:
+            if heat is not None:
+                heat.t_new.Set(ts.start)
+                T.Set(initial_temperature(scene, mesh, heat.t_new))
+                solver.set_dirichlet()
+            output(ts.start, None, True, f"t = {format_time(ts.start)}")
+            t_done = ts.start
+        else:
+            state.check_mesh(cp)
+            state.restore(cp)
+            solve_s = float(cp.meta["solve_s"])
+            t_done = float(cp.meta["time_s"])
+            if show:
+                print(f"resuming from the checkpoint at {checkpoint_where(cp)} of {nsteps}", flush=True)
+        every = scene.output.checkpoint_every
+        if every is None:
+            every, wall = max(1, math.ceil(nsteps / 10)), CHECKPOINT_WALL_S
+        else:
+            wall = math.inf
+        last_saved = _time.perf_counter()
+        snap = state.capture(plan.k0, t_done, solve_s) if staging is not None else None
         bar = Progress(ts.end - ts.start, f"{name}", enabled=show)
         try:
-            for k, (a, b) in enumerate(steps):
+            for j, (a, b) in enumerate(plan.steps):
+                k = plan.k0 + j
                 tic = _time.perf_counter()
                 where = f"step {k + 1} (t = {format_time(b)})"
                 if heat is not None:
@@ -164,12 +228,21 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                     info = solver.solve(where)
                     history["newton_iterations"].append(info.iterations)
                     _interface_flows(heat, history, axi)
-                output(b, k, k == len(steps) - 1, where)
+                output(b, k, k == nsteps - 1, where)
                 solve_s += _time.perf_counter() - tic
+                if staging is not None:          # (a run writing nothing has no checkpoints)
+                    snap = state.capture(k + 1, b, solve_s)
+                    if every and k + 1 < nsteps and \
+                            ((k + 1) % every == 0 or _time.perf_counter() - last_saved >= wall):
+                        state.save(snap, staging.scratch, plan)
+                        last_saved = _time.perf_counter()
                 bar.update(b - ts.start, f"t = {format_time(b)}  dt = {format_time(b - a)}")
-        finally:
+        except BaseException as exc:
             bar.close()
-        nsteps = len(steps)
+            _stop(exc, staging, state, snap, plan, nsteps)
+            raise
+        bar.close()
+    state_factorizations = state.factorizations()
     timings["solve_s"] = solve_s
     dofs = (heat.X.ndof if heat else 0) + (mech.forms.X.ndof if mech else 0)
     thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity == "temperature"), [])
@@ -179,7 +252,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         "mesh": {"vertices": mesh.nv, "elements": mesh.ne, "dofs": dofs, "order": scene.mesh.order,
                  "regions": list(mesh.GetMaterials())},
         "steps": nsteps,
-        "factorizations": (solver.factorizations if solver else 0) + (mech.solver.factorizations if mech else 0),
+        "factorizations": state_factorizations,
         "newton_iterations_max": max(history["newton_iterations"] or [0]),
         "probes": {n: finite(probe_statistics(probes.times[n], v)) for n, v in probes.series.items()},
         "probe_series": {"time_s": thermal_times,
@@ -188,6 +261,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         "interface_heat_flow_W": {k: finite(v) for k, v in history["interface_heat_flow_W"].items()},
         "warnings": mech.warnings if mech else [],
     }
+    if state.resumed:
+        summary["resumed"] = state.resumed
     if mech is not None:
         summary["mechanics"] = mech.summary()
     if staging is not None:
@@ -195,6 +270,29 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         _figures(scene, mesh, T, probes, staging.path / "figures", mech)
         timings["output_s"] = _time.perf_counter() - tic
     return RunResult(mesh=mesh, forms=heat, summary=summary, out=None, timings=timings, mechanics=mech)
+
+
+def _stop(exc: BaseException, staging: OutputDir | None, state: RunState, snap: Snapshot | None, plan: Plan,
+          nsteps: int) -> None:
+    """A step failed or the run was interrupted: save the last good state (the last completed step) as a
+    checkpoint, and raise SolverError and KeyboardInterrupt again with how to continue in their message
+    (other exceptions: the caller re-raises them as they are)."""
+    if staging is None or snap is None:
+        return
+    if snap.step > plan.k0 and state.saved_step != snap.step:     # new steps since the start or the checkpoint
+        try:
+            state.save(snap, staging.scratch, plan)
+        except Exception as err:   # noqa: BLE001 - report the original failure, not this one
+            print(f"warning: could not write the checkpoint of step {snap.step}: {err}", flush=True)
+    if not has_checkpoint(staging.path):
+        return
+    hint = (f"The last good state (step {state.saved_step} of {nsteps}, t = {format_time(state.saved_time)}) is "
+            f"saved in {staging.scratch}: after a fix (e.g. a smaller time step, --set time.dt=...), the same "
+            "command with --resume continues from it.")
+    if isinstance(exc, SolverError):
+        raise SolverError(f"{exc}\n{hint}") from exc
+    if isinstance(exc, KeyboardInterrupt):
+        raise KeyboardInterrupt(hint) from exc
 
 
 class _Mechanics:

@@ -134,50 +134,57 @@ def test_second_run_replaces_the_output(tmp_path, monkeypatch, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["DIR"]
 
 
-@pytest.fixture
-def solver_fails_at_step_3(monkeypatch):
+def solver_fails_at_call(monkeypatch, n: int) -> dict:
     original = HeatSolver.solve
     calls = {"n": 0}
 
     def solve(self, where):
         calls["n"] += 1
-        if calls["n"] == 3:
+        if calls["n"] == n:
             raise SolverError(f"heat solve at {where} diverged (injected by the test)")
         return original(self, where)
     monkeypatch.setattr(HeatSolver, "solve", solve)
     return calls
 
 
-def test_run_failing_in_the_middle_leaves_nothing(tmp_path, monkeypatch, capsys, solver_fails_at_step_3):
+def test_run_failing_at_the_first_step_leaves_nothing(tmp_path, monkeypatch, capsys):
+    calls = solver_fails_at_call(monkeypatch, 1)
+    monkeypatch.chdir(tmp_path)
+    rc = cli.main(["run", "canister", "--out", "DIR", "--set", "time.end='2 year'", "--quiet"])
+    out, err = capsys.readouterr()
+    assert rc == 2 and calls["n"] == 1
+    assert "step 1" in err and "diverged" in err
+    assert "Traceback" not in err and "--resume" not in err     # no step done: nothing to resume
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_run_failing_in_the_middle_leaves_no_output_but_a_checkpoint(tmp_path, monkeypatch, capsys):
+    """No DIR (output complete or absent); the staging directory stays with the last good state for --resume
+    (tests/test_checkpoint.py resumes such runs)."""
+    calls = solver_fails_at_call(monkeypatch, 3)
     monkeypatch.chdir(tmp_path)
     rc = cli.main(["run", "canister", "--out", "DIR", "--set", "time.end='2 year'", "--quiet"])
     out, err = capsys.readouterr()
     assert rc == 2
-    assert solver_fails_at_step_3["n"] == 3
+    assert calls["n"] == 3
     assert "step 3" in err and "diverged" in err
+    assert "The last good state (step 2 of" in err and "--resume" in err
     assert "Traceback" not in err
     assert not (tmp_path / "DIR").exists()
-    assert leftovers(tmp_path, "DIR") == []
-    assert list(tmp_path.iterdir()) == []
+    (staging,) = [p for p in leftovers(tmp_path, "DIR") if p.is_dir()]
+    assert (staging / "checkpoint" / "checkpoint.npz").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([staging.name, f"{staging.name}.lock"])
 
 
 def test_run_failing_in_the_middle_keeps_the_older_output(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     assert cli.main(["run", "canister", "--out", "DIR", "--set", "time.end='30 day'", "--quiet"]) == 0
     before = {p.relative_to(tmp_path): p.read_bytes() for p in (tmp_path / "DIR").rglob("*") if p.is_file()}
-    original = HeatSolver.solve
-    calls = {"n": 0}
-
-    def solve(self, where):
-        calls["n"] += 1
-        if calls["n"] == 3:
-            raise SolverError("injected failure")
-        return original(self, where)
-    monkeypatch.setattr(HeatSolver, "solve", solve)
+    solver_fails_at_call(monkeypatch, 3)
     assert cli.main(["run", "canister", "--out", "DIR", "--set", "time.end='2 year'", "--quiet"]) == 2
     after = {p.relative_to(tmp_path): p.read_bytes() for p in (tmp_path / "DIR").rglob("*") if p.is_file()}
     assert after == before
-    assert leftovers(tmp_path, "DIR") == []
+    assert all(p.name.startswith(".DIR.partial-") for p in leftovers(tmp_path, "DIR"))   # the checkpoint only
 
 
 # -- 3D: glued inclusion, contact with a non-matching mesh -----------------------------------------

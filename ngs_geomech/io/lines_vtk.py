@@ -59,7 +59,22 @@ class LineSeries:
         name = f"{self.basename}_step{len(self.entries):05d}.vtp"
         write_text_atomic(self.directory / name, polyline_vtp(points, cells, point_data))
         self.entries.append((time, name))
+        self._write_pvd()
+
+    def _write_pvd(self) -> None:
         sets = "".join(f'<DataSet timestep="{t:.10g}" file="{f}"/>\n' for t, f in self.entries)
         write_text_atomic(self.directory / f"{self.basename}.pvd",
                           '<?xml version="1.0"?>\n<VTKFile type="Collection" version="1.0" '
                           f'byte_order="LittleEndian">\n<Collection>\n{sets}</Collection>\n</VTKFile>\n')
+
+    def restore(self, entries: list) -> None:
+        """Continue the series after ``entries`` (from a checkpoint): files written after them are removed."""
+        self.entries = [(float(t), str(f)) for t, f in entries]
+        keep = {f for _, f in self.entries}
+        for p in self.directory.glob(f"{self.basename}_step*.vtp"):
+            if p.name not in keep:
+                p.unlink()
+        if self.entries:
+            self._write_pvd()
+        else:
+            (self.directory / f"{self.basename}.pvd").unlink(missing_ok=True)

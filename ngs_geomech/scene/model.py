@@ -325,6 +325,10 @@ class Output:
 
     vtk: bool = field(boolean, True, doc="write a VTK series (.vtu per output time and a .pvd)")
     every: int = field(integer, 1, doc="write VTK every N-th step (the last step is always written)")
+    checkpoint_every: int | None = field(optional(integer), None,
+                                         doc="time-dependent runs: a checkpoint every N steps (0: no periodic ones; a "
+                                             "failing step still saves the last good state); default every tenth "
+                                             "of the steps and at least every 5 minutes of wall time")
     figures: bool = field(boolean, True, doc="write PNG figures")
     subdivision: int = field(integer, 0, doc="VTK subdivision of each element (for order > 1)")
     figure_window: list | None = field(optional(list_of(number, 4)), None,

@@ -123,6 +123,9 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
                     problems.append(Problem("time.dt", f"{n} steps to reach the end: dt is far too small"))
     if scene.output.every < 1:
         problems.append(Problem("output.every", f"must be >= 1, got {scene.output.every}"))
+    if scene.output.checkpoint_every is not None and scene.output.checkpoint_every < 0:
+        problems.append(Problem("output.checkpoint_every", f"must be >= 0 (0: no checkpoints), got "
+                                f"{scene.output.checkpoint_every}"))
     if scene.output.subdivision < 0:
         problems.append(Problem("output.subdivision", f"must be >= 0, got {scene.output.subdivision}"))
     for i, s in enumerate(scene.sources):

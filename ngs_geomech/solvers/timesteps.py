@@ -22,3 +22,12 @@ def schedule(start: float, end: float, dt: float, growth: float = 1.0,
         yield t, t1
         t = t1
         step = min(step * growth, cap)
+
+
+def nominal_step(k: int, dt: float, growth: float = 1.0, dt_max: float | None = None) -> float:
+    """The step :func:`schedule` takes after ``k`` steps, before any shortening at the end (s)."""
+    cap = dt_max if dt_max is not None else float("inf")
+    step = min(dt, cap)
+    for _ in range(k):
+        step = min(step * growth, cap)
+    return step

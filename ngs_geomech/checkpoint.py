@@ -1,0 +1,293 @@
+"""Checkpoints of time-dependent runs: which objects make up the state of a run, capturing it after each
+step, writing it, and restoring a run from it (the file format is :mod:`ngs_geomech.io.checkpoint`).
+
+The state after step k (time t_k): the heat GridFunction vector (temperature and the mortar multipliers;
+the old state is a copy of it at the start of the next step), the mechanics GridFunction vector (at the last
+output step), the contact solvers' active/stick/slip sets (a warm start: the next solve starts from them as
+in an uninterrupted run), the probe series, the Newton iteration and interface heat flow histories, the
+mechanics solve histories, the VTK and contact series entries written so far, the time step schedule
+(where it started and with which dt, so the remaining steps are the same ones) and the scene and mesh
+sizes the checkpoint belongs to. :meth:`RunState.capture` after every completed step copies the vectors and
+notes the lengths of the (append-only) series, so that a failing step can still save the last good state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import time
+
+import numpy as np
+
+from .errors import ResumeError
+from .io.checkpoint import Checkpoint, checkpoint_meta_base, scene_differences, write_checkpoint
+from .io.summary import versions
+from .solvers.elastic import NonlinearInfo
+from .solvers.timesteps import nominal_step, schedule
+from .units import format_time
+
+CHECKPOINT_WALL_S = 300.0     # with the default checkpoint_every: also after any step ending 5 min after the last
+
+
+@dataclasses.dataclass
+class Snapshot:
+    """The state after ``step`` completed steps (time ``time``): vector copies and series lengths."""
+
+    step: int
+    time: float
+    arrays: dict
+    lengths: dict
+    contact_latest: list
+    solve_s: float
+    factorizations: int
+
+
+def check_scene(cp: Checkpoint, scene_dict: dict) -> None:
+    """Refuse to resume when the scene differs from the checkpoint's (outside the resumable keys)."""
+    diff = scene_differences(cp.meta["scene"], scene_dict)
+    if diff:
+        raise ResumeError(f"cannot resume from {cp.path} ({where(cp)}): the scene differs from the checkpointed "
+                          "run's:\n" + "\n".join(f"  - {d}" for d in diff) +
+                          "\nOnly the time steps (time.end, time.dt, time.dt_growth, time.dt_max, time.scheme), the "
+                          "mechanics solver settings and the output frequency may change on resume; run without "
+                          "--resume to start anew.")
+
+
+def where(cp: Checkpoint) -> str:
+    return f"step {cp.meta['step']}, t = {format_time(cp.meta['time_s'])}"
+
+
+@dataclasses.dataclass
+class Plan:
+    """The time steps of a run: ``steps`` still to take (global numbers from ``k0``), from one schedule() call
+    ``segment`` (from_step, from_time, dt) with the scene's ``settings`` (end, dt, dt_growth, dt_max)."""
+
+    segment: dict
+    settings: dict
+    k0: int
+    steps: list
+
+    @property
+    def total(self) -> int:
+        return self.k0 + len(self.steps)
+
+
+def plan_steps(ts, cp: Checkpoint | None) -> Plan:
+    """The steps of a run, or of a run resumed from ``cp``. Resuming with the same time settings continues the
+    same schedule (the same steps as without the interruption); with changed ones a new schedule starts at the
+    checkpoint's time with the new time.dt (if that changed) or the step the old schedule would have taken
+    next."""
+    settings = {"end": ts.end, "dt": ts.dt, "dt_growth": ts.dt_growth, "dt_max": ts.dt_max}
+    if cp is None:
+        return Plan({"from_step": 0, "from_time": ts.start, "dt": ts.dt}, settings, 0,
+                    list(schedule(ts.start, ts.end, ts.dt, ts.dt_growth, ts.dt_max)))
+    k, t = int(cp.meta["step"]), float(cp.meta["time_s"])
+    seg, old = cp.meta["segment"], cp.meta["time_settings"]
+    if old == settings:
+        steps = list(schedule(seg["from_time"], ts.end, seg["dt"], ts.dt_growth, ts.dt_max))[k - seg["from_step"]:]
+        if steps and steps[0][0] == t:
+            return Plan(seg, settings, k, steps)
+    if not t < ts.end - 1e-9 * max(abs(ts.end), ts.dt):
+        raise ResumeError(f"time.end = {format_time(ts.end)} is not after the time of the checkpoint ({where(cp)})")
+    if ts.dt != old["dt"]:
+        first = ts.dt
+    else:
+        first = nominal_step(k - seg["from_step"], seg["dt"], old["dt_growth"], old["dt_max"])
+    if ts.dt_max is not None:
+        first = min(first, ts.dt_max)
+    return Plan({"from_step": k, "from_time": t, "dt": first}, settings, k,
+                list(schedule(t, ts.end, first, ts.dt_growth, ts.dt_max)))
+
+
+class RunState:
+    """The objects of a run whose state a checkpoint holds (any of them None when the scene lacks it)."""
+
+    def __init__(self, scene_dict: dict, mesh, heat, heat_solver, mech, probes, vtk, lines: dict, history: dict):
+        self.scene_dict = scene_dict
+        self.mesh = mesh
+        self.heat = heat
+        self.heat_solver = heat_solver
+        self.mech = mech
+        self.probes = probes
+        self.vtk = vtk
+        self.lines = lines
+        self.history = history
+        self.factorizations_before = 0      # in the runs before a resume
+        self.resumed: list[dict] = []
+        self.saved_step: int | None = None      # the step and time of the newest checkpoint on disk
+        self.saved_time: float | None = None
+        self._mech_copy: tuple[int, dict] | None = None
+
+    # -- what identifies the problem ------------------------------------------------------------------
+    def mesh_info(self) -> dict:
+        coords = np.round(np.asarray(self.mesh.ngmesh.Coordinates(), dtype=float), 9)
+        return {"vertices": self.mesh.nv, "elements": self.mesh.ne,
+                "heat_dofs": self.heat.X.ndof if self.heat is not None else 0,
+                "mechanics_dofs": self.mech.forms.X.ndof if self.mech is not None else 0,
+                "vertex_coordinates_sha256": hashlib.sha256(coords.tobytes()).hexdigest()}
+
+    def check_mesh(self, cp: Checkpoint) -> None:
+        old, new = cp.meta["mesh"], self.mesh_info()
+        diff = [f"{k}: {old.get(k)} in the checkpoint, {new[k]} now" for k in new if old.get(k) != new[k]]
+        if diff:
+            raise ResumeError(f"cannot resume from {cp.path} ({where(cp)}): the mesh differs from the checkpointed "
+                              "run's (" + "; ".join(diff) + "); the same scene meshed differently (another netgen "
+                              "version or thread count?). Run without --resume to start anew.")
+
+    def factorizations(self) -> int:
+        n = self.heat_solver.factorizations if self.heat_solver is not None else 0
+        if self.mech is not None:
+            n += self.mech.solver.factorizations
+        return self.factorizations_before + n
+
+    # -- capture and save -----------------------------------------------------------------------------
+    def capture(self, step: int, t: float, solve_s: float) -> Snapshot:
+        """The state after ``step`` completed steps (cheap: vector copies and list lengths)."""
+        arrays = {}
+        if self.heat is not None:
+            arrays["heat"] = np.array(self.heat.gf.vec.FV().NumPy())
+        latest: list = []
+        if self.mech is not None:
+            m = self.mech
+            if self._mech_copy is None or self._mech_copy[0] != len(m.times):   # mechanics solved since
+                mech_arrays = {"mechanics": np.array(m.forms.gf.vec.FV().NumPy())}
+                if m.contact_output is not None:
+                    mech_arrays.update(_warm_state(m.solver.contact, "warm"))
+                self._mech_copy = (len(m.times), mech_arrays)
+            arrays.update(self._mech_copy[1])
+            if m.contact_output is not None:
+                latest = m.contact_output.latest         # replaced (not changed) by each solve
+        p = self.probes
+        lengths = {"probes": {n: len(v) for n, v in p.times.items()},
+                   "newton": len(self.history["newton_iterations"]),
+                   "flows": {n: len(v) for n, v in self.history["interface_heat_flow_W"].items()},
+                   "vtk": len(self.vtk.entries) if self.vtk is not None else 0,
+                   "lines": {n: len(s.entries) for n, s in self.lines.items()}}
+        if self.mech is not None:
+            m = self.mech
+            lengths["mech_times"] = len(m.times)
+            lengths["mech_history"] = len(m.solver.history)
+            lengths["contact_history"] = len(m.contact_output.history) if m.contact_output is not None else 0
+        return Snapshot(step, float(t), arrays, lengths, latest, solve_s, self.factorizations())
+
+    def save(self, snap: Snapshot, directory, plan: Plan) -> None:
+        """Write the checkpoint of ``snap`` into ``directory`` (atomically)."""
+        L = snap.lengths
+        p = self.probes
+        meta = {**checkpoint_meta_base(self.scene_dict), "versions": versions(), "mesh": self.mesh_info(),
+                "step": snap.step, "time_s": snap.time, "segment": plan.segment,
+                "time_settings": plan.settings, "solve_s": snap.solve_s, "factorizations": snap.factorizations,
+                "resumed": self.resumed,
+                "probes": {"times": {n: p.times[n][:L["probes"][n]] for n in p.times},
+                           "series": {n: p.series[n][:L["probes"][n]] for n in p.series}},
+                "history": {"newton_iterations": self.history["newton_iterations"][:L["newton"]],
+                            "interface_heat_flow_W": {n: v[:L["flows"].get(n, 0)] for n, v in
+                                                      self.history["interface_heat_flow_W"].items()}},
+                "vtk": self.vtk.entries[:L["vtk"]] if self.vtk is not None else [],
+                "lines": {n: s.entries[:L["lines"][n]] for n, s in self.lines.items()}}
+        arrays = dict(snap.arrays)
+        if self.mech is not None:
+            m = self.mech
+            meta["mechanics"] = {
+                "times": m.times[:L["mech_times"]],
+                "history": [dataclasses.asdict(i) for i in m.solver.history[:L["mech_history"]]],
+                "contact_history": (m.contact_output.history[:L["contact_history"]]
+                                    if m.contact_output is not None else []),
+                "contact_latest": len(snap.contact_latest)}
+            for i, res in enumerate(snap.contact_latest):
+                for key, val in res.items():
+                    arrays[f"latest/{i}/{key}"] = np.asarray(val)
+        write_checkpoint(directory, json.loads(json.dumps(meta, default=_plain)), arrays)
+        self.saved_step, self.saved_time = snap.step, snap.time
+
+    # -- restore --------------------------------------------------------------------------------------
+    def restore(self, cp: Checkpoint) -> None:
+        """Put the checkpoint's state into the run's objects (after :meth:`check_mesh`)."""
+        meta, arrays = cp.meta, cp.arrays
+        if self.heat is not None:
+            self.heat.gf.vec.FV().NumPy()[:] = arrays["heat"]
+            self.heat.gf_old.vec.data = self.heat.gf.vec
+        p = self.probes
+        for n in p.times:
+            p.times[n][:] = meta["probes"]["times"].get(n, [])
+            p.series[n][:] = meta["probes"]["series"].get(n, [])
+        self.history["newton_iterations"][:] = meta["history"]["newton_iterations"]
+        self.history["interface_heat_flow_W"].clear()
+        self.history["interface_heat_flow_W"].update(meta["history"]["interface_heat_flow_W"])
+        if self.vtk is not None:
+            self.vtk.restore(meta["vtk"])
+        for n, s in self.lines.items():
+            s.restore(meta["lines"].get(n, []))
+        if self.mech is not None:
+            m, mm = self.mech, meta["mechanics"]
+            m.forms.gf.vec.FV().NumPy()[:] = arrays["mechanics"]
+            m.times[:] = mm["times"]
+            m.solver.history[:] = [NonlinearInfo(**d) for d in mm["history"]]
+            if m.contact_output is not None:
+                m.contact_output.history[:] = mm["contact_history"]
+                m.contact_output.latest = [
+                    {k.split("/", 2)[2]: v for k, v in arrays.items() if k.startswith(f"latest/{i}/")}
+                    for i in range(mm["contact_latest"])]
+                _set_warm_state(m.solver.contact, arrays, "warm", m.forms.X.ndof)
+        self.factorizations_before = int(meta["factorizations"])
+        self.resumed = list(meta.get("resumed", [])) + [{"step": meta["step"], "time_s": meta["time_s"],
+                                                          "at": time.strftime("%Y-%m-%dT%H:%M:%S")}]
+        self.saved_step, self.saved_time = int(meta["step"]), float(meta["time_s"])
+
+
+def _plain(obj):
+    """JSON form of numpy scalars and arrays in the meta data."""
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    raise TypeError(f"not JSON serializable: {type(obj).__name__}")
+
+
+def _warm_state(solver, prefix: str) -> dict:
+    """The contact solver's sets from its last solve (ContactSolver: per interface the arrays of its state
+    and whether it converged; UzawaSolver: the last tangential multipliers and its inner solver). Best effort:
+    a solver without them gives nothing and the resumed run starts cold (same solution, other iteration counts).
+    """
+    out = {}
+    state = getattr(solver, "_state", None)
+    if state is not None:
+        for i, it in enumerate(state):
+            for key, val in vars(it).items():
+                if isinstance(val, np.ndarray):
+                    out[f"{prefix}/{i}/{key}"] = val.copy()
+    if isinstance(getattr(solver, "_converged", None), bool):
+        out[f"{prefix}/converged"] = np.array(solver._converged)
+    if isinstance(getattr(solver, "_last", None), np.ndarray):
+        out[f"{prefix}/last"] = solver._last.copy()
+    inner = getattr(solver, "inner", None)
+    if inner is not None:
+        out.update(_warm_state(inner, f"{prefix}/inner"))
+    return out
+
+
+def _set_warm_state(solver, arrays: dict, prefix: str, ndof: int) -> None:
+    items = {}
+    for key, val in arrays.items():
+        if key.startswith(prefix + "/"):
+            parts = key[len(prefix) + 1:].split("/")
+            if len(parts) == 2 and parts[0].isdigit():
+                items[(int(parts[0]), parts[1])] = val
+    if items and hasattr(solver, "_interfaces"):
+        try:
+            state = solver._interfaces(ndof)
+        except Exception:       # noqa: BLE001 - a warm start only
+            state = []
+        for (i, key), val in items.items():
+            if i < len(state):
+                cur = getattr(state[i], key, None)
+                if isinstance(cur, np.ndarray) and cur.shape == val.shape:
+                    setattr(state[i], key, val.astype(cur.dtype, copy=True))
+    if f"{prefix}/converged" in arrays and hasattr(solver, "_converged"):
+        solver._converged = bool(arrays[f"{prefix}/converged"])
+    if f"{prefix}/last" in arrays and hasattr(solver, "_last"):
+        solver._last = np.array(arrays[f"{prefix}/last"])
+    inner = getattr(solver, "inner", None)
+    if inner is not None:
+        _set_warm_state(inner, arrays, f"{prefix}/inner", ndof)
