@@ -1,0 +1,482 @@
+"""The two-phase Stefan problem in enthalpy form, seed (2.46)-(2.51), (2.55): materials, the nodal enthalpy
+graph and the lumped P1 forms of one backward Euler step (builds no mesh, writes no file).
+
+Model. In a phase-change material (PCM) with phase-change temperature Theta_R (K or degC), volumetric latent
+heat L (J/m^3), heat capacities C_s, C_l (rho c of the solid and of the liquid, J/(m^3 K)) and conductivities
+k_s, k_l (W/(m K)), the Stefan conditions (2.46) (T continuous and equal to Theta_R on the phase boundary,
+the jump of the normal heat flux equal to L times the normal speed of the boundary) are the weak form of
+
+    d e/dt - div(grad theta) = W,    e in H(T),    theta = theta(T),                           (2.49)
+
+with the enthalpy graph H = dPhi of (2.48) (e = C_s (T - Theta_R) for T < Theta_R, e in [0, L] at
+T = Theta_R, e = L + C_l (T - Theta_R) for T > Theta_R, J/m^3) and the Kirchhoff variable
+theta(T) = int_{Theta_R}^T k(s) ds (W/m), which is k_s (T - Theta_R) below and k_l (T - Theta_R) above
+Theta_R: piecewise linear with a kink, so the conductivity may differ between the phases (constant in each
+phase). A plain material (no phase change) has e = C T and theta = k T. W is a volumetric source (W/m^3).
+Without deformation heating, the term rho beta Theta_0 e(u_t) of (2.49) is not included here.
+
+Unknown. The enthalpy graph is multivalued in T, but its inverse T = beta(e) is a Lipschitz, piecewise
+linear function (slope 1/C_s, 0 on the mushy interval [0, L], 1/C_l). The unknown is therefore the nodal
+enthalpy e, and the step equation is single valued and piecewise linear in e. The seed's B z - d + dPhi(z) = 0
+(z = Theta, dPhi = M H) is the same equation written in the multivalued direction.
+
+Discretization. P1 elements; the storage term and the loads are integrated with the vertex rule (the nodes of
+the element as points, weights |element|/(d + 1): mass lumping), so the enthalpy law holds node by node, and
+the conduction term is the P1 stiffness applied to the nodal Kirchhoff values of each region,
+
+    m_i (e_i - e_i^old)/dt + sum_regions (K_r theta_r(T))_i = F_i(t_new),    T_i = beta_i(e_i),      (2.55)
+
+with m_i = int phi_i (lumped, m^2 in 2D, m^3 in 3D), K_r the stiffness matrix of region r for unit
+conductivity (isotropic, W/(m K) in theta) and F_i = int W phi_i + int_flux q phi_i (W per metre of
+depth in 2D). At a node shared by several regions the nodal enthalpy is the m-weighted mean
+e_i = sum_r (m_i^r / m_i) e_r(T_i): still a monotone graph in T_i (with a flat part per phase-change
+temperature of the touching PCMs), whose inverse beta_i is what the solver uses. T is continuous across
+regions; the Kirchhoff variable is taken per region, so different conductivity laws may meet.
+With lumping and a non-obtuse mesh the scheme keeps the discrete maximum principle (K_r is an M-matrix).
+
+Backward Euler with any step dt (the seed's time discretization (2.55)). Energy is conserved exactly by the
+discrete equations: sum_i m_i (e_i - e_i^old) = dt (sum_i F_i + boundary inflow at the Dirichlet nodes), since
+the columns of every K_r sum to zero.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import ngsolve as ngs
+import numpy as np
+import scipy.sparse as sp
+
+from .coefficients import expression_function, regions_regex
+
+
+def _check_number(name: str, value, *, positive: bool = False, nonnegative: bool = False) -> float:
+    """A finite float; ValueError naming ``name`` and the value otherwise."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v}")
+    if positive and not v > 0:
+        raise ValueError(f"{name} must be > 0, got {v}")
+    if nonnegative and v < 0:
+        raise ValueError(f"{name} must be >= 0, got {v}")
+    return v
+
+
+@dataclass(frozen=True)
+class PhaseChangeMaterial:
+    """A material with a phase change at ``melting_temperature`` Theta_R (K or degC; the seed's Theta_R^m).
+
+    ``latent_heat`` L is volumetric (J/m^3, rho L of (2.46), (2.48); >= 0), ``rho_c_solid`` and
+    ``rho_c_liquid`` the volumetric heat capacities C_s, C_l (J/(m^3 K), > 0), ``conductivity_solid`` and
+    ``conductivity_liquid`` k_s, k_l (W/(m K), > 0, isotropic). The enthalpy is measured from the solid at
+    Theta_R: e(T) = C_s (T - Theta_R) below, L + C_l (T - Theta_R) above (J/m^3).
+    """
+
+    melting_temperature: float
+    latent_heat: float
+    rho_c_solid: float
+    rho_c_liquid: float
+    conductivity_solid: float
+    conductivity_liquid: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "melting_temperature",
+                           _check_number("melting_temperature", self.melting_temperature))
+        object.__setattr__(self, "latent_heat", _check_number("latent_heat", self.latent_heat, nonnegative=True))
+        for name in ("rho_c_solid", "rho_c_liquid", "conductivity_solid", "conductivity_liquid"):
+            object.__setattr__(self, name, _check_number(name, getattr(self, name), positive=True))
+
+    @property
+    def diffusivity_solid(self) -> float:
+        """k_s / C_s, m^2/s."""
+        return self.conductivity_solid / self.rho_c_solid
+
+    @property
+    def diffusivity_liquid(self) -> float:
+        """k_l / C_l, m^2/s."""
+        return self.conductivity_liquid / self.rho_c_liquid
+
+    def enthalpy(self, T, liquid_fraction=0.0):
+        """e(T) in J/m^3 (numpy); at T = Theta_R exactly, e = liquid_fraction * L (default: solid)."""
+        T = np.asarray(T, dtype=float)
+        d = T - self.melting_temperature
+        return np.where(d < 0, self.rho_c_solid * d,
+                        np.where(d > 0, self.latent_heat + self.rho_c_liquid * d,
+                                 self.latent_heat * np.asarray(liquid_fraction, dtype=float)))
+
+    def kirchhoff(self, T):
+        """theta(T) = int_{Theta_R}^T k(s) ds, W/m (numpy)."""
+        d = np.asarray(T, dtype=float) - self.melting_temperature
+        return np.where(d < 0, self.conductivity_solid * d, self.conductivity_liquid * d)
+
+
+@dataclass(frozen=True)
+class PlainThermalMaterial:
+    """A material without phase change: ``rho_c`` C (J/(m^3 K), > 0), ``conductivity`` k (W/(m K), > 0,
+    isotropic); e = C T (J/m^3), theta = k T (W/m)."""
+
+    rho_c: float
+    conductivity: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "rho_c", _check_number("rho_c", self.rho_c, positive=True))
+        object.__setattr__(self, "conductivity", _check_number("conductivity", self.conductivity, positive=True))
+
+    def enthalpy(self, T, liquid_fraction=0.0):
+        return self.rho_c * np.asarray(T, dtype=float)
+
+    def kirchhoff(self, T):
+        return self.conductivity * np.asarray(T, dtype=float)
+
+
+StefanMaterial = PhaseChangeMaterial | PlainThermalMaterial
+
+
+def _time_function(value) -> Callable:
+    """A TimeFunction (make(t) -> CF) from a number, an expression string or a TimeFunction."""
+    if isinstance(value, (int, float, str)):
+        return expression_function(value)
+    if callable(value):
+        return value
+    raise ValueError(f"expected a number, an expression or a function of t, got {value!r}")
+
+
+@dataclass
+class StefanSetup:
+    """Plain inputs of the Stefan forms.
+
+    ``materials`` maps every region of the mesh to a :class:`PhaseChangeMaterial` or a
+    :class:`PlainThermalMaterial`; ``dirichlet`` maps boundary names to temperatures (K; number, expression
+    in x, y, z, t or TimeFunction); ``flux`` maps boundary names to the heat flux into the body (W/m^2);
+    ``sources`` maps region names to power densities (W/m^3). Unnamed boundaries are insulated.
+    """
+
+    materials: dict[str, StefanMaterial]
+    dirichlet: dict[str, object] = field(default_factory=dict)
+    flux: dict[str, object] = field(default_factory=dict)
+    sources: dict[str, object] = field(default_factory=dict)
+
+
+def vertex_rules(dim: int) -> dict:
+    """The vertex (lumping) rules: the element's vertices as points, weights |reference element|/n_vertices."""
+    if dim == 2:
+        return {ngs.TRIG: ngs.IntegrationRule([(0, 0), (1, 0), (0, 1)], [1 / 6] * 3),
+                ngs.QUAD: ngs.IntegrationRule([(0, 0), (1, 0), (1, 1), (0, 1)], [1 / 4] * 4)}
+    return {ngs.TET: ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [1 / 24] * 4)}
+
+
+@dataclass
+class NodalState:
+    """The nodal temperature and its generalized derivative for a vector of nodal enthalpies.
+
+    ``T`` (K), ``dT_de`` (K m^3/J: 1/C on the sensible branches, 0 on the mushy ones), ``mushy`` (bool: the
+    node lies on a flat part, T = a phase-change temperature), ``segment`` (index of the temperature interval
+    between the sorted phase-change temperatures, or of the flat part for mushy nodes)."""
+
+    T: np.ndarray
+    dT_de: np.ndarray
+    mushy: np.ndarray
+    segment: np.ndarray
+
+
+class StefanForms:
+    """Spaces, lumped masses, stiffness matrices, the nodal enthalpy graph and the loads of one Stefan problem.
+
+    Groups: regions with equal material data share one stiffness matrix. The nodal graph is held as arrays over
+    the sorted phase-change temperatures Theta_0 < ... < Theta_{K-1} of the PCMs present (a virtual breakpoint
+    at 0 when there is none): per node the enthalpies just below and above each breakpoint (``e_lo``, ``e_hi``,
+    n x K, J/m^3) and the heat capacity on each interval between them (``capacity``, n x (K + 1), J/(m^3 K)).
+    """
+
+    def __init__(self, mesh, setup: StefanSetup):
+        self.mesh = mesh
+        self.setup = setup
+        regions = set(mesh.GetMaterials())
+        missing = sorted(regions - set(setup.materials))
+        if missing:
+            raise ValueError(f"Stefan problem: no material for the region(s) {missing}")
+        unknown = sorted(set(setup.materials) - regions)
+        if unknown:
+            raise ValueError(f"Stefan problem: material(s) for region(s) {unknown} that are not in the mesh "
+                             f"(regions: {sorted(regions)})")
+        boundaries = set(mesh.GetBoundaries())
+        for kind in ("dirichlet", "flux"):
+            bad = sorted(set(getattr(setup, kind)) - boundaries)
+            if bad:
+                raise ValueError(f"Stefan problem: {kind} boundary(ies) {bad} not in the mesh "
+                                 f"(boundaries: {sorted(boundaries)})")
+        bad = sorted(set(setup.sources) - regions)
+        if bad:
+            raise ValueError(f"Stefan problem: source region(s) {bad} not in the mesh")
+        for name, mat in setup.materials.items():
+            if not isinstance(mat, (PhaseChangeMaterial, PlainThermalMaterial)):
+                raise ValueError(f"Stefan problem: material of region {name!r} must be a PhaseChangeMaterial or a "
+                                 f"PlainThermalMaterial, got {type(mat).__name__}")
+        self.dim = mesh.dim
+        self.rules = vertex_rules(self.dim)
+        types = {el.type for el in mesh.Elements(ngs.VOL)}
+        if not types <= set(self.rules):
+            raise ValueError(f"Stefan problem: element types {sorted(map(str, types - set(self.rules)))} have no "
+                             "vertex rule here (triangles, quadrilaterals and tetrahedra do)")
+        self.dx_lumped = ngs.dx(intrules=self.rules)
+        self.V = ngs.H1(mesh, order=1, dirichlet=regions_regex(setup.dirichlet) if setup.dirichlet else "")
+        self.n = self.V.ndof
+        if self.n != mesh.nv:
+            raise AssertionError("Stefan forms: P1 dofs are expected to be the mesh vertices")
+        self.free = np.array(list(self.V.FreeDofs()), dtype=bool)
+        self.dirichlet_dofs = np.nonzero(~self.free)[0]
+        self._group_materials()
+        self._assemble_matrices()
+        self._build_graph()
+        self.t_load = ngs.Parameter(0.0)
+        self._build_loads()
+        self.gf_temperature = ngs.GridFunction(self.V)
+        self.gf_enthalpy = ngs.GridFunction(self.V)
+        self.gf_liquid_fraction = ngs.GridFunction(self.V)
+        self._dir_tmp = ngs.GridFunction(self.V)
+
+    # -- set-up ---------------------------------------------------------------------------------------------
+    def _group_materials(self):
+        self.groups: list[StefanMaterial] = []
+        self.group_regions: list[list[str]] = []
+        for name, mat in self.setup.materials.items():
+            if mat in self.groups:
+                self.group_regions[self.groups.index(mat)].append(name)
+            else:
+                self.groups.append(mat)
+                self.group_regions.append([name])
+        self.pcm_groups = [g for g, m in enumerate(self.groups) if isinstance(m, PhaseChangeMaterial)]
+
+    def _assemble_matrices(self):
+        u, v = self.V.TnT()
+        G = len(self.groups)
+        masses = np.zeros((self.n, G))
+        self.stiffness: list[sp.csr_matrix] = []
+        pattern = None
+        for g, names in enumerate(self.group_regions):
+            where = self.mesh.Materials(regions_regex(names))
+            lf = ngs.LinearForm(self.V)
+            lf += v * ngs.dx(definedon=where, intrules=self.rules)
+            lf.Assemble()
+            masses[:, g] = lf.vec.FV().NumPy()
+            # the whole mesh with an indicator (not definedon), so that all groups share one sparsity pattern
+            indicator = self.mesh.MaterialCF({n: 1.0 for n in names}, default=0.0)
+            a = ngs.BilinearForm(self.V)
+            a += indicator * ngs.grad(u) * ngs.grad(v) * ngs.dx
+            a.Assemble()
+            vals, cols, ptr = a.mat.CSR()
+            K = sp.csr_matrix((np.array(vals), np.array(cols), np.array(ptr)), shape=(self.n, self.n))
+            if pattern is None:
+                pattern = (K.indices.copy(), K.indptr.copy())
+                # one NGSolve matrix with the same pattern holds the Jacobians (values in CSR order)
+                self.jacobian = a.mat.CreateMatrix()
+            elif not (np.array_equal(pattern[0], K.indices) and np.array_equal(pattern[1], K.indptr)):
+                raise AssertionError("Stefan forms: the region stiffness matrices do not share one pattern")
+            self.stiffness.append(K)
+        self.pattern_cols = pattern[0]
+        self.pattern_rows = np.repeat(np.arange(self.n), np.diff(pattern[1]))
+        self.diagonal_positions = np.nonzero(self.pattern_rows == self.pattern_cols)[0]
+        if len(self.diagonal_positions) != self.n:
+            raise AssertionError("Stefan forms: a diagonal entry is missing from the stiffness pattern")
+        self.mass = masses.sum(axis=1)
+        if np.any(self.mass <= 0):
+            raise AssertionError("Stefan forms: a vertex without elements (zero lumped mass)")
+        self.mass_by_group = masses
+        self.weights = masses / self.mass[:, None]
+
+    def _build_graph(self):
+        pcm = [self.groups[g] for g in self.pcm_groups]
+        self.breakpoints = np.array(sorted({m.melting_temperature for m in pcm})) if pcm else np.array([0.0])
+        K = len(self.breakpoints)
+        G = len(self.groups)
+        e_lo = np.zeros((G, K))
+        e_hi = np.zeros((G, K))
+        cap = np.zeros((G, K + 1))
+        cond = np.zeros((G, K + 1))
+        for g, m in enumerate(self.groups):
+            for k, tk in enumerate(self.breakpoints):
+                e_lo[g, k] = m.enthalpy(tk, 0.0)
+                e_hi[g, k] = m.enthalpy(tk, 1.0)
+            for s in range(K + 1):
+                if isinstance(m, PhaseChangeMaterial):
+                    solid = s < K and self.breakpoints[s] <= m.melting_temperature
+                    cap[g, s] = m.rho_c_solid if solid else m.rho_c_liquid
+                    cond[g, s] = m.conductivity_solid if solid else m.conductivity_liquid
+                else:
+                    cap[g, s] = m.rho_c
+                    cond[g, s] = m.conductivity
+        self.e_lo = self.weights @ e_lo
+        self.e_hi = self.weights @ e_hi
+        self.jump = self.e_hi - self.e_lo
+        self.capacity = self.weights @ cap
+        self.group_conductivity = cond              # G x (K + 1), W/(m K)
+        self.symmetric = bool(np.all(cond == cond[:, :1]))
+        """Whether the Jacobian is symmetric: no PCM has k_s != k_l (each region's Kirchhoff map is linear)."""
+
+    def _build_loads(self):
+        s = self.setup
+        _, v = self.V.TnT()
+        self._loads = None
+        self._loads_static = all(getattr(_time_function(f), "time_dependent", True) is False
+                                 for f in list(s.sources.values()) + list(s.flux.values()))
+        if not s.sources and not s.flux:
+            return
+        lf = ngs.LinearForm(self.V)
+        for region, f in s.sources.items():
+            lf += _time_function(f)(self.t_load) * v * ngs.dx(definedon=self.mesh.Materials(region),
+                                                              intrules=self.rules)
+        for name, f in s.flux.items():
+            lf += _time_function(f)(self.t_load) * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+        self._loads = lf
+        self._loads_assembled = False
+
+    # -- nodal maps -----------------------------------------------------------------------------------------
+    def nodal_state(self, e: np.ndarray) -> NodalState:
+        """T = beta(e) node by node with its generalized derivative (see :class:`NodalState`).
+
+        Choice at the kinks: the flat parts are closed (e = e_lo or e = e_hi of a breakpoint with latent heat
+        counts as mushy, dT/de = 0), so a node resting at the phase-change temperature (the solid of a
+        one-phase problem, ahead of the front) keeps T = Theta_R in a Newton step and takes up heat as latent
+        heat; a node exactly at a breakpoint without latent heat takes the slope below it. Measured against the
+        open choice (the ends on the sensible branches): the same errors, fewer iterations (one-phase Neumann,
+        h = 0.0125: mean 1.54 against 2.12 per step), and with steps far too large for the mesh the closed choice
+        converges slowly where the open one cycled.
+        """
+        K = len(self.breakpoints)
+        rows = np.arange(self.n)
+        s = np.count_nonzero(e[:, None] > self.e_hi, axis=1)
+        k = np.minimum(s, K - 1)
+        mushy = (s < K) & (e >= self.e_lo[rows, k]) & (self.jump[rows, k] > 0)
+        c = self.capacity[rows, s]
+        anchor_e = np.where(s == 0, self.e_lo[:, 0], self.e_hi[rows, np.maximum(s - 1, 0)])
+        anchor_T = self.breakpoints[np.maximum(s - 1, 0)]
+        T = np.where(mushy, self.breakpoints[k], anchor_T + (e - anchor_e) / c)
+        dT = np.where(mushy, 0.0, 1.0 / c)
+        return NodalState(T, dT, mushy, s)
+
+    def enthalpy_of(self, T: np.ndarray, liquid_fraction=None) -> np.ndarray:
+        """Nodal enthalpy e(T) (J/m^3) of nodal temperatures; at a phase-change temperature exactly the node
+        takes e_lo + f (e_hi - e_lo) with f = ``liquid_fraction`` (default 0: solid)."""
+        T = np.asarray(T, dtype=float)
+        f = np.zeros(self.n) if liquid_fraction is None else np.broadcast_to(np.asarray(liquid_fraction, float),
+                                                                             (self.n,))
+        e = np.zeros(self.n)
+        for g, m in enumerate(self.groups):
+            e += self.weights[:, g] * m.enthalpy(T, f)
+        return e
+
+    def project_enthalpy(self, e_cf, order: int = 30) -> np.ndarray:
+        """Nodal enthalpies e_i = int e phi_i / m_i (J/m^3) of an enthalpy field ``e_cf`` (CoefficientFunction):
+        the lumped L2 projection, which keeps the heat content sum_i m_i e_i = int e of the field (up to the
+        quadrature of ``order``; use a high order when e jumps inside elements, as across a phase boundary)."""
+        _, v = self.V.TnT()
+        lf = ngs.LinearForm(self.V)
+        lf += e_cf * v * ngs.dx(bonus_intorder=order)
+        lf.Assemble()
+        return lf.vec.FV().NumPy() / self.mass
+
+    def kirchhoff_derivatives(self, state: NodalState) -> np.ndarray:
+        """D theta_g / dT per node and group (n x G, W/(m K)): the conductivity of the node's interval (the
+        interval below the breakpoint for mushy nodes, where it multiplies dT = 0)."""
+        return self.group_conductivity[:, state.segment].T
+
+    def conduction(self, T: np.ndarray) -> np.ndarray:
+        """A(T) = sum_g K_g theta_g(T), W per metre of depth (2D) or W (3D)."""
+        out = np.zeros(self.n)
+        for K, m in zip(self.stiffness, self.groups):
+            out += K @ m.kirchhoff(T)
+        return out
+
+    def liquid_fractions(self, e: np.ndarray, state: NodalState | None = None) -> np.ndarray:
+        """Liquid fraction per node and PCM group (n x G; 0 for plain groups): 1 above the group's Theta_R,
+        0 below, (e - e_lo)/(e_hi - e_lo) on its flat part."""
+        st = state if state is not None else self.nodal_state(e)
+        out = np.zeros((self.n, len(self.groups)))
+        rows = np.arange(self.n)
+        k = np.minimum(st.segment, len(self.breakpoints) - 1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = np.clip((e - self.e_lo[rows, k]) / self.jump[rows, k], 0.0, 1.0)
+        for g in self.pcm_groups:
+            tm = self.groups[g].melting_temperature
+            out[:, g] = np.where(st.mushy & (self.breakpoints[k] == tm), frac, (st.T > tm).astype(float))
+        return out
+
+    def melted_volume(self, e: np.ndarray) -> float:
+        """Liquid volume (lumped), m^2 per metre of depth in 2D, m^3 in 3D."""
+        return float(np.sum(self.mass_by_group * self.liquid_fractions(e)))
+
+    def latent_heat_stored(self, e: np.ndarray) -> float:
+        """Latent heat held by the liquid (lumped), J per metre of depth in 2D, J in 3D."""
+        L = np.array([m.latent_heat if isinstance(m, PhaseChangeMaterial) else 0.0 for m in self.groups])
+        return float(np.sum(self.mass_by_group * self.liquid_fractions(e) * L))
+
+    def heat_content(self, e: np.ndarray) -> float:
+        """sum_i m_i e_i: the (lumped) enthalpy of the body, J per metre of depth in 2D, J in 3D."""
+        return float(self.mass @ e)
+
+    # -- data at a time -------------------------------------------------------------------------------------
+    def loads(self, t: float) -> np.ndarray:
+        """F(t): sources and boundary fluxes against the lumped test functions, W/m (2D) or W (3D)."""
+        if self._loads is None:
+            return np.zeros(self.n)
+        if not (self._loads_static and self._loads_assembled):
+            self.t_load.Set(t)
+            self._loads.Assemble()
+            self._loads_assembled = True
+        return self._loads.vec.FV().NumPy().copy()
+
+    def dirichlet_temperatures(self, t: float) -> np.ndarray:
+        """The Dirichlet temperatures (K) at time t at the Dirichlet dofs (in the order of ``dirichlet_dofs``)."""
+        if not self.setup.dirichlet:
+            return np.zeros(0)
+        self.t_load.Set(t)
+        cf = self.mesh.BoundaryCF({n: _time_function(f)(self.t_load) for n, f in self.setup.dirichlet.items()},
+                                  default=0.0)
+        self._dir_tmp.Set(cf, ngs.BND, definedon=self.mesh.Boundaries(regions_regex(self.setup.dirichlet)))
+        return self._dir_tmp.vec.FV().NumPy()[self.dirichlet_dofs].copy()
+
+    def store(self, e: np.ndarray) -> None:
+        """Copy a nodal enthalpy and what follows from it into the GridFunctions ``gf_enthalpy`` (J/m^3),
+        ``gf_temperature`` (K) and ``gf_liquid_fraction`` (latent-heat weighted, 0..1)."""
+        st = self.nodal_state(e)
+        self.gf_enthalpy.vec.FV().NumPy()[:] = e
+        self.gf_temperature.vec.FV().NumPy()[:] = st.T
+        frac = self.liquid_fractions(e, st)
+        L = np.array([m.latent_heat if isinstance(m, PhaseChangeMaterial) else 0.0 for m in self.groups])
+        wl = self.weights * L
+        total = wl.sum(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            phi = np.where(total > 0, (wl * frac).sum(axis=1) / total, 0.0)
+        self.gf_liquid_fraction.vec.FV().NumPy()[:] = phi
+
+    # -- the smeared (apparent heat capacity) variant ----------------------------------------------------------
+    def apparent_capacity(self, T: np.ndarray, delta: float) -> np.ndarray:
+        """Nodal C_app(T) = C(T) + L/(2 delta) for |T - Theta_R| < delta (J/(m^3 K)), m-weighted over groups."""
+        out = np.zeros(self.n)
+        for g, m in enumerate(self.groups):
+            if isinstance(m, PhaseChangeMaterial):
+                d = T - m.melting_temperature
+                c = np.where(d < 0, m.rho_c_solid, m.rho_c_liquid) + np.where(np.abs(d) < delta,
+                                                                              m.latent_heat / (2 * delta), 0.0)
+            else:
+                c = np.full(self.n, m.rho_c)
+            out += self.weights[:, g] * c
+        return out
+
+    def smeared_enthalpy(self, T: np.ndarray, delta: float) -> np.ndarray:
+        """The enthalpy of the smeared law, e_delta(T) = int C_app (J/m^3, same reference as e)."""
+        out = np.zeros(self.n)
+        for g, m in enumerate(self.groups):
+            if isinstance(m, PhaseChangeMaterial):
+                d = np.asarray(T, float) - m.melting_temperature
+                lat = m.latent_heat * np.clip((d + delta) / (2 * delta), 0.0, 1.0)
+                e = np.where(d < 0, m.rho_c_solid * d, m.rho_c_liquid * d) + lat
+            else:
+                e = m.rho_c * np.asarray(T, float)
+            out += self.weights[:, g] * e
+        return out
