@@ -2,7 +2,9 @@
 step, writing it, and restoring a run from it (the file format is :mod:`ngs_geomech.io.checkpoint`).
 
 The state after step k (time t_k): the heat GridFunction vector (temperature and the mortar multipliers;
-the old state is a copy of it at the start of the next step), the mechanics GridFunction vector (at the last
+the old state is a copy of it at the start of the next step) or, in a scene with phase change, the Stefan
+solver's nodal enthalpy (with its predictor rate and the melted volume, latent heat, energy and Newton
+histories), the mechanics GridFunction vector (at the last
 output step), the contact solvers' active/stick/slip sets (a warm start: the next solve starts from them as
 in an uninterrupted run), the probe series, the Newton iteration and interface heat flow histories, the
 mechanics solve histories, the VTK and contact series entries written so far, the time step schedule
@@ -103,8 +105,10 @@ def plan_steps(ts, cp: Checkpoint | None) -> Plan:
 class RunState:
     """The objects of a run whose state a checkpoint holds (any of them None when the scene lacks it)."""
 
-    def __init__(self, scene_dict: dict, mesh, heat, heat_solver, mech, probes, vtk, lines: dict, history: dict):
+    def __init__(self, scene_dict: dict, mesh, heat, heat_solver, mech, probes, vtk, lines: dict, history: dict,
+                 stefan=None):
         self.scene_dict = scene_dict
+        self.stefan = stefan
         self.mesh = mesh
         self.heat = heat
         self.heat_solver = heat_solver
@@ -123,7 +127,8 @@ class RunState:
     def mesh_info(self) -> dict:
         coords = np.round(np.asarray(self.mesh.ngmesh.Coordinates(), dtype=float), 9)
         return {"vertices": self.mesh.nv, "elements": self.mesh.ne,
-                "heat_dofs": self.heat.X.ndof if self.heat is not None else 0,
+                "heat_dofs": (self.heat.X.ndof if self.heat is not None
+                              else self.stefan.forms.n if self.stefan is not None else 0),
                 "mechanics_dofs": self.mech.forms.X.ndof if self.mech is not None else 0,
                 "vertex_coordinates_sha256": hashlib.sha256(coords.tobytes()).hexdigest()}
 
@@ -137,6 +142,8 @@ class RunState:
 
     def factorizations(self) -> int:
         n = self.heat_solver.factorizations if self.heat_solver is not None else 0
+        if self.stefan is not None:
+            n += self.stefan.solver.factorizations
         if self.mech is not None:
             n += self.mech.solver.factorizations
         return self.factorizations_before + n
@@ -147,6 +154,10 @@ class RunState:
         arrays = {}
         if self.heat is not None:
             arrays["heat"] = np.array(self.heat.gf.vec.FV().NumPy())
+        stefan_lengths = None
+        if self.stefan is not None:
+            stefan_arrays, stefan_lengths = self.stefan.capture()
+            arrays.update(stefan_arrays)
         latest: list = []
         if self.mech is not None:
             m = self.mech
@@ -163,7 +174,8 @@ class RunState:
                    "newton": len(self.history["newton_iterations"]),
                    "flows": {n: len(v) for n, v in self.history["interface_heat_flow_W"].items()},
                    "vtk": len(self.vtk.entries) if self.vtk is not None else 0,
-                   "lines": {n: len(s.entries) for n, s in self.lines.items()}}
+                   "lines": {n: len(s.entries) for n, s in self.lines.items()},
+                   "stefan": stefan_lengths}
         if self.mech is not None:
             m = self.mech
             lengths["mech_times"] = len(m.times)
@@ -186,6 +198,8 @@ class RunState:
                                                       self.history["interface_heat_flow_W"].items()}},
                 "vtk": self.vtk.entries[:L["vtk"]] if self.vtk is not None else [],
                 "lines": {n: s.entries[:L["lines"][n]] for n, s in self.lines.items()}}
+        if self.stefan is not None:
+            meta["stefan"] = self.stefan.meta(L["stefan"])
         arrays = dict(snap.arrays)
         if self.mech is not None:
             m = self.mech
@@ -208,6 +222,8 @@ class RunState:
         if self.heat is not None:
             self.heat.gf.vec.FV().NumPy()[:] = arrays["heat"]
             self.heat.gf_old.vec.data = self.heat.gf.vec
+        if self.stefan is not None:
+            self.stefan.restore(arrays, meta["stefan"])
         p = self.probes
         for n in p.times:
             p.times[n][:] = meta["probes"]["times"].get(n, [])

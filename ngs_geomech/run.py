@@ -2,6 +2,10 @@
 
 Output (into ``out``, written completely or not at all): ``<scene>.pvd`` + ``<scene>_stepNNNNN.vtu``
 (VTK series with every computed field and the region id), ``figures/*.png`` and ``summary.json``.
+Scenes with phase change (a material with ``phase_change_temperature``, physics.thermal = 'transient') are
+solved by the Stefan solver (:mod:`ngs_geomech.problems.stefan`) instead of the heat solver; they also write
+the phase boundary (liquid fraction 1/2) per output time as ``<scene>_phase_boundary.pvd`` + ``.vtp`` (2D),
+``figures/phase_boundary.png`` and ``figures/melted_fraction.png``, and a ``stefan`` block in the summary.
 
 Time-dependent runs write checkpoints (:mod:`ngs_geomech.checkpoint`) into ``checkpoint/`` of their staging
 directory ``.<out>.partial-*``: every ``output.checkpoint_every`` steps (default every tenth of the steps
@@ -36,14 +40,15 @@ from .io.summary import finite, probe_statistics, versions
 from .io.vtk import VtkSeries
 from .physics.elasticity import ElasticForms, stress_measures
 from .physics.thermal import HeatForms
-from .probes import ProbeSet
+from .probes import THERMAL, ProbeSet
 from .problems.contact import check_supported, contact_specs, contact_warnings
 from .problems.contact_output import ContactOutput
 from .problems.heat import heat_setup, initial_temperature
 from .problems.mechanics import elastic_setup, mechanics_warnings
+from .problems.stefan import StefanRun
 from .scene.model import Scene
 from .scene.schema import to_dict
-from .scene.validate import validate
+from .scene.validate import stefan_scene, validate
 from .solvers.contact import ContactSolver, nodal_modulus
 from .solvers.contact_uzawa import UzawaSolver
 from .solvers.elastic import ElasticSolver
@@ -62,6 +67,7 @@ class RunResult:
     out: Path | None
     timings: dict = field(default_factory=dict)
     mechanics: object = None
+    stefan: StefanRun | None = None
 
 
 def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, threads: int | None = None,
@@ -133,8 +139,12 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     name = scene.scene.name
     tic = _time.perf_counter()
     fields = {"region": mesh.MaterialCF({n: i for i, n in enumerate(mesh.GetMaterials())}, default=-1)}
-    heat = solver = T = None
-    if scene.physics.thermal:
+    heat = solver = T = stefan = None
+    if stefan_scene(scene):           # phase change: the enthalpy (Stefan) solver replaces the heat solver
+        stefan = StefanRun(scene, mesh)
+        T = stefan.fields["temperature"]
+        fields.update(stefan.fields)
+    elif scene.physics.thermal:
         setup = heat_setup(scene, geo, mesh)
         heat = HeatForms(mesh, setup)
         solver = HeatSolver(heat)
@@ -154,24 +164,37 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     timings["setup_s"] = _time.perf_counter() - tic
     vtk = None
     lines = {}
+    boundary_series = None
     if staging is not None and scene.output.vtk:
         vtk = VtkSeries(mesh, fields, staging.path, name, scene.output.subdivision)
         if mech is not None and mech.contact_output is not None:
             lines = {c.name: LineSeries(staging.path, f"{name}_contact_{c.name}") for c in mech.contacts}
+        if stefan is not None and mesh.dim == 2:
+            boundary_series = LineSeries(staging.path, f"{name}_phase_boundary")
+    thermal_fields = {"temperature": T}
+    if stefan is not None:
+        phi = stefan.fields["liquid_fraction"]
+        thermal_fields.update(liquid_fraction=phi, front=phi)
     history = {"newton_iterations": [], "interface_heat_flow_W": {}}
     solve_s = 0.0
 
     def output(t: float, k: int | None, last: bool, where: str) -> None:
         """Mechanics (when on) and VTK at the output steps; thermal probes at every step."""
         if T is not None:
-            probes.record(t, {"temperature": T})
+            probes.record(t, thermal_fields)
         if k is not None and not ((k + 1) % scene.output.every == 0 or last):
             return
+        if stefan is not None:
+            stefan.record(t)
         if mech is not None:
             mech.solve(t, where)
             probes.record(t, mech.probe_fields)
         if vtk:
             vtk.write(t)
+        if boundary_series is not None:
+            iso = stefan.phase_boundary()
+            boundary_series.write(t, iso.points, iso.segments,
+                                  {"temperature": iso.interpolate(vertex_values(T))})
         for spec, res in zip(mech.contacts if lines else [], mech.contact_output.latest if lines else []):
             lines[spec.name].write(t, np.column_stack([res[c] for c in "xyz" if c in res]), spec.cells,
                                    {k: res[k] for k in ("pressure", "traction", "traction_t1", "traction_t2", "gap",
@@ -179,7 +202,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
 
     ts = scene.time
     transient = scene.physics.thermal == "transient" or (heat is None and ts is not None)
-    state = RunState(to_dict(scene), mesh, heat, solver, mech, probes, vtk, lines, history)
+    all_lines = dict(lines, **({"phase_boundary__": boundary_series} if boundary_series is not None else {}))
+    state = RunState(to_dict(scene), mesh, heat, solver, mech, probes, vtk, all_lines, history, stefan)
     if not transient:
         tic = _time.perf_counter()
         if heat is not None:
@@ -198,6 +222,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                 heat.t_new.Set(ts.start)
                 T.Set(initial_temperature(scene, mesh, heat.t_new))
                 solver.set_dirichlet()
+            if stefan is not None:
+                stefan.set_initial(ts.start)
             output(ts.start, None, True, f"t = {format_time(ts.start)}")
             t_done = ts.start
         else:
@@ -228,6 +254,9 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                     info = solver.solve(where)
                     history["newton_iterations"].append(info.iterations)
                     _interface_flows(heat, history, axi)
+                if stefan is not None:
+                    info = stefan.step(a, b, where)
+                    history["newton_iterations"].append(info.iterations)
                 output(b, k, k == nsteps - 1, where)
                 solve_s += _time.perf_counter() - tic
                 if staging is not None:          # (a run writing nothing has no checkpoints)
@@ -244,8 +273,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         bar.close()
     state_factorizations = state.factorizations()
     timings["solve_s"] = solve_s
-    dofs = (heat.X.ndof if heat else 0) + (mech.forms.X.ndof if mech else 0)
-    thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity == "temperature"), [])
+    dofs = (heat.X.ndof if heat else 0) + (stefan.forms.n if stefan else 0) + (mech.forms.X.ndof if mech else 0)
+    thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity in THERMAL), [])
     summary = {
         "scene": to_dict(scene),
         "versions": versions(),
@@ -265,11 +294,14 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         summary["resumed"] = state.resumed
     if mech is not None:
         summary["mechanics"] = mech.summary()
+    if stefan is not None:
+        summary["stefan"] = stefan.summary()
     if staging is not None:
         tic = _time.perf_counter()
-        _figures(scene, mesh, T, probes, staging.path / "figures", mech)
+        _figures(scene, mesh, T, probes, staging.path / "figures", mech, stefan)
         timings["output_s"] = _time.perf_counter() - tic
-    return RunResult(mesh=mesh, forms=heat, summary=summary, out=None, timings=timings, mechanics=mech)
+    return RunResult(mesh=mesh, forms=heat, summary=summary, out=None, timings=timings, mechanics=mech,
+                     stefan=stefan)
 
 
 def _stop(exc: BaseException, staging: OutputDir | None, state: RunState, snap: Snapshot | None, plan: Plan,
@@ -364,12 +396,13 @@ def _interface_flows(forms: HeatForms, history: dict, axi: bool) -> None:
         history["interface_heat_flow_W"].setdefault(master, []).append(q)
 
 
-def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None) -> None:
+def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None, stefan=None) -> None:
     if not scene.output.figures:
         return
     t_unit = "degC" if scene.scene.temperature_unit == "C" else "K"
     units = {"temperature": t_unit, "von_mises": "Pa", "mean_stress": "Pa", "sigma_1": "Pa", "sigma_3": "Pa",
-             "displacement_x": "m", "displacement_y": "m", "displacement_z": "m"}
+             "displacement_x": "m", "displacement_y": "m", "displacement_z": "m", "liquid_fraction": "-",
+             "front": "m from the line's first point"}
     groups: dict[str, list] = {}
     for p in probes.probes:
         if len(probes.times[p.name]) > 1:
@@ -389,6 +422,8 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
             figures.field_figure(arrays, vals, directory / "temperature_zoom.png",
                                  title=f"{scene.scene.name}: temperature, {_when(t_end)} (near field)",
                                  label=f"T ({t_unit})", axis_labels=labels, window=scene.output.figure_window)
+    if arrays is not None and stefan is not None:
+        _stefan_figures(scene, arrays, T, stefan, directory, labels, t_end, t_unit)
     if arrays is not None and mech is not None:
         _mechanics_figures(scene, mesh, arrays, mech, directory, labels, t_end)
         if mech.contact_output is not None:
@@ -398,9 +433,29 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
         span = times[-1] - times[0]
         unit, label = (YEAR, "t (years)") if span >= 2 * YEAR else (1.0, "t (s)")
         fname = "probes.png" if quantity == "temperature" else f"probes_{quantity}.png"
-        figures.time_curves(times, {n: probes.series[n] for n in names}, directory / fname,
+        curves = {n: np.array([np.nan if v is None else v for v in probes.series[n]], dtype=float) for n in names}
+        figures.time_curves(times, curves, directory / fname,
                             title=f"{scene.scene.name}: probes", ylabel=f"{quantity} ({units[quantity]})",
                             time_unit=unit, time_label=label)
+
+
+def _stefan_figures(scene: Scene, arrays, T, stefan: StefanRun, directory: Path, labels, t_end: float,
+                    t_unit: str) -> None:
+    """The temperature with the phase boundary (liquid_fraction = 1/2) at the last time, and the melted volume
+    fraction of each phase-change region over the output times."""
+    iso = stefan.phase_boundary()
+    figures.field_figure(arrays, vertex_values(T), directory / "phase_boundary.png",
+                         title=f"{scene.scene.name}: temperature and phase boundary, {_when(t_end)}",
+                         label=f"T ({t_unit})", axis_labels=labels, lines=iso.as_segments(),
+                         lines_label="phase boundary (liquid fraction 1/2)")
+    rec = stefan.records
+    if len(rec["time_s"]) > 1:
+        times = np.array(rec["time_s"])
+        span = times[-1] - times[0]
+        unit, label = (YEAR, "t (years)") if span >= 2 * YEAR else (1.0, "t (s)")
+        figures.time_curves(times, {r: np.array(v) / stefan.volume[r] for r, v in rec["melted_volume"].items()},
+                            directory / "melted_fraction.png", title=f"{scene.scene.name}: melted volume fraction",
+                            ylabel="liquid volume / region volume (-)", time_unit=unit, time_label=label)
 
 
 def _when(t: float | None) -> str:

@@ -33,8 +33,10 @@ def _save(fig, path: Path) -> None:
 
 
 def field_figure(m: MeshArrays, values: np.ndarray, path: Path, *, title: str, label: str,
-                 axis_labels=("x (m)", "y (m)"), window=None, cmap="inferno") -> None:
-    """A filled plot of vertex values with the region outlines; ``window`` = [xmin, xmax, ymin, ymax]."""
+                 axis_labels=("x (m)", "y (m)"), window=None, cmap="inferno", lines: np.ndarray | None = None,
+                 lines_label: str = "") -> None:
+    """A filled plot of vertex values with the region outlines; ``window`` = [xmin, xmax, ymin, ymax];
+    ``lines`` (k x 2 x 2 segment coordinates, e.g. an iso-line) are drawn over it, labelled ``lines_label``."""
     fig, ax = plt.subplots(figsize=(7, 5.5))
     tri = Triangulation(m.points[:, 0], m.points[:, 1], m.triangles)
     vmin = vmax = None
@@ -45,6 +47,11 @@ def field_figure(m: MeshArrays, values: np.ndarray, path: Path, *, title: str, l
             vmin, vmax = float(values[inside].min()), float(values[inside].max())
     pc = ax.tripcolor(tri, values, shading="gouraud", cmap=cmap, vmin=vmin, vmax=vmax)
     ax.add_collection(LineCollection(m.outline, colors="white", linewidths=0.8))
+    if lines is not None and len(lines):
+        ax.add_collection(LineCollection(np.asarray(lines)[:, :, :2], colors="cyan", linewidths=1.8,
+                                         label=lines_label or None))
+        if lines_label:
+            ax.legend(loc="best", fontsize=8, framealpha=0.8)
     fig.colorbar(pc, ax=ax, label=label)
     if window is not None:
         ax.set_xlim(window[0], window[1])

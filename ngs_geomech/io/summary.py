@@ -18,12 +18,16 @@ def versions() -> dict[str, str]:
     return out
 
 
-def probe_statistics(times: list[float], values: list[float]) -> dict[str, float]:
-    """Final, maximal and minimal value of a probe series and when they occur (s)."""
+def probe_statistics(times: list[float], values: list[float | None]) -> dict[str, float | None]:
+    """Final, maximal and minimal value of a probe series and when they occur (s). Missing values (None: e.g.
+    a front probe while there is no front) are skipped; ``final`` is the last value, None when it is missing."""
     if not values:
         return {}
-    i_max = max(range(len(values)), key=values.__getitem__)
-    i_min = min(range(len(values)), key=values.__getitem__)
+    have = [i for i, v in enumerate(values) if v is not None]
+    if not have:
+        return {"final": None}
+    i_max = max(have, key=values.__getitem__)
+    i_min = min(have, key=values.__getitem__)
     return {"final": values[-1], "max": values[i_max], "time_of_max": times[i_max],
             "min": values[i_min], "time_of_min": times[i_min]}
 

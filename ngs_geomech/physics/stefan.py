@@ -49,7 +49,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
-from .coefficients import expression_function, regions_regex
+from .coefficients import Steady, expression_function, regions_regex
 
 
 def _check_number(name: str, value, *, positive: bool = False, nonnegative: bool = False) -> float:
@@ -322,7 +322,9 @@ class StefanForms:
         s = self.setup
         _, v = self.V.TnT()
         self._loads = None
-        self._loads_static = all(getattr(_time_function(f), "time_dependent", True) is False
+        # assembled once only when every load is Steady (a Separable source, e.g. a decaying canister, is also
+        # flagged time_dependent = False for the heat forms, which scale its vector; here it must be reassembled)
+        self._loads_static = all(isinstance(_time_function(f), Steady)
                                  for f in list(s.sources.values()) + list(s.flux.values()))
         if not s.sources and not s.flux:
             return

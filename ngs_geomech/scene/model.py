@@ -33,6 +33,7 @@ SHAPES_3D = ("box", "cylinder")
 SELECTORS = ("all", "xmin", "xmax", "ymin", "ymax", "zmin", "zmax", "top", "bottom", "lateral")
 point = list_of(number)
 matrix = list_of(list_of(number))
+segment_points = list_of(point, 2)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -193,7 +194,17 @@ class TransverselyIsotropic:
 
 @dataclass(frozen=True, kw_only=True)
 class Material:
-    """``[materials.REGION]``: material data of one region, SI units."""
+    """``[materials.REGION]``: material data of one region, SI units.
+
+    Phase change (two-phase Stefan problem, seed (2.46)-(2.51), (2.55)): a region with
+    ``phase_change_temperature`` Theta_R (degC or K) melts above and freezes below it. Its enthalpy (J/m^3) is
+    e = C_s (T - Theta_R) for T < Theta_R, in [0, L] at Theta_R (the mushy part; liquid fraction e / L) and
+    L + C_l (T - Theta_R) above, with C_s = ``rho_c`` (or density * specific_heat) of the solid,
+    C_l = ``rho_c_liquid`` (or density * ``specific_heat_liquid``) and the volumetric latent heat
+    L = density * ``latent_heat`` (J/kg) or ``latent_heat_volumetric`` (J/m^3); the conductivity is
+    ``conductivity`` (solid) and ``conductivity_liquid`` (W/(m K), both isotropic). The phase boundary is where
+    the liquid fraction is 1/2. Only transient, backward Euler, P1 (mesh.order = 1), plane or 3D scenes.
+    """
 
     conductivity: object = field(optional(conductivity_value), None,
                                  doc="thermal conductivity kappa_ij, W/(m K): scalar or full symmetric tensor")
@@ -228,6 +239,25 @@ class Material:
                                                     ">1 hardening")
     reference_strain: float = field(number, 1e-3, doc="strain scale of the lambda law: c* = lambda (A1/A_ref)^"
                                                       "(lambda-1) c with A_ref the A1 of this uniaxial strain")
+    phase_change_temperature: float | None = field(
+        optional(number), None,
+        doc="Theta_R of (2.46)-(2.48), degC or K: the region melts (freezes) at this temperature; the Stefan problem "
+            "in enthalpy form (2.49)-(2.51), (2.55) replaces the heat equation (physics.thermal = 'transient'). "
+            "rho_c (or density * specific_heat) and conductivity are then the solid's (conductivity isotropic)")
+    latent_heat: float | None = field(optional(number), None,
+                                      doc="latent heat of fusion L per unit mass, J/kg (>= 0), with density: the "
+                                          "volumetric latent heat of (2.48) is density * latent_heat")
+    latent_heat_volumetric: float | None = field(optional(number), None,
+                                                 doc="rho L, J/m^3 (>= 0), instead of latent_heat (e.g. ice content "
+                                                     "of a frozen soil: porosity * 917 kg/m^3 * 334 kJ/kg)")
+    rho_c_liquid: float | None = field(optional(number), None,
+                                       doc="volumetric heat capacity of the liquid phase, J/(m^3 K) (> 0)")
+    specific_heat_liquid: float | None = field(optional(number), None,
+                                               doc="specific heat of the liquid phase, J/(kg K) (> 0), with density "
+                                                   "(instead of rho_c_liquid; the density is that of both phases)")
+    conductivity_liquid: float | None = field(optional(number), None,
+                                              doc="thermal conductivity of the liquid phase, W/(m K) (> 0, "
+                                                  "isotropic); the Kirchhoff variable (2.50) is piecewise linear")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -309,10 +339,16 @@ class Probe:
     """``[[output.probes]]``: a value recorded at each output time."""
 
     name: str = field(string, doc="probe name (key in summary.json)")
-    quantity: str = field(one_of("temperature", "displacement_x", "displacement_y", "displacement_z",
-                                 "von_mises", "mean_stress", "sigma_1", "sigma_3"), "temperature",
-                          doc="field to sample")
+    quantity: str = field(one_of("temperature", "liquid_fraction", "front", "displacement_x", "displacement_y",
+                                 "displacement_z", "von_mises", "mean_stress", "sigma_1", "sigma_3"), "temperature",
+                          doc="field to sample; with phase change also 'liquid_fraction' (0 solid .. 1 liquid, "
+                              "at a point or over a region) and 'front' (with line: the distance in m from the "
+                              "line's first point to the first crossing of liquid_fraction = 0.5 along it, "
+                              "recorded as null while there is none)")
     point: list | None = field(optional(point), None, doc="a point, m")
+    line: list | None = field(optional(segment_points), None,
+                              doc="front probes: [[x0, y0], [x1, y1]] (3D: [x, y, z]), m, sampled finely from the "
+                                  "first point to the second")
     region: str | None = field(optional(string), None, doc="a region (max/min/mean over it)")
     boundary: str | None = field(optional(string), None, doc="a boundary (max/min/mean over it)")
     statistic: str = field(one_of("value", "max", "min", "mean"), "value",

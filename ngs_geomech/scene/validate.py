@@ -18,7 +18,13 @@ from ..elastic_materials import MaterialError, axisymmetric, elastic_properties
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel, build_geometry, scene_dim
 from ..geometry.shapes import cells, sides
-from ..materials import conductivity_tensor, volumetric_heat_capacity
+from ..materials import (
+    conductivity_tensor,
+    has_phase_change,
+    isotropic_conductivity,
+    phase_change_problems,
+    volumetric_heat_capacity,
+)
 from .model import Scene
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -30,6 +36,7 @@ def validate(scene: Scene) -> GeometryModel:
     _check_names(scene, problems)
     _check_settings(scene, problems)
     _check_materials(scene, problems)
+    _check_phase_change(scene, problems)
     geo = None
     if not any(p.item.startswith("blocks") for p in problems):
         try:
@@ -278,6 +285,61 @@ def _check_materials(scene: Scene, problems: list[Problem]) -> None:
                 problems.append(Problem(f"materials.{name}.density", "gravity is on: every region needs a density"))
 
 
+def stefan_scene(scene: Scene) -> bool:
+    """Whether the scene is solved as a Stefan problem: some material has a phase change and the thermal
+    problem is transient (the enthalpy solver replaces the heat solver)."""
+    return scene.physics.thermal == "transient" and any(has_phase_change(m) for m in scene.materials.values())
+
+
+def _check_phase_change(scene: Scene, problems: list[Problem]) -> None:
+    """Phase-change keys of each material, and what the Stefan solver supports (seed (2.46)-(2.51), (2.55): P1,
+    lumped, backward Euler, isotropic constant conductivity per phase, no Robin condition, plane or 3D)."""
+    pcm = [n for n, m in scene.materials.items() if has_phase_change(m)]
+    for name, mat in scene.materials.items():
+        for key, msg in phase_change_problems(mat):
+            problems.append(Problem(f"materials.{name}.{key}", msg))
+    if not pcm:
+        return
+    ph = scene.physics
+    if ph.thermal is None:
+        problems.append(Problem(f"materials.{pcm[0]}.phase_change_temperature", "a phase change needs "
+                                "physics.thermal = 'transient' (the Stefan problem), but physics.thermal is off"))
+        return
+    if ph.thermal == "steady":
+        problems.append(Problem("physics.thermal", f"'steady' with a phase change in {pcm}: the Stefan problem is "
+                                "time-dependent (the phase boundary moves); use thermal = 'transient' with [time], "
+                                "or remove phase_change_temperature"))
+        return
+    why = f"the Stefan (phase change) solver, used because of the phase change in {pcm},"
+    if scene.scene.dimension == "axisymmetric":
+        problems.append(Problem("scene.dimension", f"'axisymmetric': {why} has no axisymmetric (r-weighted) form; "
+                                "use a plane or 3d scene"))
+    if scene.mesh.order != 1:
+        problems.append(Problem("mesh.order", f"{scene.mesh.order}: {why} uses lumped P1 elements; set "
+                                "mesh.order = 1 (refine with mesh.maxh instead)"))
+    if scene.time is not None and scene.time.scheme != "backward_euler":
+        problems.append(Problem("time.scheme", f"{scene.time.scheme!r}: {why} steps with backward Euler (seed "
+                                "(2.55)); set time.scheme = 'backward_euler'"))
+    for name, bc in scene.boundary_conditions.items():
+        if bc.heat_transfer_coefficient is not None:
+            problems.append(Problem(f"boundary_conditions.{name}.heat_transfer_coefficient", f"{why} does not "
+                                    "take a heat transfer (Robin) condition; give a temperature or a flux"))
+    dim = scene_dim(scene)
+    for name, mat in scene.materials.items():
+        if mat.conductivity_temperature_coefficient != 0:
+            problems.append(Problem(f"materials.{name}.conductivity_temperature_coefficient", f"{why} takes a "
+                                    "constant conductivity per phase (conductivity, conductivity_liquid); set it to 0"))
+        try:
+            conductivity_tensor(mat, dim)
+        except ValueError:
+            continue                    # reported by _check_materials
+        try:
+            isotropic_conductivity(mat, dim)
+        except ValueError as exc:
+            key = "conductivity_principal" if mat.conductivity_principal is not None else "conductivity"
+            problems.append(Problem(f"materials.{name}.{key}", str(exc)))
+
+
 def _mechanical_kinds(bc) -> list[str]:
     kinds = [k for k, v in (("displacement", bc.displacement), ("traction", bc.traction), ("pressure", bc.pressure),
                             ("foundation", bc.foundation)) if v is not None]
@@ -346,6 +408,14 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
                     problems.append(Problem("boundary_conditions", f"a steady heat problem needs a temperature or "
                                             f"heat_transfer_coefficient condition on every body heat cannot leave "
                                             f"otherwise: block(s) {members} have none{why}"))
+    if stefan_scene(scene):
+        for i, itf in enumerate(scene.interfaces):
+            cs = geo.contacts.get(itf.name)
+            if cs is not None and not cs.initial_gap:
+                problems.append(Problem(f"interfaces[{i}] ({itf.name}).type", f"contact interface {itf.name!r} "
+                                        "couples the temperature by the mortar method, which the Stefan (phase "
+                                        "change) solver does not support (one P1 space on conforming meshes): make "
+                                        "it type = 'glued' for this scene"))
     if scene.physics.mechanics is not None:
         for i, itf in enumerate(scene.interfaces):
             cs = geo.contacts.get(itf.name)
@@ -356,11 +426,31 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
                                         "the sides could never come into contact"))
     for i, pr in enumerate(scene.output.probes):
         p = f"output.probes[{i}] ({pr.name})"
-        targets = [k for k in ("point", "region", "boundary") if getattr(pr, k) is not None]
+        targets = [k for k in ("point", "region", "boundary", "line") if getattr(pr, k) is not None]
         if len(targets) != 1:
-            problems.append(Problem(p, "give exactly one of point, region, boundary"))
+            problems.append(Problem(p, "give exactly one of point, region, boundary, line"))
             continue
-        needs = "thermal" if pr.quantity == "temperature" else "mechanics"
+        if pr.quantity in ("liquid_fraction", "front") and not stefan_scene(scene):
+            if not any(has_phase_change(m) for m in scene.materials.values()):   # else: reported there
+                problems.append(Problem(f"{p}.quantity", f"{pr.quantity!r} needs a phase change (a material with "
+                                        "phase_change_temperature and physics.thermal = 'transient')"))
+            continue
+        if (pr.quantity == "front") != (pr.line is not None):
+            problems.append(Problem(f"{p}.line" if pr.line is not None else f"{p}.quantity",
+                                    "a line goes with quantity = 'front' (and a front probe needs a line)"))
+            continue
+        if pr.line is not None:
+            a, b = (np.asarray(q, dtype=float) for q in pr.line)
+            if pr.statistic != "value":
+                problems.append(Problem(f"{p}.statistic", "a front probe has statistic 'value'"))
+            if len(a) != geo.dim or len(b) != geo.dim:
+                problems.append(Problem(f"{p}.line", f"needs two points of {geo.dim} coordinates"))
+            elif not float(np.linalg.norm(b - a)) > 0:
+                problems.append(Problem(f"{p}.line", "the two points must differ"))
+            elif not _inside(geo, pr.line[0]):
+                problems.append(Problem(f"{p}.line", f"the first point {pr.line[0]} lies outside the geometry"))
+            continue
+        needs = "thermal" if pr.quantity in ("temperature", "liquid_fraction") else "mechanics"
         if getattr(scene.physics, needs) is None:
             problems.append(Problem(f"{p}.quantity", f"{pr.quantity!r} needs physics.{needs}"))
         if pr.quantity == "displacement_z" and geo.dim != 3:
