@@ -12,31 +12,52 @@ parts are closed: a node at a kink counts as mushy, see :meth:`StefanForms.nodal
 is k_s or k_l of the node's interval. With D = dT/de, a Newton step J de = -R, J = m/dt + A'(T) D, is computed
 on the temperatures of the non-mushy free nodes N (dT = 0 on the mushy ones M, de_N = dT_N / D_N):
 
-    (m C/dt + A'(T))_NN dT_N = -R_N,        de_M = -(dt/m)(R + A'(T) dT)_M,
+    (m C/dt + A'(T))_NN dT_N = -R_N,        de_M = -(dt/m)(R + A'(T) dT)_M.
 
-the first a symmetric positive definite system when no PCM has k_s != k_l (sparse Cholesky), else a general
-one (UMFPACK). R is piecewise linear in e: once every node is on its final branch (solid, mushy or liquid) the
-next Newton step is exact, so Newton ends after a small number of iterations, about one more than the number of
-element layers the phase boundary crosses in the step (each iteration moves it by about one layer). With dt
-refined with h that number stays O(1): this is why the unknown is the enthalpy (single valued, Lipschitz
-inverse graph, exact per-node semismoothness) rather than the temperature with the multivalued graph.
+R is piecewise linear in e: once every node is on its final branch (solid, mushy or liquid) the next Newton
+step is exact, so Newton ends after a small number of iterations, about one more than the number of element
+layers the phase boundary crosses in the step (each iteration moves it by about one layer). With dt refined
+with h that number stays O(1): this is why the unknown is the enthalpy (single valued, Lipschitz inverse graph,
+exact per-node semismoothness) rather than the temperature with the multivalued graph. The first iterate is the
+old state plus dt times the last step's rate of change (a predictor: fewer nodes change branch during the
+iteration). No damping or line search: none was needed in the measurements.
 
-Two cheap aids, both exact: the first iterate is the old state plus dt times the last step's rate of change
-(a predictor: fewer nodes change branch during the iteration), and the last factorization is reused when the
-branches of all nodes and dt are unchanged. No damping or line search: none was needed in the measurements.
+Linear algebra (:class:`_ColumnJacobian`). The system above is solved as the larger, block triangular system
+on all free nodes in mixed unknowns (dT_j on a non-mushy node, a multiple of de_j on a mushy one), whose column
+j is (m_j C_j/dt) e_j + sum_g K_g[:, j] dtheta_g(T_j), without its off-diagonal part when j is mushy (the mushy
+rows do not feed back into N, so dT_N is the same; de_M is then taken from the explicit formula above, which
+keeps exact zeros ahead of a one-phase front). In that form a column belongs to one node, so the Newton
+matrices of all iterations and steps differ from a factored reference matrix only in the columns of the nodes
+whose branch changed since it was factored, a few per step: they are solved exactly (to round-off) with one
+sparse LU factorization (SuperLU) kept over many steps and a Sherman-Morrison-Woodbury correction of the size of
+the changed set (two solves per iteration and one solve per newly changed node). It is refactored when the
+changed set is large, when dt changes, or when a node outside the factored set (mushy nodes far from any
+sensible one are left out: a one-phase solid at Theta_R) turns sensible. Keeping the diagonal of a mushy
+column equal to the sensible one makes the correction of a node entering or leaving the flat part a change of
+off-diagonal entries only: with the bare m_j C_j/dt the corrected solves of the one-phase problem left
+residuals of 1e-11 instead of 1e-14 and Newton needed more iterations (mean 1.35 instead of 1.10 at
+h = 0.003125).
 
-Measured (Neumann strips of :mod:`ngs_geomech.verification.stefan`, P1, h = 0.05 .. 0.0125 m, dt = 0.2 h s/m):
-mean 1.1-1.9 and max 2-5 iterations per step, 1.5-1.8 factorizations per step at the finest level; with dt = 4 h
-(the front crosses several layers per step) mean 8, max 13; a step asking the front to cross dozens of layers
-does not converge in 25 iterations and raises SolverError. The stopping test is on the nodal residual: the
-enthalpy defect max_i |R_i| dt/m_i (J/m^3) of the free nodes below ``tol`` times the enthalpy scale of the
-step (the largest latent heat or C times the temperature range, whichever is larger); when it passes the defect
-is at rounding level, since the last step was exact. A step that does not converge raises SolverError with the
-residual history and the nodes that still switch branch (never NaN).
+Measured in one run against the previous solver (one sparse Cholesky or UMFPACK factorization of the reduced
+system per Newton iteration whose branches differ from the last one) on the Neumann strips of
+:mod:`ngs_geomech.verification.stefan`, P1, dt = 0.2 h s/m, one NGSolve and one BLAS thread: the same Newton
+iterations and errors (the states agree to the Newton tolerance, max |de| <= 7e-13 J/m^3), 0.02 - 0.07
+factorizations per step (0.5 - 1.8 before), time per step two-phase 0.80 -> 0.32, 8.8 -> 1.2, 20.6 -> 4.5,
+148 -> 34 ms (h = 0.05, 0.0125, 0.00625, 0.003125 m; 215 ... 42k nodes), one-phase 0.49 -> 0.30,
+2.0 -> 0.7, 12.2 -> 7.8 ms (h = 0.05, 0.0125, 0.003125): 2 - 3.6 linear heat steps (factorization reused)
+instead of 4 - 24. Two BLAS threads on a busy 2-core machine made the steps up to 1.8 x slower (SuperLU's
+multi-column solves and the small dense systems): run with one. With dt = 4 h (the front crosses several
+layers per step) mean 8, max 13 iterations; a step asking the front to cross dozens of layers does not
+converge in 25 iterations and raises SolverError. The stopping test is on the nodal residual: the enthalpy
+defect max_i |R_i| dt/m_i (J/m^3) of the free nodes below ``tol`` times the enthalpy scale of the step (the
+largest latent heat or C times the temperature range, whichever is larger). A step that does not converge
+raises SolverError with the residual history and the nodes that still switch branch (never NaN).
+``studies/stefan_performance`` measures iterations and the time per step against a linear heat step.
 
 Smeared variant (:class:`ApparentHeatCapacitySolver`): the apparent heat capacity method with the capacity
 lagged, m C_app(T_old)(T - T_old)/dt + A(T) = F with C_app = C + L/(2 delta) for |T - Theta_R| < delta, solved by
-Newton's method for the Kirchhoff kink of A (one linear solve when k_s = k_l). The fully implicit form
+Newton's method for the Kirchhoff kink of A (one linear solve when k_s = k_l), with the same linear algebra (its
+columns change where C_app(T_old) or the Kirchhoff slope changes). The fully implicit form
 C_app(T)(T - T_old) was tried first: its residual jumps at Theta_R +- delta and Newton cycled between two
 iterates from the first steps of the Neumann problems (delta = h, 4 h and 0.05 K), so it is not offered. The
 lagged form is not conservative (C_app(T_old)(T - T_old) is not the change of the smeared enthalpy e_delta) and
@@ -51,67 +72,240 @@ from dataclasses import dataclass
 
 import ngsolve as ngs
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
-from ..physics.stefan import NodalState, PhaseChangeMaterial, StefanForms
-from .linear import inverse
+from ..physics.stefan import NodalState, PhaseChangeMaterial, StefanForms, _time_function
 
 
 @dataclass
 class StefanStepInfo:
     """What one step did: ``iterations`` (linear solves), the final ``residual`` (max nodal enthalpy defect,
     J/m^3), ``boundary_heat`` (heat that entered through the Dirichlet nodes during the step, J per metre of
-    depth in 2D, J in 3D), ``source_heat`` (sources and fluxes, same units) and ``phase_changes`` (nodes whose
-    branch, solid/mushy/liquid, changed in the step)."""
+    depth in 2D, J in 3D), ``source_heat`` (sources and fluxes, same units), ``phase_changes`` (nodes whose
+    branch, solid/mushy/liquid, changed in the step), ``factorizations`` (sparse LU factorizations in the step)
+    and ``corrections`` (new low-rank correction columns, one solve each, see :class:`_ColumnJacobian`)."""
 
     iterations: int
     residual: float
     boundary_heat: float
     source_heat: float
     phase_changes: int
+    factorizations: int = 0
+    corrections: int = 0
 
 
-class _Jacobian:
-    """(m C/dt + A'(T)) on the common stiffness pattern, factored on a set of free nodes."""
+class _ColumnJacobian:
+    """Solves with M = diag(d) + sum_g (K_g - diag K_g) diag(w_g) on the free nodes, reusing one factorization.
 
-    def __init__(self, forms: StefanForms):
-        self.f = forms
-        self.values = forms.jacobian.AsVector().FV().NumPy()
-        self.rhs = forms.jacobian.CreateColVector()
+    Every Newton matrix of this module has that form: column j belongs to node j alone (its diagonal d_j and the
+    off-diagonal stiffness entries K_g[:, j] scaled by w_gj), so a matrix differs from the last factored one, M0,
+    only in the columns of the nodes S whose (d_j, w_j) changed since: M = M0 + U E_S^T with U = (M - M0) E_S
+    sparse (the stiffness neighbours of S). The Sherman-Morrison-Woodbury formula gives, exactly up to round-off,
+
+        M^-1 b = M0^-1 (b - U t),    (I + E_S^T M0^-1 U) t = E_S^T M0^-1 b,
+
+    two solves with M0 and a dense |S| x |S| system. Its matrix is built from the rows v_i = M0^-T e_i, i in S
+    (one solve per node, cached until the next factorization, whatever branches the node visits), taken only
+    at the non-zeros of U. Columns without off-diagonal part (w_j = 0: the mushy nodes of the Stefan solver)
+    decouple: the rows of such nodes do not enter the other unknowns, so M0 is factored only on the nodes with
+    w_j != 0 and a halo of ``HALO`` stiffness neighbours around them (where a front can move to before the
+    next factorization); the other unknowns are returned as 0 (their values are not used). M is factored again
+    (SuperLU, scipy; M0^T, whose single solves and multi-column solves are the faster ones) when more than
+    ``max_changed`` nodes have been cached (default: (6 nnz(LU))^(1/3), where the dense system costs about what
+    a solve does, and at most 1.6e7 / (unknowns) to bound the cache at 128 MB), when a node outside the factored
+    set gets w_j != 0, when dt changes (every diagonal entry does), or when the small system is singular.
+    """
+
+    HALO = 8
+
+    def __init__(self, forms: StefanForms, max_changed: int | None = None):
+        f = forms
+        self.free = np.nonzero(f.free)[0]
+        nF = len(self.free)
+        self.nF = nF
+        pos = np.full(f.n, -1)
+        pos[self.free] = np.arange(nF)
+        r, c = pos[f.pattern_rows], pos[f.pattern_cols]
+        keep = np.nonzero((r >= 0) & (c >= 0))[0]
+        sel = keep[np.lexsort((r[keep], c[keep]))]            # the free x free pattern in CSC order
+        self._rows = r[sel]
+        self._cols = c[sel]
+        self._indptr = np.concatenate([[0], np.cumsum(np.bincount(self._cols, minlength=nF))])
+        self._diag = np.nonzero(self._rows == self._cols)[0]
+        if len(self._diag) != nF:
+            raise AssertionError("Stefan Jacobian: a diagonal entry is missing from the pattern")
+        self._kdata = [K.data[sel] for K in f.stiffness]
+        self._kdiag = [kd[self._diag].copy() for kd in self._kdata]
+        for kd in self._kdata:
+            kd[self._diag] = 0.0                      # the off-diagonal part; the diagonal is d
+        self._transpose = np.lexsort((self._cols, self._rows))
+        if not (np.array_equal(self._rows[self._transpose], self._cols)
+                and np.array_equal(self._cols[self._transpose], self._rows)):
+            raise AssertionError("Stefan Jacobian: the stiffness pattern is not symmetric")
+        self._graph = sp.csr_matrix((np.ones(len(self._rows), dtype=np.int32), self._rows, self._indptr),
+                                    shape=(nF, nF))
+        self.max_changed = None if max_changed is None else int(max_changed)
         self.factorizations = 0
-        self._key = None
-        self._inv = None
+        self.corrections = 0
+        """Solves for the rows v_i (one per node and factorization)."""
+        self.lu = None
+        self.dt0 = math.nan
+        self._d0 = self._w0 = None
+        self._A = np.zeros(0, dtype=int)                # the factored unknowns (free numbering)
+        self._amap = np.full(nF, -1)                    # free -> factored numbering, -1: not factored
+        self._full = False
+        self._slot = np.full(nF, -1)                    # node -> its column of _store (v_i), -1: none yet
+        self._used = 0
+        self._store = np.zeros((0, 0))
+        self._limit = 0
 
-    def conduction_values(self, dtheta: np.ndarray) -> np.ndarray:
-        """Values of A'(T) = sum_g K_g diag(dtheta_g) in CSR order."""
-        f = self.f
-        vals = np.zeros(len(f.pattern_cols))
-        for g, K in enumerate(f.stiffness):
-            vals += K.data * dtheta[f.pattern_cols, g]
-        return vals
+    def _factor(self, d: np.ndarray, w: np.ndarray, dt: float, where: str) -> None:
+        offdiag = np.any(w != 0.0, axis=1)
+        inA = offdiag.copy()
+        for _ in range(self.HALO):
+            if inA.all():
+                break
+            inA |= (self._graph @ inA.astype(np.int32)) > 0
+        self._A = np.nonzero(inA)[0]
+        nA = len(self._A)
+        self._full = nA == self.nF
+        self._amap[:] = -1
+        self._amap[self._A] = np.arange(nA)
+        data = np.zeros(len(self._rows))
+        for g, kd in enumerate(self._kdata):
+            data += kd * w[self._cols, g]
+        data[self._diag] += d
+        data = data[self._transpose]                  # M0^T in the same (symmetric) pattern
+        self.lu = None
+        self._slot[:] = -1
+        self._used = 0
+        self.dt0, self._d0, self._w0 = dt, d.copy(), w.copy()
+        if nA == 0:
+            return
+        if self._full:
+            mat = sp.csc_matrix((data, self._rows, self._indptr), shape=(nA, nA))
+        else:
+            keep = inA[self._rows] & inA[self._cols]
+            cols = self._amap[self._cols[keep]]
+            indptr = np.concatenate([[0], np.cumsum(np.bincount(cols, minlength=nA))])
+            mat = sp.csc_matrix((data[keep], self._amap[self._rows[keep]], indptr), shape=(nA, nA))
+        try:
+            self.lu = spla.splu(mat)
+        except RuntimeError as exc:                   # "Factor is exactly singular"
+            raise SolverError(f"Stefan Newton step at {where}: the factorization failed ({exc}); check the "
+                              "material data (capacities and conductivities must be > 0) and the time step.") from None
+        self.factorizations += 1
+        if self.max_changed is not None:
+            self._limit = max(self.max_changed, 0)
+        else:
+            self._limit = int(max(16, min((6.0 * self.lu.nnz) ** (1 / 3), 1.6e7 / nA)))
+        if self._store.shape[0] != nA:
+            self._store = np.zeros((nA, 0))
 
-    def solve(self, key: tuple, vals, diag, active: np.ndarray, rhs: np.ndarray, where: str):
-        """Solve with the matrix of ``vals`` (CSR order) + ``diag`` on the ``active`` nodes. ``key`` (arrays
-        and numbers that determine the matrix: the nodal branches and dt) lets the last factorization be
-        reused when nothing changed; ``vals`` and ``diag`` may be callables, evaluated only when needed."""
-        f = self.f
-        if self._key is None or not _same_key(self._key, key):
-            self.values[:] = vals() if callable(vals) else vals
-            self.values[f.diagonal_positions] += diag() if callable(diag) else diag
-            self._inv = inverse(f.jacobian, ngs.BitArray(active.tolist()), f.symmetric,
-                                what=f"Stefan Newton step at {where}",
-                                hint="a region without Dirichlet data is entirely mushy; reduce the time step.")
-            self._key = key
-            self.factorizations += 1
-        inv = self._inv
-        self.rhs.FV().NumPy()[:] = rhs
-        out = (inv * self.rhs).Evaluate().FV().NumPy().copy()
-        out[~active] = 0.0
-        return out
+    def _solve0(self, b: np.ndarray) -> np.ndarray:
+        """M0^-1 b (free numbering; 0 outside the factored set)."""
+        if self._full:
+            return self.lu.solve(b, trans="T")
+        x = np.zeros(self.nF)
+        if self.lu is not None:
+            x[self._A] = self.lu.solve(b[self._A], trans="T")
+        return x
+
+    def _columns(self, S: np.ndarray, d: np.ndarray, w: np.ndarray):
+        """The non-zeros of (M - M0) E_S in the factored rows, column by column: rows (factored numbering),
+        values, the owning column (0 .. |S|-1) and where each column starts."""
+        starts, ends = self._indptr[S], self._indptr[S + 1]
+        lens = ends - starts
+        first = np.cumsum(lens) - lens
+        pos = np.arange(int(lens.sum())) - np.repeat(first, lens) + np.repeat(starts, lens)
+        owner = np.repeat(np.arange(len(S)), lens)
+        vals = np.zeros(len(pos))
+        for g, kd in enumerate(self._kdata):
+            dw = w[S, g] - self._w0[S, g]
+            if np.any(dw):
+                vals += kd[pos] * dw[owner]
+        vals[first + self._diag[S] - starts] += d[S] - self._d0[S]
+        rows = self._amap[self._rows[pos]]
+        if not self._full:                            # rows of unfactored (decoupled) nodes are not needed
+            kept = rows >= 0
+            rows, vals, owner = rows[kept], vals[kept], owner[kept]
+            lens = np.bincount(owner, minlength=len(S))
+            first = np.cumsum(lens) - lens
+        return rows, vals, owner, first
+
+    def _add_rows(self, new: np.ndarray) -> None:
+        """v_i = M0^-T e_i for the nodes ``new`` (not cached yet): one batch of solves."""
+        used, nA = self._used, len(self._A)
+        if used + len(new) > self._store.shape[1]:
+            grown = np.zeros((nA, min(self._limit, max(2 * self._store.shape[1], used + len(new), 32))))
+            grown[:, :used] = self._store[:, :used]
+            self._store = grown
+        E = np.zeros((nA, len(new)))
+        E[self._amap[new], np.arange(len(new))] = 1.0
+        self._store[:, used:used + len(new)] = self.lu.solve(E)
+        self._slot[new] = np.arange(used, used + len(new))
+        self._used = used + len(new)
+        self.corrections += len(new)
+
+    def solve(self, mc: np.ndarray, wd: np.ndarray, w: np.ndarray, b: np.ndarray, dt: float,
+              where: str) -> np.ndarray:
+        """Solve M x = b on the free nodes, M = diag(d) + sum_g (K_g - diag K_g) diag(w_g) with the diagonal
+        d = ``mc`` / dt + sum_g diag(K_g) ``wd``_g (``mc``: m times a capacity; ``wd``, ``w``: free nodes x
+        groups; the diagonal weights ``wd`` may differ from ``w``). The unknowns of nodes with w_j = 0 come out
+        as 0 when they are not factored (see the class docstring). A dt within 1e-12 relative of the factored one
+        is taken as that one (the steps t1 - t0 of a constant schedule differ in the last bits)."""
+        if self.nF == 0:
+            return np.zeros(0)
+        if self._d0 is not None and abs(dt - self.dt0) <= 1e-12 * self.dt0:
+            dt = self.dt0
+        d = mc / dt
+        for g, kd in enumerate(self._kdiag):
+            d = d + kd * wd[:, g]
+        if self._d0 is None or dt != self.dt0:
+            self._factor(d, w, dt, where)
+            return self._solve0(b)
+        changed = (d != self._d0) | np.any(w != self._w0, axis=1)
+        if not self._full:
+            outside = changed & (self._amap < 0)
+            if np.any(outside) and np.any(w[outside] != 0.0):
+                self._factor(d, w, dt, where)
+                return self._solve0(b)
+            changed &= self._amap >= 0
+        S = np.nonzero(changed)[0]
+        if not len(S):
+            return self._solve0(b)
+        new = S[self._slot[S] < 0]
+        if self._used + len(new) > self._limit:
+            self._factor(d, w, dt, where)
+            return self._solve0(b)
+        if len(new):
+            self._add_rows(new)
+        rows, vals, owner, first = self._columns(S, d, w)
+        # E_S^T M0^-1 U: the rows v_i (i in S) at the non-zeros of U, summed per column of U
+        small = np.add.reduceat(self._store[rows, :self._used][:, self._slot[S]] * vals[:, None], first, axis=0).T
+        small.flat[::len(S) + 1] += 1.0
+        bA = b if self._full else b[self._A]
+        y = self.lu.solve(bA, trans="T")
+        try:
+            t = np.linalg.solve(small, y[self._amap[S]])
+        except np.linalg.LinAlgError:
+            t = None
+        if t is None or not np.all(np.isfinite(t)):
+            self._factor(d, w, dt, where)
+            return self._solve0(b)
+        xA = self.lu.solve(bA - np.bincount(rows, weights=vals * t[owner], minlength=len(self._A)), trans="T")
+        if self._full:
+            return xA
+        x = np.zeros(self.nF)
+        x[self._A] = xA
+        return x
 
 
-def _same_key(a: tuple, b: tuple) -> bool:
-    return len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
+def _branch(st: NodalState) -> np.ndarray:
+    """Per node: the interval index on a sensible branch, -1 - the flat part's index on a mushy one."""
+    return np.where(st.mushy, -1 - st.segment, st.segment)
 
 
 def _conduction_derivative_apply(forms: StefanForms, dtheta: np.ndarray, dT: np.ndarray) -> np.ndarray:
@@ -122,18 +316,24 @@ class StefanSolver:
     """Backward Euler steps of the enthalpy formulation by the semi-smooth Newton method (module docstring).
 
     ``e`` holds the nodal enthalpy (J/m^3); set it with :meth:`set_initial`. ``tol`` is relative to the
-    enthalpy scale, ``maxit`` the largest number of Newton iterations per step.
+    enthalpy scale, ``maxit`` the largest number of Newton iterations per step, ``max_changed`` the number of
+    changed nodes after which the Newton matrix is factored again (default: see :class:`_ColumnJacobian`).
     """
 
-    def __init__(self, forms: StefanForms, tol: float = 1e-10, maxit: int = 25, predictor: bool = True):
+    def __init__(self, forms: StefanForms, tol: float = 1e-10, maxit: int = 25, predictor: bool = True,
+                 max_changed: int | None = None):
         self.f = forms
         self.tol = tol
         self.maxit = maxit
         self.predictor = predictor
         self.e = np.zeros(forms.n)
         self._last_change = None          # (e_new - e_old)/dt of the last step
-        self.jac = _Jacobian(forms)
+        self.jac = _ColumnJacobian(forms, max_changed)
         self.iterations: list[int] = []
+        self._state = None                # (e, NodalState of e) of the last step's end
+        self._dirichlet_static = all(getattr(_time_function(v), "time_dependent", True) is False
+                                     for v in forms.setup.dirichlet.values())
+        self._dirichlet_cache = None
 
     @property
     def factorizations(self) -> int:
@@ -175,6 +375,20 @@ class StefanSolver:
         span = float(np.max(T) - np.min(T)) if T.size else 0.0
         return max(lat, float(np.max(f.capacity)) * span, 1e-300)
 
+    def _old_state(self, e: np.ndarray) -> NodalState:
+        """The nodal state of ``e``: the last step's final state when ``e`` is still its result."""
+        if self._state is not None and np.array_equal(self._state[0], e):
+            return self._state[1]
+        return self.f.nodal_state(e)
+
+    def _dirichlet_temperatures(self, t: float) -> np.ndarray:
+        """Dirichlet temperatures at t (interpolated once when none depends on t)."""
+        if not self._dirichlet_static:
+            return self.f.dirichlet_temperatures(t)
+        if self._dirichlet_cache is None:
+            self._dirichlet_cache = self.f.dirichlet_temperatures(t)
+        return self._dirichlet_cache
+
     def step(self, t_old: float, t_new: float) -> StefanStepInfo:
         """One backward Euler step from t_old to t_new (s): Dirichlet data, sources and fluxes at t_new."""
         f = self.f
@@ -182,66 +396,77 @@ class StefanSolver:
         if not (dt > 0 and math.isfinite(dt)):
             raise ValueError(f"Stefan step: dt must be positive and finite, got {dt} (t_old {t_old}, t_new {t_new})")
         where = f"t = {t_new:g} s"
+        fact0, corr0 = self.jac.factorizations, self.jac.corrections
         e_old = self.e.copy()
-        st_old = f.nodal_state(e_old)
+        st_old = self._old_state(e_old)
         e = e_old.copy()
         if self.predictor and self._last_change is not None:
             e[f.free] += dt * self._last_change[f.free]
         if len(f.dirichlet_dofs):
-            T_D = f.dirichlet_temperatures(t_new)
+            T_D = self._dirichlet_temperatures(t_new)
             d = f.dirichlet_dofs
-            T = st_old.T.copy()
-            T[d] = T_D
-            e_new = f.enthalpy_of(T)
             changed = T_D != st_old.T[d]
-            e[d[changed]] = e_new[d[changed]]
+            if np.any(changed):
+                T = st_old.T.copy()
+                T[d] = T_D
+                e[d[changed]] = f.enthalpy_of(T)[d[changed]]
         F = f.loads(t_new)
         free = f.free
         m = f.mass
-        scale = self._scale(np.concatenate([st_old.T, f.nodal_state(e).T]))
+        jfree = self.jac.free                        # the free nodes (indices)
+        dt_m = dt / m
+        dt_m_free = dt_m[jfree]
+        rows = np.arange(f.n)
         history = []
-        last_switch = np.zeros(0, dtype=int)
-        prev_branch = None
+        prev_st = None
         it = 0
         while True:
             st = f.nodal_state(e)
+            if it == 0:
+                scale = self._scale(np.concatenate([st_old.T, st.T]))
             R = m * (e - e_old) / dt + f.conduction(st.T) - F
-            defect = np.abs(R[free]) * dt / m[free]
-            res = float(np.max(defect)) if defect.size else 0.0
+            Rf = R[jfree]
+            res = float(np.max(np.abs(Rf) * dt_m_free)) if len(jfree) else 0.0
             if not math.isfinite(res):
                 raise SolverError(f"Stefan Newton step at {where}: the residual is not finite "
                                   f"(history {history}). Check the material data and the time step.")
             history.append(res)
-            branch = np.where(st.mushy, -1 - st.segment, st.segment)
-            if prev_branch is not None:
-                last_switch = np.nonzero(branch != prev_branch)[0]
-            prev_branch = branch
             if res <= self.tol * scale:
                 break
             if it >= self.maxit:
-                raise SolverError(self._diagnosis(where, history, last_switch, st, scale))
+                switching = (np.zeros(0, dtype=int) if prev_st is None
+                             else np.nonzero(_branch(st) != _branch(prev_st))[0])
+                raise SolverError(self._diagnosis(where, history, switching, st, scale))
+            prev_st = st
             dtheta = f.kirchhoff_derivatives(st)
-            active = free & ~st.mushy
-            capacity = f.capacity[np.arange(f.n), st.segment]      # 1/D on the non-mushy nodes
-            dT = self.jac.solve((active, st.segment, dt), lambda: self.jac.conduction_values(dtheta),
-                                lambda: np.where(active, m * capacity / dt, 1.0), active,
-                                -np.where(active, R, 0.0), where)
+            capacity = f.capacity[rows, st.segment]      # 1/D on the non-mushy nodes
+            # the Newton matrix in mixed unknowns (dT on the non-mushy nodes, a multiple of de on the mushy ones):
+            # column j is (m_j C_j/dt) e_j + sum_g K_g[:, j] dtheta_gj, without its off-diagonal part when j is
+            # mushy (the diagonal kept, so that a node entering or leaving the flat part changes only the
+            # off-diagonal entries of its column: a well-conditioned update); the mushy rows decouple
+            # (block triangular), so dT on the non-mushy nodes is the Schur-reduced Newton step
+            sensible = ~st.mushy[jfree]
+            dth = dtheta[jfree]
+            x = self.jac.solve((m * capacity)[jfree], dth, dth * sensible[:, None], -Rf * sensible, dt, where)
+            dT = np.zeros(f.n)
+            dT[jfree] = x * sensible
             y = _conduction_derivative_apply(f, dtheta, dT)
-            de = np.zeros(f.n)
-            de[active] = dT[active] / st.dT_de[active]
-            mushy_free = free & st.mushy
-            de[mushy_free] = -(dt / m[mushy_free]) * (R[mushy_free] + y[mushy_free])
+            # de = C dT on the non-mushy nodes; on the mushy ones from their rows: -(dt/m)(R + A'(T) dT)
+            de = np.where(st.mushy, -dt_m * (R + y), dT * capacity)
+            de[~free] = 0.0
             e = e + de
             it += 1
         boundary_heat = float(dt * np.sum(R[~free]))
         self._last_change = (e - e_old) / dt
         self.e = e
+        self._state = (e.copy(), st)
         f.store(e)
-        old_branch = np.where(st_old.mushy, -1 - st_old.segment, st_old.segment)
         self.iterations.append(max(it, 1))
         return StefanStepInfo(iterations=max(it, 1), residual=res, boundary_heat=boundary_heat,
                               source_heat=float(dt * np.sum(F)),
-                              phase_changes=int(np.count_nonzero(branch != old_branch)))
+                              phase_changes=int(np.count_nonzero(_branch(st) != _branch(st_old))),
+                              factorizations=self.jac.factorizations - fact0,
+                              corrections=self.jac.corrections - corr0)
 
     def _diagnosis(self, where, history, switching, st: NodalState, scale) -> str:
         f = self.f
@@ -274,7 +499,7 @@ class ApparentHeatCapacitySolver:
         self.tol = tol
         self.maxit = maxit
         self.T = np.zeros(forms.n)
-        self.jac = _Jacobian(forms)
+        self.jac = _ColumnJacobian(forms)
         self.iterations: list[int] = []
 
     @property
@@ -320,8 +545,9 @@ class ApparentHeatCapacitySolver:
                                   f"iterations (defect history ... {hist} J/m^3); reduce the time step.")
             seg = np.minimum(np.count_nonzero(T[:, None] > f.breakpoints[None, :], axis=1), K)
             dtheta = f.group_conductivity[:, seg].T
-            dT = self.jac.solve((seg, c, dt), lambda: self.jac.conduction_values(dtheta), m * c / dt, free,
-                                -np.where(free, R, 0.0), where)
+            jf = self.jac.free
+            dT = np.zeros(f.n)
+            dT[jf] = self.jac.solve((m * c)[jf], dtheta[jf], dtheta[jf], -R[jf], dt, where)
             T = T + dT
             it += 1
         self.T = T

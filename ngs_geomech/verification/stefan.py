@@ -31,6 +31,8 @@ Nothing here prints or writes files; every function returns a plain dict.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import math
 import time
 from dataclasses import dataclass
@@ -283,6 +285,38 @@ def _linear_step_times(mesh, problem: NeumannProblem, T0: np.ndarray, steps) -> 
     return float(np.mean(reused)), float(np.mean(fresh))
 
 
+@contextlib.contextmanager
+def single_threaded_blas():
+    """Every OpenBLAS loaded in the process (NGSolve's, numpy's, scipy's: from /proc/self/maps, Linux only) set
+    to one thread, restored on exit; yields how many were set. With two BLAS threads on the shared 2-core machine
+    the Stefan steps at 16k nodes took 14 instead of 8 ms (SuperLU's multi-column solves and the small dense
+    systems), the threads spinning while the other core was busy."""
+    try:
+        with open("/proc/self/maps") as fh:
+            paths = sorted({line.split()[-1] for line in fh if "openblas" in line.lower()
+                            and line.split()[-1].startswith("/")})
+    except OSError:
+        paths = []
+    changed = []
+    for path in paths:
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for prefix, suffix in (("openblas", ""), ("scipy_openblas", "64_"), ("scipy_openblas", "")):
+            setter = getattr(lib, f"{prefix}_set_num_threads{suffix}", None)
+            getter = getattr(lib, f"{prefix}_get_num_threads{suffix}", None)
+            if setter is not None and getter is not None:
+                changed.append((setter, int(getter())))
+                setter(1)
+                break
+    try:
+        yield len(changed)
+    finally:
+        for setter, old in changed:
+            setter(old)
+
+
 def neumann_strip(problem: NeumannProblem, h: float, dt: float, t0: float, t1: float, height: float = 0.1,
                   method: str = "enthalpy", delta: float | None = None, linear_reference: bool = True,
                   initial: str = "project") -> dict:
@@ -301,14 +335,17 @@ def neumann_strip(problem: NeumannProblem, h: float, dt: float, t0: float, t1: f
     the latent heat of the element cut by the front is counted; 'interpolate' takes e(T) at the nodes), ``newton_mean``,
     ``newton_max``, ``steps``, ``ndofs``, ``time_per_step`` (s), ``linear_step_time`` (s, factorization
     reused), ``linear_step_time_factor`` (s, with assembly and factorization), the ratios ``time_ratio`` and
-    ``time_ratio_factor``, ``factorizations``. Runs on one NGSolve thread (the timings compare like with like;
-    idle worker threads made sparse Cholesky 30 times slower at 500 dofs).
+    ``time_ratio_factor``, ``factorizations`` (and ``factorizations_per_step``), ``corrections_per_step`` (the
+    Newton solver's low-rank correction columns, one solve each) and ``phase_changes_per_step`` (nodes changing
+    between solid, mushy and liquid). Runs on one NGSolve thread and one BLAS thread
+    (:func:`single_threaded_blas`; the timings compare like with like; idle worker threads made sparse Cholesky
+    30 times slower at 500 dofs).
     """
     if method not in ("enthalpy", "apparent"):
         raise ValueError(f"method must be 'enthalpy' or 'apparent', got {method!r}")
     if not 0 < t0 < t1:
         raise ValueError(f"need 0 < t0 < t1, got t0 = {t0}, t1 = {t1}")
-    with one_ngsolve_thread():
+    with one_ngsolve_thread(), single_threaded_blas():
         return _neumann_strip(problem, h, dt, t0, t1, height, method, delta, linear_reference, initial)
 
 
@@ -336,12 +373,13 @@ def _neumann_strip(problem, h, dt, t0, t1, height, method, delta, linear_referen
         energy0 = forms.heat_content(solver.enthalpy())
     steps = list(schedule(t0, t1, dt))
     boundary_heat = 0.0
-    iters, times = [], []
+    iters, times, changes = [], [], []
     for a, b in steps:
         start = time.perf_counter()
         info = solver.step(a, b)
         times.append(time.perf_counter() - start)
         iters.append(info.iterations)
+        changes.append(info.phase_changes)
         boundary_heat += info.boundary_heat
     if method == "enthalpy":
         T = solver.temperature()
@@ -374,7 +412,10 @@ def _neumann_strip(problem, h, dt, t0, t1, height, method, delta, linear_referen
            "energy_error_rel": abs(gain - q_exact) / q_exact,
            "initial_energy_error_rel": abs(energy0 - e_cold - q_initial) / q_initial,
            "newton_mean": float(np.mean(iters)), "newton_max": int(np.max(iters)),
-           "factorizations": int(solver.factorizations), "time_per_step": float(np.mean(times))}
+           "factorizations": int(solver.factorizations), "time_per_step": float(np.mean(times)),
+           "factorizations_per_step": solver.factorizations / len(steps),
+           "corrections_per_step": getattr(solver.jac, "corrections", 0) / len(steps),
+           "phase_changes_per_step": float(np.mean(changes))}
     if linear_reference:
         reused, fresh = _linear_step_times(mesh, problem, T0, steps)
         out.update(linear_step_time=reused, linear_step_time_factor=fresh,
