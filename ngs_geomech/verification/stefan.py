@@ -24,7 +24,8 @@ Measured at t1: the front from the temperatures (where T_h crosses Theta_R along
 interpolation between nodes; a mushy node is at Theta_R, so this front moves from node to node) and from the
 melted volume (lumped liquid fractions / height), the L2 temperature error, the energy balance, Newton
 iterations per step and the wall time per step against a linear heat step (:class:`HeatSolver`, constant
-liquid properties, its factorization reused as in a linear run) on the same mesh in the same run.
+liquid properties, its factorization reused as in a linear run) on the same mesh in the same run (blocks of
+Stefan steps and of linear steps alternate, so that both see the same load of the machine).
 
 Nothing here prints or writes files; every function returns a plain dict.
 """
@@ -257,32 +258,36 @@ def initial_enthalpy(forms: StefanForms, problem: NeumannProblem, t: float) -> n
     return forms.project_enthalpy(problem.sensible_enthalpy_cf(t)) + latent
 
 
-def _linear_step_times(mesh, problem: NeumannProblem, T0: np.ndarray, steps) -> tuple[float, float]:
-    """Wall times (s) of one step of :class:`HeatSolver` on the same mesh with the liquid's constant properties:
-    (mean over ``steps`` with the factorization reused, as in a linear run with constant dt; mean of three
-    steps that factor again, the cache cleared before each). The first step (set-up) is not counted."""
-    m = problem.material
-    setup = HeatSetup(props={"pcm": ThermalProperties(kappa=m.conductivity_liquid * np.eye(2),
-                                                      rho_c=m.rho_c_liquid)},
-                      dirichlet={"hot": expression_function(problem.t_hot), "far": expression_function(problem.t_cold)})
-    forms = HeatForms(mesh, setup)
-    solver = HeatSolver(forms)
-    forms.gf.vec.FV().NumPy()[:] = T0
+class _LinearReference:
+    """Steps of :class:`HeatSolver` on the same mesh with the liquid's constant properties and the strip's
+    Dirichlet data, from the initial temperatures ``T0``: :meth:`step` times one backward Euler step with the
+    factorization reused (as in a linear run with constant dt; the first call, the set-up, factors),
+    :meth:`fresh` one with the cache cleared (assembly and factorization included). Wall and CPU (process) s."""
 
-    def one(a, b, fresh: bool) -> float:
+    def __init__(self, mesh, problem: NeumannProblem, T0: np.ndarray):
+        m = problem.material
+        setup = HeatSetup(props={"pcm": ThermalProperties(kappa=m.conductivity_liquid * np.eye(2),
+                                                          rho_c=m.rho_c_liquid)},
+                          dirichlet={"hot": expression_function(problem.t_hot),
+                                     "far": expression_function(problem.t_cold)})
+        self.forms = HeatForms(mesh, setup)
+        self.solver = HeatSolver(self.forms)
+        self.forms.gf.vec.FV().NumPy()[:] = T0
+
+    def step(self, a: float, b: float, fresh: bool = False) -> tuple[float, float]:
+        forms = self.forms
         if fresh:
-            solver._cache.clear()
-        start = time.perf_counter()
+            self.solver._cache.clear()
+        start, cpu = time.perf_counter(), time.process_time()
         forms.gf_old.vec.data = forms.gf.vec
         forms.t_old.Set(a)
         forms.t_new.Set(b)
         forms.inv_dt.Set(1.0 / (b - a))
-        solver.solve(f"linear reference step to t = {b:g} s")
-        return time.perf_counter() - start
-    one(*steps[0], fresh=True)
-    reused = [one(a, b, fresh=False) for a, b in steps]
-    fresh = [one(a, b, fresh=True) for a, b in steps[:3]]
-    return float(np.mean(reused)), float(np.mean(fresh))
+        self.solver.solve(f"linear reference step to t = {b:g} s")
+        return time.perf_counter() - start, time.process_time() - cpu
+
+    def fresh(self, a: float, b: float) -> tuple[float, float]:
+        return self.step(a, b, fresh=True)
 
 
 @contextlib.contextmanager
@@ -335,11 +340,12 @@ def neumann_strip(problem: NeumannProblem, h: float, dt: float, t0: float, t1: f
     the latent heat of the element cut by the front is counted; 'interpolate' takes e(T) at the nodes), ``newton_mean``,
     ``newton_max``, ``steps``, ``ndofs``, ``time_per_step`` (s), ``linear_step_time`` (s, factorization
     reused), ``linear_step_time_factor`` (s, with assembly and factorization), the ratios ``time_ratio`` and
-    ``time_ratio_factor``, ``factorizations`` (and ``factorizations_per_step``), ``corrections_per_step`` (the
-    Newton solver's low-rank correction columns, one solve each) and ``phase_changes_per_step`` (nodes changing
-    between solid, mushy and liquid). Runs on one NGSolve thread and one BLAS thread
-    (:func:`single_threaded_blas`; the timings compare like with like; idle worker threads made sparse Cholesky
-    30 times slower at 500 dofs).
+    ``time_ratio_factor``, the same in CPU (process) time ``cpu_time_per_step``, ``linear_step_cpu_time``,
+    ``time_ratio_cpu`` (factorization reused; less disturbed by other jobs on the machine), ``factorizations``
+    (and ``factorizations_per_step``), ``corrections_per_step`` (the Newton solver's low-rank correction
+    columns, one solve each) and ``phase_changes_per_step`` (nodes changing between solid, mushy and liquid).
+    Runs on one NGSolve thread and one BLAS thread (:func:`single_threaded_blas`; the timings compare like with
+    like; idle worker threads made sparse Cholesky 30 times slower at 500 dofs).
     """
     if method not in ("enthalpy", "apparent"):
         raise ValueError(f"method must be 'enthalpy' or 'apparent', got {method!r}")
@@ -373,14 +379,28 @@ def _neumann_strip(problem, h, dt, t0, t1, height, method, delta, linear_referen
         energy0 = forms.heat_content(solver.enthalpy())
     steps = list(schedule(t0, t1, dt))
     boundary_heat = 0.0
-    iters, times, changes = [], [], []
-    for a, b in steps:
-        start = time.perf_counter()
-        info = solver.step(a, b)
-        times.append(time.perf_counter() - start)
-        iters.append(info.iterations)
-        changes.append(info.phase_changes)
-        boundary_heat += info.boundary_heat
+    iters, times, cpus, changes, lin = [], [], [], [], []
+    reference = _LinearReference(mesh, problem, T0) if linear_reference else None
+    if reference is not None:
+        reference.step(*steps[0])                     # set-up and factorization, not counted
+    block = max(25, -(-len(steps) // 5))
+    for k in range(0, len(steps), block):
+        # five blocks of Stefan steps and of as many linear steps alternate, so that both are timed under the
+        # same load of the shared machine (the linear step alone varied by 40 % between runs); shorter blocks
+        # slowed the linear steps more than the Stefan ones (caches cold at each switch: blocks of 18 steps
+        # at 10.8k nodes, linear +15 %, Stefan +1 %), 5 blocks within the noise
+        cpu = time.process_time()
+        for a, b in steps[k:k + block]:
+            start = time.perf_counter()
+            info = solver.step(a, b)
+            times.append(time.perf_counter() - start)
+            iters.append(info.iterations)
+            changes.append(info.phase_changes)
+            boundary_heat += info.boundary_heat
+        cpus.append(time.process_time() - cpu)
+        if reference is not None:
+            lin += [reference.step(a, b) for a, b in steps[k:k + block]]
+    cpu_per_step = float(np.sum(cpus)) / len(steps)
     if method == "enthalpy":
         T = solver.temperature()
         e1 = solver.e
@@ -413,13 +433,17 @@ def _neumann_strip(problem, h, dt, t0, t1, height, method, delta, linear_referen
            "initial_energy_error_rel": abs(energy0 - e_cold - q_initial) / q_initial,
            "newton_mean": float(np.mean(iters)), "newton_max": int(np.max(iters)),
            "factorizations": int(solver.factorizations), "time_per_step": float(np.mean(times)),
+           "cpu_time_per_step": cpu_per_step,
            "factorizations_per_step": solver.factorizations / len(steps),
            "corrections_per_step": getattr(solver.jac, "corrections", 0) / len(steps),
            "phase_changes_per_step": float(np.mean(changes))}
-    if linear_reference:
-        reused, fresh = _linear_step_times(mesh, problem, T0, steps)
+    if reference is not None:
+        lin = np.array(lin)
+        reused, reused_cpu = float(np.mean(lin[:, 0])), float(np.mean(lin[:, 1]))
+        fresh = float(np.mean([reference.fresh(a, b)[0] for a, b in steps[:3]]))
         out.update(linear_step_time=reused, linear_step_time_factor=fresh,
-                   time_ratio=out["time_per_step"] / reused, time_ratio_factor=out["time_per_step"] / fresh)
+                   time_ratio=out["time_per_step"] / reused, time_ratio_factor=out["time_per_step"] / fresh,
+                   linear_step_cpu_time=reused_cpu, time_ratio_cpu=cpu_per_step / reused_cpu)
     return out
 
 
