@@ -106,8 +106,9 @@ class RunState:
     """The objects of a run whose state a checkpoint holds (any of them None when the scene lacks it)."""
 
     def __init__(self, scene_dict: dict, mesh, heat, heat_solver, mech, probes, vtk, lines: dict, history: dict,
-                 stefan=None):
+                 stefan=None, coupling=None):
         self.scene_dict = scene_dict
+        self.coupling = coupling
         self.stefan = stefan
         self.mesh = mesh
         self.heat = heat
@@ -158,6 +159,8 @@ class RunState:
         if self.stefan is not None:
             stefan_arrays, stefan_lengths = self.stefan.capture()
             arrays.update(stefan_arrays)
+        if self.coupling is not None:
+            arrays.update(self.coupling.capture())
         latest: list = []
         if self.mech is not None:
             m = self.mech
@@ -175,7 +178,8 @@ class RunState:
                    "flows": {n: len(v) for n, v in self.history["interface_heat_flow_W"].items()},
                    "vtk": len(self.vtk.entries) if self.vtk is not None else 0,
                    "lines": {n: len(s.entries) for n, s in self.lines.items()},
-                   "stefan": stefan_lengths}
+                   "stefan": stefan_lengths,
+                   "coupling": len(self.history["coupling"]["passes"]) if "coupling" in self.history else 0}
         if self.mech is not None:
             m = self.mech
             lengths["mech_times"] = len(m.times)
@@ -194,6 +198,7 @@ class RunState:
                 "probes": {"times": {n: p.times[n][:L["probes"][n]] for n in p.times},
                            "series": {n: p.series[n][:L["probes"][n]] for n in p.series}},
                 "history": {"newton_iterations": self.history["newton_iterations"][:L["newton"]],
+                            "coupling": {n: v[:L["coupling"]] for n, v in self.history.get("coupling", {}).items()},
                             "interface_heat_flow_W": {n: v[:L["flows"].get(n, 0)] for n, v in
                                                       self.history["interface_heat_flow_W"].items()}},
                 "vtk": self.vtk.entries[:L["vtk"]] if self.vtk is not None else [],
@@ -229,6 +234,10 @@ class RunState:
             p.times[n][:] = meta["probes"]["times"].get(n, [])
             p.series[n][:] = meta["probes"]["series"].get(n, [])
         self.history["newton_iterations"][:] = meta["history"]["newton_iterations"]
+        for n, v in meta["history"].get("coupling", {}).items():
+            self.history["coupling"][n][:] = v
+        if self.coupling is not None:
+            self.coupling.restore(arrays)
         self.history["interface_heat_flow_W"].clear()
         self.history["interface_heat_flow_W"].update(meta["history"]["interface_heat_flow_W"])
         if self.vtk is not None:

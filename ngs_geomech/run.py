@@ -39,10 +39,12 @@ from .io.progress import Progress
 from .io.summary import finite, probe_statistics, versions
 from .io.vtk import VtkSeries
 from .physics.elasticity import ElasticForms, stress_measures
+from .physics.stefan import vertex_rules
 from .physics.thermal import HeatForms
 from .probes import THERMAL, ProbeSet
 from .problems.contact import check_supported, contact_specs, contact_warnings
 from .problems.contact_output import ContactOutput
+from .problems.coupled import KELVIN, DeformationHeating, relative_change
 from .problems.heat import heat_setup, initial_temperature
 from .problems.mechanics import elastic_setup, mechanics_warnings
 from .problems.stefan import StefanRun
@@ -141,7 +143,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     fields = {"region": mesh.MaterialCF({n: i for i, n in enumerate(mesh.GetMaterials())}, default=-1)}
     heat = solver = T = stefan = None
     if stefan_scene(scene):           # phase change: the enthalpy (Stefan) solver replaces the heat solver
-        stefan = StefanRun(scene, mesh)
+        stefan = StefanRun(scene, mesh, geo)
         T = stefan.fields["temperature"]
         fields.update(stefan.fields)
     elif scene.physics.thermal:
@@ -160,6 +162,10 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         if show:
             for w in mech.warnings:
                 print(f"warning: {w}", flush=True)
+    coupling = None
+    if scene.physics.coupling != "none" and mech is not None and T is not None:
+        coupling = _deformation_heating(scene, mesh, mech, heat, stefan)
+        fields["deformation_heating"] = coupling.source
     probes = ProbeSet(mesh, scene.output.probes, axi)
     timings["setup_s"] = _time.perf_counter() - tic
     vtk = None
@@ -175,7 +181,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     if stefan is not None:
         phi = stefan.fields["liquid_fraction"]
         thermal_fields.update(liquid_fraction=phi, front=phi)
-    history = {"newton_iterations": [], "interface_heat_flow_W": {}}
+    history = {"newton_iterations": [], "interface_heat_flow_W": {},
+               "coupling": {"passes": [], "deformation_heat": [], "change_T": [], "change_u": []}}
     solve_s = 0.0
 
     def output(t: float, k: int | None, last: bool, where: str) -> None:
@@ -187,7 +194,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         if stefan is not None:
             stefan.record(t)
         if mech is not None:
-            mech.solve(t, where)
+            if coupling is None or k is None:        # coupled runs solve the mechanics in every step
+                mech.solve(t, where)
             probes.record(t, mech.probe_fields)
         if vtk:
             vtk.write(t)
@@ -203,7 +211,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     ts = scene.time
     transient = scene.physics.thermal == "transient" or (heat is None and ts is not None)
     all_lines = dict(lines, **({"phase_boundary__": boundary_series} if boundary_series is not None else {}))
-    state = RunState(to_dict(scene), mesh, heat, solver, mech, probes, vtk, all_lines, history, stefan)
+    state = RunState(to_dict(scene), mesh, heat, solver, mech, probes, vtk, all_lines, history, stefan, coupling)
     if not transient:
         tic = _time.perf_counter()
         if heat is not None:
@@ -246,17 +254,19 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                 k = plan.k0 + j
                 tic = _time.perf_counter()
                 where = f"step {k + 1} (t = {format_time(b)})"
-                if heat is not None:
-                    heat.gf_old.vec.data = heat.gf.vec
-                    heat.t_old.Set(a)
-                    heat.t_new.Set(b)
-                    heat.inv_dt.Set(1.0 / (b - a))
-                    info = solver.solve(where)
-                    history["newton_iterations"].append(info.iterations)
-                    _interface_flows(heat, history, axi)
-                if stefan is not None:
-                    info = stefan.step(a, b, where)
-                    history["newton_iterations"].append(info.iterations)
+                if coupling is not None:
+                    _coupled_step(scene, a, b, where, heat, solver, stefan, mech, coupling, history)
+                    if heat is not None:
+                        _interface_flows(heat, history, axi)
+                else:
+                    if heat is not None:
+                        _heat_step(heat, solver, a, b)
+                        info = solver.solve(where)
+                        history["newton_iterations"].append(info.iterations)
+                        _interface_flows(heat, history, axi)
+                    if stefan is not None:
+                        info = stefan.step(a, b, where)
+                        history["newton_iterations"].append(info.iterations)
                 output(b, k, k == nsteps - 1, where)
                 solve_s += _time.perf_counter() - tic
                 if staging is not None:          # (a run writing nothing has no checkpoints)
@@ -296,12 +306,94 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         summary["mechanics"] = mech.summary()
     if stefan is not None:
         summary["stefan"] = stefan.summary()
+    if coupling is not None:
+        summary["coupling"] = _coupling_summary(scene, history["coupling"])
     if staging is not None:
         tic = _time.perf_counter()
         _figures(scene, mesh, T, probes, staging.path / "figures", mech, stefan)
         timings["output_s"] = _time.perf_counter() - tic
     return RunResult(mesh=mesh, forms=heat, summary=summary, out=None, timings=timings, mechanics=mech,
                      stefan=stefan)
+
+
+def _heat_step(heat: HeatForms, solver: HeatSolver, a: float, b: float) -> None:
+    """Set a heat step from a to b (s) up: the old state and the times."""
+    heat.gf_old.vec.data = heat.gf.vec
+    heat.t_old.Set(a)
+    heat.t_new.Set(b)
+    heat.inv_dt.Set(1.0 / (b - a))
+
+
+def _deformation_heating(scene: Scene, mesh, mech, heat: HeatForms | None, stefan: StefanRun | None):
+    """The deformation-heating source of problem (P_c) against the heat problem's test functions."""
+    offset = KELVIN if scene.scene.temperature_unit == "C" else 0.0
+    if stefan is not None:
+        V = stefan.forms.V
+        return DeformationHeating(mech.forms, V, V.TestFunction(), ngs.dx(intrules=vertex_rules(mesh.dim)), 1.0,
+                                  offset)
+    tests = heat.X.TestFunction()
+    v = tests[0] if heat.setup.contacts else tests
+    return DeformationHeating(mech.forms, heat.X, v, heat.volume_measure(), heat.weight, offset)
+
+
+def _coupled_step(scene: Scene, a: float, b: float, where: str, heat, solver, stefan, mech, coupling,
+                  history: dict) -> None:
+    """One step of problem (P_c) (:mod:`ngs_geomech.problems.coupled`): the heat step with the deformation
+    heating of the last displacement rate, then the mechanics at b; 'iterated' repeats the pair with the new
+    rate until T and u change by less than physics.coupling_tolerance between passes."""
+    ph = scene.physics
+    dt = b - a
+    coupling.start_step()
+    mark = stefan.mark() if stefan is not None else None
+    if heat is not None:
+        _heat_step(heat, solver, a, b)
+    passes = ph.coupling_max_iterations if ph.coupling == "iterated" else 1
+    prev = None
+    dT = du = 0.0
+    for p in range(passes):
+        if p and stefan is not None:
+            stefan.rewind(mark)
+        load = coupling.load()
+        if stefan is not None:
+            info = stefan.step(a, b, where, load)
+            T_now = stefan.forms.gf_temperature.vec.FV().NumPy().copy()
+        else:
+            heat.extra_load = coupling.vector()
+            info = solver.solve(where)
+            T_now = heat.temperature().vec.FV().NumPy().copy()
+        mech.solve(b, f"{where}, coupling pass {p + 1}", record=False)
+        coupling.set_rate(dt)
+        u_now = mech.forms.gf.vec.FV().NumPy().copy()
+        if prev is not None:
+            dT, du = relative_change(T_now, prev[0]), relative_change(u_now, prev[1])
+        if ph.coupling == "staggered" or (prev is not None and dT <= ph.coupling_tolerance
+                                          and du <= ph.coupling_tolerance):
+            break
+        prev = (T_now, u_now)
+    else:
+        raise SolverError(f"coupled heat-mechanics step at {where}: the heat and mechanics steps still differ after "
+                          f"{passes} passes (relative changes between the last two: T {dT:.2e}, u {du:.2e}; "
+                          f"physics.coupling_tolerance {ph.coupling_tolerance:g}). Reduce the time step, raise "
+                          "physics.coupling_max_iterations, or use coupling = 'staggered'.")
+    history["newton_iterations"].append(info.iterations)
+    c = history["coupling"]
+    c["passes"].append(p + 1)
+    c["deformation_heat"].append(float(dt * np.sum(load)))
+    c["change_T"].append(dT)
+    c["change_u"].append(du)
+    mech.record(b)
+
+
+def _coupling_summary(scene: Scene, c: dict) -> dict:
+    passes = c["passes"]
+    return {"mode": scene.physics.coupling,
+            "deformation_heating": "-Theta_0 beta : e(u_t) (2.49), W/m^3 (field deformation_heating)",
+            "passes_per_step": {"mean": float(np.mean(passes)) if passes else 0.0, "max": int(max(passes, default=0))},
+            "deformation_heat_total": float(np.sum(c["deformation_heat"])),
+            "deformation_heat_per_step": c["deformation_heat"],
+            "units": {"deformation_heat": "J per m of depth" if scene.scene.dimension != "3d" else "J"},
+            "last_change_T_max": float(max(c["change_T"], default=0.0)),
+            "last_change_u_max": float(max(c["change_u"], default=0.0))}
 
 
 def _stop(exc: BaseException, staging: OutputDir | None, state: RunState, snap: Snapshot | None, plan: Plan,
@@ -370,9 +462,14 @@ class _Mechanics:
             self.probe_fields["displacement_z"] = u[2]
         self.times: list[float] = []
 
-    def solve(self, t: float, where: str) -> None:
+    def solve(self, t: float, where: str, record: bool = True) -> None:
         self.forms.t.Set(t)
         self.solver.solve(where)
+        if record:
+            self.record(t)
+
+    def record(self, t: float) -> None:
+        """Keep the solution of the last solve as the one at time t (s)."""
         self.times.append(t)
         if self.contact_output is not None:
             self.contact_output.record(t, self.solver)

@@ -196,22 +196,30 @@ def test_liquid_fraction_probe_needs_a_phase_change():
         validate(scene_from_dict(data))
 
 
-def test_contact_interface_with_mortar_heat_coupling_is_refused_by_name():
+def test_contact_interface_thermal_penalty_is_checked_by_name():
+    """Contact interfaces between touching blocks pass heat in Stefan scenes (jump penalty); thermal_penalty
+    is refused where it does not apply (glued interfaces, scenes without phase change) and when not > 0."""
     data = neumann_scene()
     data["blocks"] = [{"name": "pcm", "shape": "rectangle", "origin": [0.0, 0.0], "size": [0.5, HEIGHT],
                        "boundaries": {"hot": "xmin"}},
                       {"name": "rock", "shape": "rectangle", "origin": [0.5, 0.0], "size": [0.5, HEIGHT],
                        "boundaries": {"far": "xmax"}}]
-    data["interfaces"] = [{"name": "cut", "blocks": ["pcm", "rock"], "type": "contact"}]
+    data["interfaces"] = [{"name": "cut", "blocks": ["pcm", "rock"], "type": "contact", "thermal_penalty": 100.0}]
     data["materials"]["rock"] = {"conductivity": 3.0, "rho_c": 2e6}
     data["output"]["probes"] = []
-    with pytest.raises(SceneError) as info:
-        validate(scene_from_dict(data))
-    print(f"\n{info.value}")
-    (problem,) = info.value.problems
-    assert problem.item == "interfaces[0] (cut).type" and "mortar" in problem.message and "glued" in problem.message
-    data["interfaces"][0]["type"] = "glued"
     validate(scene_from_dict(data))
+    for change, text in (({"type": "glued"}, "a glued interface shares its nodes"),
+                         ({"thermal_penalty": 0.0}, "must be > 0")):
+        bad = {**data, "interfaces": [{**data["interfaces"][0], **change}]}
+        with pytest.raises(SceneError) as info:
+            validate(scene_from_dict(bad))
+        (problem,) = info.value.problems
+        assert problem.item == "interfaces[0] (cut).thermal_penalty" and text in problem.message, problem
+    plain = {**data, "materials": {"pcm": {"conductivity": 1.0, "rho_c": 2e6}, "rock": data["materials"]["rock"]}}
+    with pytest.raises(SceneError) as info:
+        validate(scene_from_dict(plain))
+    assert any(p.item == "interfaces[0] (cut).thermal_penalty" and "Stefan" in p.message
+               for p in info.value.problems), info.value.problems
 
 
 # -- (d) the built-in scene -----------------------------------------------------------------------------------

@@ -34,6 +34,21 @@ temperature of the touching PCMs), whose inverse beta_i is what the solver uses.
 regions; the Kirchhoff variable is taken per region, so different conductivity laws may meet.
 With lumping and a non-obtuse mesh the scheme keeps the discrete maximum principle (K_r is an M-matrix).
 
+Contact interfaces (two bodies meshed independently, non-matching nodes on the two sides) pass heat by a
+penalty on the temperature jump, approximating the continuity T^k = T^l, equal fluxes of (2.43):
+
+    A_Gamma(T) = gamma_c B^T D^-1 B T,     (B T)_i = int_Gamma mu_i (T_m - T_s) ds,   D_i = int_Gamma mu_i ds,
+
+with mu_i the P1 hat functions of the master side (segment-based mortar integrals,
+:mod:`ngs_geomech.physics.mortar`), i.e. gamma_c times the squared jump averaged around each master node: an
+interface conductance gamma_c (W/(m^2 K)). Its columns sum to zero (the heat leaving one side enters the
+other: the energy balance stays exact) and it is symmetric positive semi-definite (the step stays monotone).
+gamma_c = penalty * k_max / h (k_max the larger conductivity of the two sides, h the mean length of the master
+segments; ``penalty`` dimensionless, default 1e3): the jump is then about 1/penalty of the temperature drop over
+one element (measured in tests/test_stefan_interfaces.py). It enters the Newton matrix as one more "group"
+with a linear Kirchhoff map (theta = T). It is not an M-matrix (neighbouring minion nodes get positive
+couplings), so the discrete maximum principle holds only up to O(1/penalty) at the interface.
+
 Backward Euler with any step dt (the seed's time discretization (2.55)). Energy is conserved exactly by the
 discrete equations: sum_i m_i (e_i - e_i^old) = dt (sum_i F_i + boundary inflow at the Dirichlet nodes), since
 the columns of every K_r sum to zero.
@@ -154,12 +169,19 @@ class StefanSetup:
     :class:`PlainThermalMaterial`; ``dirichlet`` maps boundary names to temperatures (K; number, expression
     in x, y, z, t or TimeFunction); ``flux`` maps boundary names to the heat flux into the body (W/m^2);
     ``sources`` maps region names to power densities (W/m^3). Unnamed boundaries are insulated.
+    ``interfaces`` lists contact interfaces as (master boundary, minion boundary, penalty): heat passes by the
+    jump penalty of the module docstring (penalty dimensionless, > 0).
     """
 
     materials: dict[str, StefanMaterial]
     dirichlet: dict[str, object] = field(default_factory=dict)
     flux: dict[str, object] = field(default_factory=dict)
     sources: dict[str, object] = field(default_factory=dict)
+    interfaces: list[tuple[str, str, float]] = field(default_factory=list)
+
+
+DEFAULT_INTERFACE_PENALTY = 1e3
+"""gamma_c = penalty * k_max / h of a contact interface (module docstring)."""
 
 
 def vertex_rules(dim: int) -> dict:
@@ -213,6 +235,11 @@ class StefanForms:
         bad = sorted(set(setup.sources) - regions)
         if bad:
             raise ValueError(f"Stefan problem: source region(s) {bad} not in the mesh")
+        for master, minion, penalty in setup.interfaces:
+            bad = sorted({master, minion} - boundaries)
+            if bad:
+                raise ValueError(f"Stefan problem: interface side(s) {bad} not in the mesh")
+            _check_number(f"penalty of interface {master!r}", penalty, positive=True)
         for name, mat in setup.materials.items():
             if not isinstance(mat, (PhaseChangeMaterial, PlainThermalMaterial)):
                 raise ValueError(f"Stefan problem: material of region {name!r} must be a PhaseChangeMaterial or a "
@@ -273,11 +300,22 @@ class StefanForms:
             K = sp.csr_matrix((np.array(vals), np.array(cols), np.array(ptr)), shape=(self.n, self.n))
             if pattern is None:
                 pattern = (K.indices.copy(), K.indptr.copy())
-                # one NGSolve matrix with the same pattern holds the Jacobians (values in CSR order)
-                self.jacobian = a.mat.CreateMatrix()
             elif not (np.array_equal(pattern[0], K.indices) and np.array_equal(pattern[1], K.indptr)):
                 raise AssertionError("Stefan forms: the region stiffness matrices do not share one pattern")
             self.stiffness.append(K)
+        self.interface_conductance: list[float] = []
+        if self.setup.interfaces:
+            KG = self._interface_matrix()
+            K0 = self.stiffness[0]
+            ones = [sp.csr_matrix((np.ones(len(M.indices)), M.indices, M.indptr), shape=(self.n, self.n))
+                    for M in (K0, KG)]
+            union = (ones[0] + ones[1]).tocsr()              # structural union (no cancellation)
+            union.sort_indices()
+            rows = np.repeat(np.arange(self.n), np.diff(union.indptr))
+            self.stiffness = [sp.csr_matrix((np.asarray(K[rows, union.indices]).ravel(), union.indices.copy(),
+                                             union.indptr.copy()), shape=(self.n, self.n))
+                              for K in self.stiffness + [KG]]
+            pattern = (union.indices.copy(), union.indptr.copy())
         self.pattern_cols = pattern[0]
         self.pattern_rows = np.repeat(np.arange(self.n), np.diff(pattern[1]))
         self.diagonal_positions = np.nonzero(self.pattern_rows == self.pattern_cols)[0]
@@ -288,6 +326,45 @@ class StefanForms:
             raise AssertionError("Stefan forms: a vertex without elements (zero lumped mass)")
         self.mass_by_group = masses
         self.weights = masses / self.mass[:, None]
+
+    def _interface_matrix(self) -> sp.csr_matrix:
+        """gamma_c B^T D^-1 B summed over the contact interfaces (module docstring), W/K per metre of depth in
+        2D; sets ``interface_conductance`` (gamma_c per interface, W/(m^2 K))."""
+        from .mortar import mortar_coupling_2d, mortar_coupling_3d
+
+        total = sp.csr_matrix((self.n, self.n))
+        cond = {}
+        for name, m in self.setup.materials.items():
+            cond[name] = (max(m.conductivity_solid, m.conductivity_liquid) if isinstance(m, PhaseChangeMaterial)
+                          else m.conductivity)
+        for master, minion, penalty in self.setup.interfaces:
+            L = ngs.H1(self.mesh, order=1, definedon=self.mesh.Boundaries(master))
+            if self.dim == 2:
+                r, c, v = mortar_coupling_2d(self.mesh, self.V, L, master, minion, axisymmetric=False, order=2)
+            else:
+                r, c, v = mortar_coupling_3d(self.mesh, self.V, L, master, minion, order=1)
+            B = sp.csr_matrix((v, (r, c)), shape=(L.ndof, self.n))
+            lengths, touching = [], set()
+            for el in self.mesh.Boundaries(master).Elements():
+                pts = np.array([self.mesh[vv].point for vv in el.vertices])
+                lengths.append(float(np.linalg.norm(pts[1] - pts[0])) if self.dim == 2
+                               else math.sqrt(0.5 * float(np.linalg.norm(np.cross(pts[1] - pts[0], pts[2] - pts[0])))))
+            for side in (master, minion):
+                for el in self.mesh.Boundaries(side).Elements():
+                    for vol in self.mesh[el.vertices[0]].elements:
+                        touching.add(self.mesh[vol].mat)
+            h = float(np.mean(lengths))
+            gamma = float(penalty) * max(cond[r_] for r_ in touching) / h
+            self.interface_conductance.append(gamma)
+            own = np.zeros(self.n, dtype=bool)
+            for el in self.mesh.Boundaries(master).Elements():
+                for d in self.V.GetDofNrs(el):
+                    own[d] = True
+            D = np.asarray(B[:, own].sum(axis=1)).ravel()          # int mu_i over the interface
+            keep = D > 0
+            B = B[keep]
+            total = total + gamma * (B.T @ sp.diags(1.0 / D[keep]) @ B)
+        return total.tocsr()
 
     def _build_graph(self):
         pcm = [self.groups[g] for g in self.pcm_groups]
@@ -314,7 +391,9 @@ class StefanForms:
         self.e_hi = self.weights @ e_hi
         self.jump = self.e_hi - self.e_lo
         self.capacity = self.weights @ cap
-        self.group_conductivity = cond              # G x (K + 1), W/(m K)
+        if self.setup.interfaces:                   # the interface "group": theta = T (its matrix is last)
+            cond = np.vstack([cond, np.ones((1, K + 1))])
+        self.group_conductivity = cond              # G (+ 1 with interfaces) x (K + 1), W/(m K)
         self.symmetric = bool(np.all(cond == cond[:, :1]))
         """Whether the Jacobian is symmetric: no PCM has k_s != k_l (each region's Kirchhoff map is linear)."""
 
@@ -392,6 +471,20 @@ class StefanForms:
         out = np.zeros(self.n)
         for K, m in zip(self.stiffness, self.groups):
             out += K @ m.kirchhoff(T)
+        if len(self.stiffness) > len(self.groups):            # contact interfaces: the jump penalty, linear in T
+            out += self.stiffness[-1] @ T
+        return out
+
+    def conduction_magnitude(self, T: np.ndarray) -> np.ndarray:
+        """sum_g |K_g| |theta_g(T)| (entrywise absolute values): the size of the terms that make up
+        :meth:`conduction`, for the round-off floor of a residual (same units)."""
+        if not hasattr(self, "_abs_stiffness"):
+            self._abs_stiffness = [abs(K) for K in self.stiffness]
+        out = np.zeros(self.n)
+        for K, m in zip(self._abs_stiffness, self.groups):
+            out += K @ np.abs(m.kirchhoff(T))
+        if len(self._abs_stiffness) > len(self.groups):
+            out += self._abs_stiffness[-1] @ np.abs(T)
         return out
 
     def liquid_fractions(self, e: np.ndarray, state: NodalState | None = None) -> np.ndarray:

@@ -94,6 +94,9 @@ class HeatForms:
                                                                  dims=(dim, dim)) for n in names},
                                default=ngs.CoefficientFunction((0.0,) * dim * dim, dims=(dim, dim)))
         self.rho_c = region_cf(mesh, {n: setup.props[n].rho_c or 0.0 for n in names})
+        self.extra_load = None
+        """An assembled source vector over X (W) added to every right-hand side, e.g. the deformation heating
+        of problem (P_c) (lagged, full weight also with theta < 1), or None."""
         self._build_forms()
 
     def _free_dofs(self, dir_names: str):
@@ -231,7 +234,7 @@ class HeatForms:
         self._load_cache[t] = vec
         return vec
 
-    def _volume_measure(self):
+    def volume_measure(self):
         """The volume measure: one fixed quadrature rule per element type (order 2p + 1, exact for straight
         elements with the weight r), shared by the matrix and the old-state terms. NGSolve's default rules differ
         between BilinearForm and LinearForm (for p >= 2 with the weight r, and on curved elements); with
@@ -242,7 +245,7 @@ class HeatForms:
 
     def _build_forms(self):
         s, w, X = self.setup, self.weight, self.X
-        dx = self._volume_measure()
+        dx = self.volume_measure()
         if s.contacts:
             trials, tests = X.TnT()
             T, v = trials[0], tests[0]
@@ -317,6 +320,8 @@ class HeatForms:
         th = self.theta.Get()
         b = self.gf.vec.CreateVector()
         b.data = th * self.loads(t1)
+        if self.extra_load is not None:
+            b.data += self.extra_load
         if th < 1:
             b.data += (1 - th) * self.loads(self.t_old.Get())
         if self.old_state is not None:

@@ -5,8 +5,9 @@ phase-change region at the output times, the energy balance, the Newton iteratio
 A scene is solved as a Stefan problem when a material has ``phase_change_temperature`` and physics.thermal is
 'transient' (:func:`ngs_geomech.scene.validate.stefan_scene`): then :class:`StefanSolver` (nodal enthalpy,
 lumped P1, backward Euler, semi-smooth Newton) replaces the heat solver. Boundary data: temperature and flux
-conditions, sources; unnamed boundaries are insulated (validation refuses Robin conditions, mortar contact
-interfaces, anisotropic or temperature-dependent conductivities, axisymmetric scenes and P2).
+conditions, sources; unnamed boundaries are insulated; contact interfaces between touching blocks pass heat by a
+penalty on the temperature jump (``thermal_penalty``; :mod:`ngs_geomech.physics.stefan`). Validation refuses
+Robin conditions, anisotropic or temperature-dependent conductivities, axisymmetric scenes and P2.
 
 Volumes are m^2 per metre of depth in plane scenes (m^3 in 3D), heats J per metre of depth (J in 3D).
 """
@@ -17,11 +18,19 @@ import ngsolve as ngs
 import numpy as np
 
 from ..errors import SolverError
+from ..geometry.assemble import GeometryModel
 from ..geometry.isolines import IsoLines, iso_segments
 from ..io.meshdata import mesh_arrays, vertex_values
 from ..materials import has_phase_change, isotropic_conductivity, phase_change_properties, volumetric_heat_capacity
 from ..physics.coefficients import Steady, expression_function
-from ..physics.stefan import PhaseChangeMaterial, PlainThermalMaterial, StefanForms, StefanSetup, vertex_rules
+from ..physics.stefan import (
+    DEFAULT_INTERFACE_PENALTY,
+    PhaseChangeMaterial,
+    PlainThermalMaterial,
+    StefanForms,
+    StefanSetup,
+    vertex_rules,
+)
 from ..scene.model import Scene
 from ..solvers.stefan import StefanSolver
 from .heat import initial_temperature, region_measure, source_function
@@ -55,9 +64,14 @@ def _summed(functions: list):
     return lambda t: sum((f(t) for f in functions[1:]), functions[0](t))
 
 
-def stefan_setup(scene: Scene, mesh) -> StefanSetup:
-    """The StefanSetup of a validated scene on its mesh."""
+def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> StefanSetup:
+    """The StefanSetup of a validated scene on its mesh; ``geo`` (the scene's geometry model) gives the contact
+    interfaces heat passes through (touching blocks; the jump penalty of :mod:`ngs_geomech.physics.stefan`)."""
     setup = StefanSetup(materials=stefan_materials(scene))
+    if geo is not None:
+        penalty = {itf.name: itf.thermal_penalty for itf in scene.interfaces}
+        setup.interfaces = [(cs.master, cs.minion, penalty.get(cs.name) or DEFAULT_INTERFACE_PENALTY)
+                            for cs in geo.contacts.values() if not cs.initial_gap]
     for name, bc in scene.boundary_conditions.items():
         if bc.temperature is not None:
             setup.dirichlet[name] = expression_function(bc.temperature)
@@ -81,10 +95,10 @@ class StefanRun:
     """The Stefan problem of a run: forms, solver, output fields and the histories a summary and a checkpoint
     need. ``regions`` are the phase-change regions (scene order)."""
 
-    def __init__(self, scene: Scene, mesh):
+    def __init__(self, scene: Scene, mesh, geo: GeometryModel | None = None):
         self.scene = scene
         self.mesh = mesh
-        self.forms = f = StefanForms(mesh, stefan_setup(scene, mesh))
+        self.forms = f = StefanForms(mesh, stefan_setup(scene, mesh, geo))
         self.solver = StefanSolver(f)
         self.regions = [n for n, m in scene.materials.items() if has_phase_change(m)]
         self.latent = {r: f.setup.materials[r].latent_heat for r in self.regions}
@@ -126,15 +140,26 @@ class StefanRun:
         self.solver.set_initial(T)
         self.initial_heat = self.forms.heat_content(self.solver.e)
 
-    def step(self, a: float, b: float, where: str):
+    def step(self, a: float, b: float, where: str, extra_load: np.ndarray | None = None):
+        """One step from a to b (s); ``extra_load``: a nodal source vector (e.g. deformation heating)."""
         try:
-            info = self.solver.step(a, b)
+            info = self.solver.step(a, b) if extra_load is None else self.solver.step(a, b, extra_load)
         except SolverError as exc:
             raise SolverError(f"{where}: {exc}") from exc
         self.iterations.append(int(info.iterations))
         self.dirichlet_heat.append(float(info.boundary_heat))
         self.source_heat.append(float(info.source_heat))
         return info
+
+    def mark(self) -> tuple:
+        """The state before a step, to repeat the step with :meth:`rewind` (coupling iterations)."""
+        return self.solver.mark(), len(self.iterations)
+
+    def rewind(self, mark: tuple) -> None:
+        """Back to the state of :meth:`mark` (the step's histories dropped)."""
+        self.solver.rewind(mark[0])
+        n = mark[1]
+        del self.iterations[n:], self.dirichlet_heat[n:], self.source_heat[n:]
 
     def record(self, t: float) -> None:
         """The melted volume and latent heat per region and the heat content at an output time (after the

@@ -58,6 +58,16 @@ class Physics:
                                       "when thermal is on; solved at every time of the thermal run")
     plane_model: str = field(one_of("plane_strain", "plane_stress"), "plane_strain",
                              doc="2D plane scenes: plane strain (eps_zz = 0) or plane stress (sigma_zz = 0)")
+    coupling: str = field(one_of("none", "staggered", "iterated"), "none",
+                          doc="transient thermo-mechanical scenes: 'none' (the temperature drives the thermal "
+                              "stress; mechanics at the output steps only), 'staggered' (problem (P_c): the "
+                              "deformation heating -Theta_0 beta : e(u_t) of (2.49) from the previous step's "
+                              "displacement rate enters the heat step, mechanics is solved every step) or "
+                              "'iterated' (the heat and mechanics steps repeated within a step until they agree)")
+    coupling_tolerance: float = field(number, 1e-6,
+                                      doc="'iterated': relative change of T and u between two passes that ends "
+                                          "a step's iteration")
+    coupling_max_iterations: int = field(integer, 20, doc="'iterated': passes per step before the run stops")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -151,6 +161,11 @@ class Interface(ContactMechanics):
     type: str = field(one_of("glued", "contact"), "glued", doc="'glued' or 'contact'")
     master: str | None = field(optional(string), None,
                                doc="contact: block whose side carries the coupling (default the first)")
+    thermal_penalty: float | None = field(optional(number), None,
+                                          doc="phase-change (Stefan) scenes: the contact interface passes heat by a "
+                                              "penalty on the temperature jump, conductance thermal_penalty * k / h "
+                                              "(W/(m^2 K); dimensionless, default 1e3: a jump of about 1/1000 of "
+                                              "the drop over one element); other scenes couple exactly (mortar)")
     sides: list | None = field(optional(list_of(string, 2)), None,
                                doc="contact between blocks that do not touch (initial gap): [boundary name on "
                                    "the first block, boundary name on the second block], from the blocks' "

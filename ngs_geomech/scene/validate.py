@@ -101,6 +101,23 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
         if softening and ms.regularization <= 0:
             problems.append(Problem("mechanics.regularization", f"must be positive: rheology_lambda < 1 in "
                                     f"{softening} is singular at zero strain"))
+    if ph.coupling != "none":
+        if ph.thermal != "transient" or ph.mechanics is None:
+            problems.append(Problem("physics.coupling", f"{ph.coupling!r} couples a transient heat problem with "
+                                    "mechanics (deformation heating, problem (P_c)): it needs physics.thermal = "
+                                    "'transient' and physics.mechanics = 'static'; use 'none' otherwise"))
+        offset = 273.15 if scene.scene.temperature_unit == "C" else 0.0
+        for name, mat in scene.materials.items():
+            if mat.thermal_expansion is not None and not mat.stress_free_temperature + offset > 0:
+                problems.append(Problem(f"materials.{name}.stress_free_temperature", f"the deformation heating of "
+                                        f"physics.coupling = {ph.coupling!r} is proportional to the absolute "
+                                        f"reference temperature, here {mat.stress_free_temperature + offset:g} K: "
+                                        "it must be > 0 K (give it in the scene's temperature_unit)"))
+        if not ph.coupling_tolerance > 0:
+            problems.append(Problem("physics.coupling_tolerance", f"must be > 0, got {ph.coupling_tolerance}"))
+        if ph.coupling_max_iterations < 1:
+            problems.append(Problem("physics.coupling_max_iterations",
+                                    f"must be >= 1, got {ph.coupling_max_iterations}"))
     m = scene.mesh
     if m.maxh <= 0:
         problems.append(Problem("mesh.maxh", f"must be positive, got {m.maxh}"))
@@ -408,14 +425,20 @@ def _check_references(scene: Scene, geo: GeometryModel, problems: list[Problem])
                     problems.append(Problem("boundary_conditions", f"a steady heat problem needs a temperature or "
                                             f"heat_transfer_coefficient condition on every body heat cannot leave "
                                             f"otherwise: block(s) {members} have none{why}"))
-    if stefan_scene(scene):
-        for i, itf in enumerate(scene.interfaces):
-            cs = geo.contacts.get(itf.name)
-            if cs is not None and not cs.initial_gap:
-                problems.append(Problem(f"interfaces[{i}] ({itf.name}).type", f"contact interface {itf.name!r} "
-                                        "couples the temperature by the mortar method, which the Stefan (phase "
-                                        "change) solver does not support (one P1 space on conforming meshes): make "
-                                        "it type = 'glued' for this scene"))
+    for i, itf in enumerate(scene.interfaces):
+        if itf.thermal_penalty is None:
+            continue
+        p = f"interfaces[{i}] ({itf.name}).thermal_penalty"
+        cs = geo.contacts.get(itf.name)
+        if not stefan_scene(scene):
+            problems.append(Problem(p, "applies to phase-change (Stefan) scenes only: other scenes couple the "
+                                    "temperature across contact interfaces exactly (mortar)"))
+        elif cs is None or cs.initial_gap:
+            problems.append(Problem(p, "applies to contact interfaces between touching blocks (heat passes there); "
+                                    + ("a glued interface shares its nodes" if cs is None
+                                       else "an interface with an initial gap carries no heat")))
+        elif not (math.isfinite(itf.thermal_penalty) and itf.thermal_penalty > 0):
+            problems.append(Problem(p, f"must be > 0, got {itf.thermal_penalty}"))
     if scene.physics.mechanics is not None:
         for i, itf in enumerate(scene.interfaces):
             cs = geo.contacts.get(itf.name)

@@ -59,6 +59,7 @@ Units: u m, multipliers Pa (nodal values of the contact pressure and tangential 
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -71,6 +72,8 @@ from ..physics.contact import ContactOperator
 from .linear import check_finite, inverse
 
 LAWS = ("frictionless", "tresca", "coulomb")
+COULOMB_FIXED_POINT_TOL = 1e-8    # Coulomb fallback: relative change of the slip bounds F_c p that ends it
+COULOMB_FIXED_POINT_MAXIT = 60
 NEWTON_TOL = 1e-11     # 3D slip rows: converged when max |lam_t - b z / |z|| <= NEWTON_TOL x the largest bound
 POLYGON = 16           # 3D solvability check: the friction disc |lam_t| <= b inside a regular 16-gon
 
@@ -103,6 +106,10 @@ class ContactLaw:
             raise ValueError(f"the augmentation c must be positive (Pa/m), got {self.augmentation}")
 
 
+class _Cycling(SolverError):
+    """The active sets of the semi-smooth Newton iteration cycle (ContactSolver falls back for Coulomb)."""
+
+
 @dataclass
 class ContactInfo:
     """History of one contact solve: per iteration the numbers of nodes in contact, sticking and slipping
@@ -117,6 +124,8 @@ class ContactInfo:
     min_pressure: float = 0.0
     wall_s: float = 0.0
     factorizations: int = 0
+    coulomb_fixed_point_passes: int = 0
+    """>0: Coulomb was solved by the fixed point of Tresca problems after the active sets cycled (passes)."""
     penalty_iterations: int = 0
     unheld_sets: int = 0
     reused_solves: int = 0
@@ -214,9 +223,90 @@ class ContactSolver:
             self._state = out
         return self._state
 
+    def warm_start(self, ndof: int, sets: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> None:
+        """Start the next solve from given nodal sets, one (active, stick, slip) triple of bool arrays per
+        interface (e.g. transferred from the solution on a coarser mesh): the solve then begins with the exact
+        constraints of these sets, as after a converged solve, instead of the penalty phase. ``ndof``: the size
+        of the displacement vector X."""
+        ifs = self._interfaces(ndof)
+        if len(sets) != len(ifs):
+            raise ValueError(f"warm_start needs one set triple per interface ({len(ifs)}), got {len(sets)}")
+        for it, (active, stick, slip) in zip(ifs, sets):
+            it.active = np.asarray(active, dtype=bool) & it.keep
+            it.stick = np.asarray(stick, dtype=bool) & it.active
+            it.slip = np.asarray(slip, dtype=bool) & it.active & ~it.stick
+        self._converged = True
+
     def solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str = "") -> tuple[np.ndarray, ContactInfo]:
         """The displacement vector (X) and the history; the multipliers per interface in
-        ``self.multipliers`` [(lam_n, lam_t)] (Pa)."""
+        ``self.multipliers`` [(lam_n, lam_t)] (Pa).
+
+        When the active-set iteration cycles on a problem with Coulomb interfaces, Coulomb friction is solved
+        again as a fixed point of Tresca problems (:meth:`_coulomb_by_tresca`)."""
+        try:
+            return self._solve(matrix, rhs, free, x0, where)
+        except _Cycling as exc:
+            if not any(law.kind == "coulomb" for _, law in self.items):
+                raise SolverError(str(exc)) from None
+            return self._coulomb_by_tresca(matrix, rhs, free, x0, where, str(exc))
+
+    def _coulomb_by_tresca(self, matrix, rhs, free, x0, where: str, why: str) -> tuple[np.ndarray, ContactInfo]:
+        """Coulomb friction as the fixed point of Tresca problems with the slip bound g = F_c p from the last
+        normal pressure p (the successive approximation of Panagiotopoulos; each Tresca problem is solved by the
+        active-set iteration, which does not cycle on it), starting from the frictionless pressure, until the
+        bounds change by less than COULOMB_FIXED_POINT_TOL of the largest. Contracts for moderate F_c; when it
+        does not within COULOMB_FIXED_POINT_MAXIT passes, the run stops and says so."""
+        items = self.items
+        coulomb = [k for k, (_, law) in enumerate(items) if law.kind == "coulomb"]
+        total = ContactInfo()
+        tic = time.perf_counter()
+        change = math.inf
+        n_infos = len(self.infos)
+
+        def use(laws):
+            self.items = [(op, laws.get(k, law)) for k, (op, law) in enumerate(items)]
+            self._state, self._pattern, self._converged = None, None, False
+
+        try:
+            use({k: ContactLaw("frictionless", augmentation=items[k][1].augmentation, penalty=items[k][1].penalty)
+                 for k in coulomb})
+            u, info = self._solve(matrix, rhs, free, x0, where)
+            bounds = {k: items[k][1].friction * np.maximum(self.multipliers[k][0], 0.0) for k in coulomb}
+            for npass in range(1, COULOMB_FIXED_POINT_MAXIT + 1):
+                use({k: ContactLaw("tresca", slip_bound=bounds[k], augmentation=items[k][1].augmentation,
+                                   penalty=items[k][1].penalty) for k in coulomb})
+                u, info = self._solve(matrix, rhs, free, u, where)
+                total.coulomb_fixed_point_passes = npass
+                total.iterations += info.iterations
+                total.factorizations += info.factorizations
+                new = {k: items[k][1].friction * np.maximum(self.multipliers[k][0], 0.0) for k in coulomb}
+                scale = max(max(float(np.max(b, initial=0.0)) for b in new.values()), 1e-300)
+                change = max(float(np.max(np.abs(new[k] - bounds[k]), initial=0.0)) for k in coulomb) / scale
+                bounds = new
+                if change <= COULOMB_FIXED_POINT_TOL:
+                    break
+            else:
+                raise SolverError(f"{why}; the fallback (Coulomb as a fixed point of Tresca problems) did not "
+                                  f"converge in {COULOMB_FIXED_POINT_MAXIT} passes (last relative change of the slip "
+                                  f"bounds {change:.1e}): reduce the load or time step, refine the mesh, or lower "
+                                  "the friction coefficient")
+        finally:
+            self.items = items
+            state = self._state
+            self._state, self._pattern = None, None
+        # the last Tresca state is the Coulomb state: keep its sets (with the Coulomb laws) as the next warm start
+        for st, (_, law) in zip(state or [], items):
+            st.law = law
+        self._state = state
+        info.iterations = total.iterations
+        info.factorizations = total.factorizations
+        info.coulomb_fixed_point_passes = total.coulomb_fixed_point_passes
+        info.wall_s = time.perf_counter() - tic
+        del self.infos[n_infos:]
+        self.infos.append(info)
+        return u, info
+
+    def _solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str = "") -> tuple[np.ndarray, ContactInfo]:
         tic = time.perf_counter()
         n = len(x0)
         ifs = self._interfaces(n)
@@ -463,7 +553,7 @@ class ContactSolver:
                                   f"converged after {self.maxit} iterations (residual of the slip rows "
                                   f"{info.newton_residual[-1]:.1e} of the slip bound); refine the mesh or change "
                                   "the augmentation")
-            raise SolverError(f"contact solve{' at ' + where if where else ''}: the active sets still change after "
+            raise _Cycling(f"contact solve{' at ' + where if where else ''}: the active sets still change after "
                               f"{self.maxit} iterations ({info.changes[-1]} changes in the last one): the contact "
                               "state cycles; refine the mesh or change the augmentation")
         u = x[:n]
