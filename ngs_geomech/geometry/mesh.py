@@ -4,14 +4,45 @@ from __future__ import annotations
 
 import ngsolve as ngs
 
+from ..errors import Problem, SceneError
 from ..scene.model import MeshSettings
 from .assemble import GeometryModel
 
+MIN_MESHED_FRACTION = 0.5
+"""A region whose mesh covers less than this fraction of its geometric area (2D) or volume (3D) was not meshed:
+netgen reports a failed face ("NOT ALL FACES HAVE BEEN MESHED") on stdout only and returns a partial mesh
+(a 1 m x 10 um block with maxh = 1 m: 26 % of its area). The bound leaves room for the polygonal boundary of
+an order-1 mesh of a curved block (a circle of 8 segments: 90 %)."""
+
 
 def make_mesh(geo: GeometryModel, settings: MeshSettings):
-    """Mesh the geometry (sizes from blocks, boundaries and ``settings``); curve it to the field order."""
+    """Mesh the geometry (sizes from blocks, boundaries and ``settings``); curve it to the field order.
+
+    Raises SceneError naming the region (and ``mesh.maxh``) when netgen left a region (largely) unmeshed."""
     ngmesh = geo.occ_geometry().GenerateMesh(maxh=settings.maxh, grading=settings.grading)
     mesh = ngs.Mesh(ngmesh)
+    _check_meshed(geo, mesh, settings)
     if settings.order > 1:
         mesh.Curve(settings.order)
     return mesh
+
+
+def _check_meshed(geo: GeometryModel, mesh, settings: MeshSettings) -> None:
+    parts = geo.shape.solids if geo.dim == 3 else geo.shape.faces
+    expected: dict[str, float] = {}
+    for part in parts:
+        expected[part.name] = expected.get(part.name, 0.0) + float(part.mass)
+    problems = []
+    materials = set(mesh.GetMaterials())
+    for name, size in expected.items():
+        if not isinstance(name, str) or not size > 0:
+            continue
+        meshed = (float(ngs.Integrate(ngs.CoefficientFunction(1.0), mesh, definedon=mesh.Materials(name)))
+                  if name in materials else 0.0)
+        if meshed < MIN_MESHED_FRACTION * size:
+            problems.append(Problem(f"blocks.{name}", f"netgen could not mesh this block (the mesh covers "
+                                    f"{100 * meshed / size:.0f} % of it, mesh.maxh = {settings.maxh:g} m): it is "
+                                    "probably too thin for the element size; give the block a maxh near its "
+                                    "thickness"))
+    if problems:
+        raise SceneError(problems, source="mesh")

@@ -330,8 +330,27 @@ class ElasticForms:
 
         Each rigid motion of the model (plane: 2 translations and the rotation; axisymmetric: the axial
         translation; 3D: 3 translations and 3 rotations) is evaluated on the constrained dofs and, for oblique
-        symmetry boundaries, as u.n there; the combinations vanishing on all of them are free.
+        symmetry boundaries, as u.n there; the combinations vanishing on all of them are free. A mesh of several
+        bodies (parts not joined by glued interfaces) is checked body by body (``'<motion> of body <regions>'``):
+        a rigid motion of the whole mesh is held as soon as one body is, which left a second, unsupported body
+        free (a singular system solved without a word).
         """
+        if self._bodies()[0] > 1:
+            return [f"{name} of body {'+'.join(fb.regions)}" for fb in self.floating_bodies() for name in fb.names]
+        return self._unheld_whole_mesh()
+
+    def _bodies(self):
+        """(number of bodies, body label per vertex, volume elements): connected parts of the mesh."""
+        from scipy.sparse.csgraph import connected_components
+        mesh = self.mesh
+        els = list(mesh.Elements(ngs.VOL))
+        rows = [el.nr for el in els for _ in el.vertices]
+        cols = [v.nr for el in els for v in el.vertices]
+        inc = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(mesh.ne, mesh.nv))
+        ncomp, labels = connected_components(inc.T @ inc, directed=False)
+        return ncomp, labels, els
+
+    def _unheld_whole_mesh(self) -> list[str]:
         modes = _rigid_modes(self.setup.model, self.dim)
         fixed = ~np.array(list(self.V.FreeDofs()), dtype=bool)
         g = ngs.GridFunction(self.V)
@@ -356,14 +375,9 @@ class ElasticForms:
 
         Per body its regions, the names of its free rigid motions (rotations about the body's centroid) and
         their coefficient vectors in X (columns of ``modes``, zero outside the body)."""
-        from scipy.sparse.csgraph import connected_components
         mesh, dim = self.mesh, self.dim
-        els = list(mesh.Elements(ngs.VOL))
-        rows = [el.nr for el in els for _ in el.vertices]
-        cols = [v.nr for el in els for v in el.vertices]
-        inc = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(mesh.ne, mesh.nv))
-        ncomp, labels = connected_components(inc.T @ inc, directed=False)
-        if ncomp == 1 and not self.unheld_rigid_motions():
+        ncomp, labels, els = self._bodies()
+        if ncomp == 1 and not self._unheld_whole_mesh():
             return []
         fixed = ~np.array(list(self.V.FreeDofs()), dtype=bool)
         pts = np.array([mesh[ngs.NodeId(ngs.VERTEX, k)].point[:dim] for k in range(mesh.nv)])
