@@ -44,7 +44,12 @@ EXPECTED = {
     "gc_0_sliding": "accurate",
     "gc_0_pushed": "clear_error",
     "gc_1e15_pushed": "accurate",
-    "fc_0_scene": "clear_error",
+    "fc_0_pushed": "clear_error",
+    "fc_0_sliding": "accurate",
+    "fc_0.001_pushed": "accurate",
+    "fc_0.01_pushed": "accurate",
+    "gc_5e4_pushed": "accurate",
+    "overlap_foundation_cold": "accurate",
     "fc_1_pushed_0.99": "accurate",
     "floating_push_over_capacity": "clear_error",
     "floating_pulled_off": "clear_error",
@@ -57,7 +62,7 @@ EXPECTED = {
 }
 """A cheap subset of the cases (about 5 s in all) and the outcome each must have."""
 
-KNOWN_DEFECTS = ("poisson_0.4999", "fc_0.01_pushed", "gc_5e4_pushed", "overlap_foundation_cold")
+KNOWN_DEFECTS = ("poisson_0.4999",)
 """Cases the study classifies 'nan_or_hang' (see the study's docstring): expected to be 'accurate' once fixed."""
 
 
@@ -74,8 +79,7 @@ def test_case_outcome(rows, name):
     assert r["wall_s"] < 20.0
 
 
-@pytest.mark.xfail(reason="known defects reported by studies/extremes (P2 mean stress near nu = 1/2, small "
-                          "friction on a floating block, a gap-driven contact without load)", strict=False)
+@pytest.mark.xfail(reason="known defect reported by studies/extremes (P2 mean stress near nu = 1/2)", strict=False)
 @pytest.mark.parametrize("name", KNOWN_DEFECTS)
 def test_known_defect(rows, name):
     assert rows[name]["outcome"] == "accurate", rows[name]["message"]

@@ -57,7 +57,8 @@ def contact_law(c: ContactMechanics, coords: np.ndarray) -> ContactLaw:
                                                r=float(p[0])) for p in coords])
         else:
             g = float(c.slip_bound)
-    return ContactLaw(c.law, slip_bound=g, friction=c.friction or 0.0, augmentation=c.augmentation,
+    kind = "frictionless" if c.law == "coulomb" and c.friction == 0 else c.law     # F_c = 0: no friction
+    return ContactLaw(kind, slip_bound=g, friction=c.friction or 0.0, augmentation=c.augmentation,
                       penalty=c.method == "penalty")
 
 

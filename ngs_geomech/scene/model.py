@@ -129,7 +129,8 @@ class ContactMechanics:
     slip_bound: object = field(optional(expr), None,
                                doc="Tresca slip bound g_c, Pa: a number or an expression of x, y (z), "
                                    "evaluated at the contact nodes")
-    friction: float | None = field(optional(number), None, doc="Coulomb friction coefficient F_c (> 0)")
+    friction: float | None = field(optional(number), None, doc="Coulomb friction coefficient F_c (>= 0; 0 is "
+                                                               "frictionless contact)")
     method: str = field(one_of(*CONTACT_METHODS), "ssn",
                         doc="'ssn': semi-smooth Newton / primal-dual active set on the augmented Lagrangian "
                             "(exact constraints; the default), 'penalty': plain penalty (penetration "

@@ -245,8 +245,8 @@ def _check_contact_law(c, p: str, problems: list[Problem]) -> None:
         problems.append(Problem(f"{p}.friction", "Coulomb friction needs a coefficient F_c"))
     if c.law != "coulomb" and c.friction is not None:
         problems.append(Problem(f"{p}.friction", f"applies to law = 'coulomb', not {c.law!r}"))
-    if c.friction is not None and not (c.friction > 0 and math.isfinite(c.friction)):
-        problems.append(Problem(f"{p}.friction", f"must be positive, got {c.friction}"))
+    if c.friction is not None and not (c.friction >= 0 and math.isfinite(c.friction)):
+        problems.append(Problem(f"{p}.friction", f"must be >= 0 (0: frictionless), got {c.friction}"))
     if isinstance(c.slip_bound, (int, float)) and not (c.slip_bound >= 0 and math.isfinite(c.slip_bound)):
         problems.append(Problem(f"{p}.slip_bound", f"must be >= 0 (Pa), got {c.slip_bound}"))
     if isinstance(c.slip_bound, str) and "t" in expressions.uses(c.slip_bound):

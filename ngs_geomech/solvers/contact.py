@@ -187,6 +187,60 @@ class _Interface:
         return self.op.size
 
 
+def _balance_slip(it, lam_t: np.ndarray, rigid: np.ndarray, n: int, imbalance: np.ndarray) -> np.ndarray:
+    """2D, every active node of ``it`` slipping and the free rigid motions ``rigid`` unbalanced by ``imbalance``
+    (rigid^T times the residual of the equilibrium rows): choose a node to stick and the slip directions of the
+    others so that the friction can balance the load. The slip along an interface varies monotonically between
+    points where it turns (a translation plus a smooth deformation), so the candidates move a turning point node
+    by node (from an end when the direction does not turn): at each node, if sticking there balances the load
+    with a traction within the node's bound, that is the choice; else the node flips its direction when that
+    reduces the imbalance. The candidate with the fewest flips among the feasible ones is taken (else the least
+    infeasible); returns the imbalance left for the stick node. Changing lam_t of node i by delta changes the
+    residual by Bt[i]^T delta, so the imbalance by G[:, i] delta with G = rigid^T Bt^T."""
+    slip = np.nonzero(it.slip & it.active)[0]
+    xy = np.asarray(it.op.coords, dtype=float)[slip, :2]
+    d = xy - xy.mean(axis=0)
+    axis = np.linalg.svd(d, full_matrices=False)[2][0] if len(slip) > 1 else np.array([1.0, 0.0])
+    order = slip[np.argsort(d @ axis)]
+    G = rigid.T @ it.Bt[:, :n].T.toarray()
+    s = it.sign[order]
+    turns = np.nonzero(s[1:] != s[:-1])[0]
+    starts = [(p, -1) for p in turns] + [(p + 1, 1) for p in turns] if len(turns) else [(0, 1), (len(order) - 1, -1)]
+    best = None                                    # (violation, flips, stick node, imbalance)
+    for start, step in starts:
+        r = imbalance.copy()
+        flipped: list = []
+        k = start
+        while 0 <= k < len(order):
+            i = order[k]
+            g = G[:, i]
+            gg = float(g @ g)
+            free_r = r - g * lam_t[i]              # node i's traction taken out
+            t = -float(g @ free_r) / gg if gg > 0 else math.inf
+            violation = max(abs(t) - abs(lam_t[i]), 0.0) / max(abs(lam_t[i]), 1e-300)
+            cand = (violation, len(flipped), list(flipped), i, free_r + g * t)
+            if best is None or (cand[0], cand[1]) < (best[0], best[1]):
+                best = cand
+            if violation == 0.0:
+                break
+            r_new = r + g * (-2.0 * lam_t[i])
+            if np.linalg.norm(r_new) >= np.linalg.norm(r):
+                break
+            flipped.append(i)
+            r = r_new
+            k += step
+    if best is None:                               # no slipping node: stick all (the old fallback)
+        it.stick, it.slip = it.active.copy(), np.zeros(it.m, dtype=bool)
+        return imbalance
+    _, _, flipped, stick_node, r = best
+    it.sign = it.sign.copy()
+    it.sign[flipped] *= -1.0
+    it.stick = np.zeros(it.m, dtype=bool)
+    it.stick[stick_node] = True
+    it.slip = it.active & ~it.stick
+    return r
+
+
 class ContactSolver:
     """Solves K u = f + B^T lam with the complementarity conditions of the interfaces for the current
     elastic data. ``matrix`` and ``rhs`` are the assembled bulk operator (X x X) and load (X), ``free`` the
@@ -410,6 +464,17 @@ class ContactSolver:
             r = mat.CreateColVector()
             held = True
             dx = mat.CreateColVector()
+            mode_size = float(np.max(np.linalg.norm(rigid, axis=0), initial=0.0))
+
+            def balance_scale() -> float:
+                """Forces the rigid-motion balance is measured against: the load, or the contact forces of the
+                iterate when there is none (a problem driven by its gaps alone: an overlap pressing a body)."""
+                xs = xv.FV().NumPy()
+                forces = float(np.linalg.norm(b[:n] * free))
+                for it in ifs:
+                    forces = max(forces, float(np.linalg.norm(it.Bn[:, :n].T @ xs[it.offset:it.offset + it.m])))
+                return max(forces * mode_size, 1e-300)
+            last_balance = math.inf
             for _ in range(20):   # refinement with the residual of the exact system (without the shift eps)
                 r.data = mat * xv
                 ra = r.FV().NumPy()
@@ -434,7 +499,17 @@ class ContactSolver:
                 d = dx.FV().NumPy()[:n]
                 d = d - rigid @ np.linalg.lstsq(rigid, d, rcond=None)[0]
                 if float(np.linalg.norm(d)) <= 1e-6 * max(float(np.linalg.norm(xv.FV().NumPy()[:n])), 1e-300):
-                    break
+                    if not rigid.shape[1]:
+                        break
+                    # the shift leaves a residual eps u along the rigid motions (eps x translation x dofs: 0.5 N
+                    # of a 2.5 kN load on a weak Coulomb interface); refine while that falls
+                    r.data = mat * xv
+                    ra = r.FV().NumPy()
+                    ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
+                    balance = float(np.max(np.abs(rigid.T @ ((b - ra)[:n] * free))))
+                    if balance <= 1e-10 * balance_scale() or balance > 0.5 * last_balance:
+                        break
+                    last_balance = balance
             else:
                 held = False
             if held and rigid.shape[1]:   # the loaded rigid motions must be balanced by the contact forces
@@ -442,8 +517,7 @@ class ContactSolver:
                 ra = r.FV().NumPy()
                 ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
                 ru = (b - ra)[:n] * free
-                scale = float(np.linalg.norm(b[:n] * free)) * float(np.max(np.linalg.norm(rigid, axis=0)))
-                held = float(np.max(np.abs(rigid.T @ ru))) <= 1e-8 * max(scale, 1e-300)
+                held = float(np.max(np.abs(rigid.T @ ru))) <= 1e-8 * balance_scale()
             check_finite(xv, f"contact solve{' at ' + where if where else ''}, iteration {it_nr}")
             x = np.array(xv.FV().NumPy())
             for it in ifs:      # the fixed multipliers exactly (their identity rows hold them to round-off)
@@ -468,13 +542,43 @@ class ContactSolver:
                     raise SolverError(f"contact solve{' at ' + where if where else ''}, iteration {it_nr}: the "
                                       "bodies in contact are not held by the active contact set (the linear system "
                                       "is singular along a loaded rigid motion)")
+                walked = False
+                if not grow and rigid.shape[1] and not any(it.dim3 for it in ifs):
+                    # every active node slips and their friction does not balance the load: move the points where
+                    # the slip direction turns until it does (sticking all nodes instead threw the sets back to
+                    # the start: they cycled, e.g. a block spreading under its load on a weak interface)
+                    r.data = mat * xv
+                    ra = r.FV().NumPy()
+                    ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
+                    # only the rigid motions the active normal rows leave free (the others are balanced by the
+                    # normal pressures whatever the friction does)
+                    held_rows = [(it.Bn[:, :n][it.active & it.keep] @ rigid) for it in ifs]
+                    A_held = np.vstack(held_rows) if held_rows else np.zeros((0, rigid.shape[1]))
+                    _, sv, vt = np.linalg.svd(A_held, full_matrices=True) if A_held.size else (None, np.zeros(0),
+                                                                                              np.eye(rigid.shape[1]))
+                    rank = int(np.sum(sv > 1e-10 * max(float(sv.max(initial=0.0)), 1e-300)))
+                    free_modes = rigid @ vt[rank:].T
+                    imbalance = free_modes.T @ ((b - ra)[:n] * free)
+                    for it in ifs:
+                        if it.law.kind != "frictionless" and (it.slip & it.active).any() and free_modes.shape[1]:
+                            imbalance = _balance_slip(it, x[it.offset + it.m:it.offset + 2 * it.m], free_modes, n,
+                                                      imbalance)
+                            walked = True
+                    if walked and self.method == "ssn":
+                        # the penalty rows let a sticking node slip by lam_t / c_t, which turns its neighbours'
+                        # slip directions back (the sets cycled): the exact rows from here on
+                        penalty = False
+                    if walked:
+                        # the factorization of the unheld matrix (singular but for the shift) is no basis for the
+                        # next one: reused, the refinement left the rigid-motion part unconverged (imbalance 2e-4)
+                        factored = None
                 for it in ifs:
                     if grow:
                         cand = np.where(it.keep & ~it.active)[0]
                         near = cand[np.argsort(it.op.g0[cand] / it.w[cand])[:max(2, int(it.active.sum()))]]
                         it.active = it.active.copy()
                         it.active[near] = True
-                    if it.law.kind != "frictionless":
+                    if it.law.kind != "frictionless" and not walked:
                         it.stick, it.slip = it.active.copy(), np.zeros(it.m, dtype=bool)
                 info.iterations = it_nr
                 info.changes.append(-1)

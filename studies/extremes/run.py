@@ -495,8 +495,10 @@ def _gc_huge(level):
     return r
 
 
-case("fc_0_scene", "Coulomb F_c", "F_c = 0 in a scene", expect=("friction", "must be positive"))(
-    lambda level: _held("coulomb", PUSH, friction=0.0))
+case("fc_0_pushed", "Coulomb F_c", "F_c = 0 in a scene (frictionless), floating, pushed",
+     expect=("block", "translation along x", "not held"))(lambda level: _block("coulomb", push=PUSH, friction=0.0))
+case("fc_0_sliding", "Coulomb F_c", "F_c = 0 in a scene (frictionless), moved 1 cm")(
+    lambda level: _sliding("coulomb", 0.0, friction=0.0))
 
 
 @case("fc_0_library", "Coulomb F_c", "F_c = 0 (ContactLaw), moved 1 mm", expect=("coulomb", "positive coefficient"))
