@@ -310,7 +310,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         summary["coupling"] = _coupling_summary(scene, history["coupling"])
     if staging is not None:
         tic = _time.perf_counter()
-        _figures(scene, mesh, T, probes, staging.path / "figures", mech, stefan)
+        _figures(scene, mesh, T, probes, staging.path / "figures", mech, stefan, coupling)
         timings["output_s"] = _time.perf_counter() - tic
     return RunResult(mesh=mesh, forms=heat, summary=summary, out=None, timings=timings, mechanics=mech,
                      stefan=stefan)
@@ -493,7 +493,8 @@ def _interface_flows(forms: HeatForms, history: dict, axi: bool) -> None:
         history["interface_heat_flow_W"].setdefault(master, []).append(q)
 
 
-def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None, stefan=None) -> None:
+def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None, stefan=None,
+             coupling=None) -> None:
     if not scene.output.figures:
         return
     t_unit = "degC" if scene.scene.temperature_unit == "C" else "K"
@@ -521,6 +522,10 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
                                  label=f"T ({t_unit})", axis_labels=labels, window=scene.output.figure_window)
     if arrays is not None and stefan is not None:
         _stefan_figures(scene, arrays, T, stefan, directory, labels, t_end, t_unit)
+    if arrays is not None and coupling is not None:
+        figures.field_figure(arrays, _vertex_average(mesh, coupling.source), directory / "deformation_heating.png",
+                             title=f"{scene.scene.name}: deformation heating, {_when(t_end)}",
+                             label="-Theta_0 beta : e(u_t) (W/m^3)", axis_labels=labels, cmap="coolwarm")
     if arrays is not None and mech is not None:
         _mechanics_figures(scene, mesh, arrays, mech, directory, labels, t_end)
         if mech.contact_output is not None:

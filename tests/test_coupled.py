@@ -122,3 +122,24 @@ def test_coupling_stops_with_a_diagnosis_when_passes_run_out():
     with pytest.raises(SolverError, match=r"coupled heat-mechanics step at step 1 .*still differ after 1 passes.*"
                                           r"coupling_max_iterations"):
         run_scene(scene_from_dict(data), None, progress=False)
+
+
+def test_builtin_contact_melting_scene_writes_the_coupled_output(tmp_path):
+    """The built-in (P_c) scene, coarse and short: VTK with the deformation heating, the phase boundary and
+    contact series, the figures, and the coupling block of the summary."""
+    from ngs_geomech.api import run
+    res = run("contact_melting", tmp_path / "OUT", overrides=["time.end=60 day", "time.dt=10 day", "mesh.maxh=0.25",
+                                                               "output.every=3"], progress=False)
+    s = json.loads((tmp_path / "OUT" / "summary.json").read_text())
+    c = s["coupling"]
+    print(f"\ncontact_melting (60 days, coarse): deformation heat {c['deformation_heat_total']:.3e} J/m over "
+          f"{len(c['deformation_heat_per_step'])} steps, salt melted {s['stefan']['melted_fraction']['salt'][-1]:.4f}, "
+          f"imbalance {s['stefan']['energy']['imbalance_rel']:.1e}, {res.timings['total_s']:.1f} s")
+    assert c["mode"] == "staggered" and c["deformation_heat_total"] > 0
+    assert len(c["deformation_heat_per_step"]) == s["steps"] and c["deformation_heat_per_step"][0] == 0.0
+    assert s["stefan"]["energy"]["imbalance_rel"] < 1e-10
+    assert s["mechanics"]["solves"] == s["steps"] + 1
+    figs = {p.name for p in (tmp_path / "OUT" / "figures").iterdir()}
+    assert {"deformation_heating.png", "phase_boundary.png", "contact_bedding.png", "principal_stress.png"} <= figs
+    vtu = sorted((tmp_path / "OUT").glob("contact_melting*.vtu"))[-1].read_text(errors="ignore")
+    assert "deformation_heating" in vtu and "liquid_fraction" in vtu
