@@ -272,3 +272,45 @@ def test_bad_plain_data_and_setup():
     forms = StefanForms(mesh, StefanSetup(materials={"ice": ICE, "rock": ROCK}))
     with pytest.raises(ValueError, match=r"dt must be positive"):
         StefanSolver(forms).step(1.0, 1.0)
+
+
+def test_freezing_is_the_mirror_image_of_melting():
+    """Freezing (verification notes section 1: the mirror image). The two-phase Neumann melting solution T of a
+    material M gives, with T' = 2 Theta_R - T, the freezing of a liquid M' whose liquid has M's solid properties
+    and whose solid has M's liquid properties, from a face held at 2 Theta_R - T_L: the frozen layer grows as
+    s(t) = 2 lam sqrt(a t). The enthalpy solver on M' (started from the mirrored exact state at t0) must give
+    the same front and L2 error as on the melting strip, at first order in h."""
+    p = st.TWO_PHASE
+    m = p.material
+    tm = m.melting_temperature
+    mirror = PhaseChangeMaterial(melting_temperature=tm, latent_heat=m.latent_heat, rho_c_solid=m.rho_c_liquid,
+                                 rho_c_liquid=m.rho_c_solid, conductivity_solid=m.conductivity_liquid,
+                                 conductivity_liquid=m.conductivity_solid)
+    t0, t1 = 0.05, 0.5
+    rows = []
+    for h in (0.025, 0.0125):
+        length = p.domain_length(t1)
+        mesh = st.strip_mesh(length, 0.1, h)
+        forms = StefanForms(mesh, StefanSetup(materials={"pcm": mirror},
+                                              dirichlet={"hot": 2 * tm - p.t_hot, "far": 2 * tm - p.t_cold}))
+        solver = StefanSolver(forms)
+        xs = np.array([v.point[0] for v in mesh.vertices])
+        solver.set_initial(2 * tm - p.temperature(xs, t0), (xs >= p.front(t0)).astype(float))
+        for a, b in schedule(t0, t1, 0.2 * h):
+            solver.step(a, b)
+        frozen = (forms.mass.sum() - forms.melted_volume(solver.e)) / 0.1
+        T = solver.temperature()
+        Th = ngs.GridFunction(forms.V)
+        Th.vec.FV().NumPy()[:] = T
+        exact = 2 * tm - p.temperature_cf(t1)
+        l2 = math.sqrt(float(ngs.Integrate((Th - exact) ** 2, mesh, order=12)))
+        melt = st.neumann_strip(p, h, 0.2 * h, t0, t1, linear_reference=False, initial="interpolate")
+        rows.append((h, abs(frozen - p.front(t1)) / p.front(t1), l2, melt["front_error_volume"] / p.front(t1),
+                     melt["l2"]))
+    for h, fe, l2, mfe, ml2 in rows:
+        print(f"\nfreezing h = {h}: front rel. error {fe:.3e} (melting {mfe:.3e}), L2 {l2:.3e} (melting {ml2:.3e})")
+        assert fe == pytest.approx(mfe, rel=1e-6, abs=1e-12)
+        assert l2 == pytest.approx(ml2, rel=1e-6)
+    order = math.log(rows[0][1] / rows[1][1]) / math.log(2.0)
+    print(f"freezing front order {order:.2f}")
+    assert rows[1][1] < 0.01 and order > 0.7
