@@ -45,7 +45,7 @@ from scipy.optimize import brentq
 from ..errors import SolverError
 from ..physics.coefficients import regions_regex
 from ..physics.elasticity import ElasticForms
-from .linear import check_finite, inverse
+from .linear import check_finite, inverse, solve_watched
 
 _SINGULAR_HINT = ("a body without enough displacement or symmetry conditions has a rigid motion; with "
                   "rheology_lambda <= 0.5 the load may exceed what the law can carry (the stress of the lambda "
@@ -98,6 +98,7 @@ class ElasticSolver:
         self._fixed = ngs.Projector(forms.V.FreeDofs(), False)
         self._linear_inverse = None
         self.factorizations = 0
+        self._free_mask = None
         self.history: list[NonlinearInfo] = []
 
     def set_dirichlet(self) -> None:
@@ -123,11 +124,12 @@ class ElasticSolver:
                                            _SINGULAR_HINT)
             self.factorizations += 1
         f.secant_rhs.Assemble()
-        r = f.secant_rhs.vec.CreateVector()
-        r.data = f.secant_rhs.vec - f.secant_form.mat * f.gf.vec
-        f.gf.vec.data += self._linear_inverse * r
-        check_finite(f.gf.vec, f"elastic solve at {where}", "Check the elastic data and the supports: a body "
-                     "without enough displacement conditions has a rigid motion.")
+        if self._free_mask is None:
+            self._free_mask = np.array(list(f.X.FreeDofs()), dtype=bool)
+        solve_watched(f.secant_form.mat, self._linear_inverse, f.secant_rhs.vec, f.gf.vec, self._free_mask,
+                      f"elastic solve at {where}", "Check the elastic data and the supports: a body without enough "
+                      "displacement conditions has a rigid motion; a Poisson ratio near 1/2 or stiffness contrasts "
+                      "beyond 1e10 make the system ill-conditioned.")
 
     def solve(self, where: str) -> NonlinearInfo:
         """Solve at the current time (f.t set; temperature CF up to date)."""

@@ -12,7 +12,7 @@ import numpy as np
 from ..errors import SolverError
 from ..physics.coefficients import regions_regex
 from ..physics.thermal import HeatForms
-from .linear import check_finite, inverse
+from .linear import check_finite, inverse, solve_watched
 
 
 @dataclass
@@ -36,6 +36,7 @@ class HeatSolver:
         self._fixed = ngs.Projector(forms.V.FreeDofs(), False)   # onto the Dirichlet dofs
         self._dirichlet_ready = False
         self.factorizations = 0
+        self._free_mask = None
         forms.update_contact_pairs()
 
     @property
@@ -79,11 +80,11 @@ class HeatSolver:
         rhs = self.f.right_hand_side()
         if not self.f.setup.nonlinear:
             mat, inv, fresh = self._system(f"{self.f.inv_dt.Get():.14g}")
-            r = rhs.CreateVector()
-            r.data = rhs - mat * self.f.gf.vec
-            self.f.gf.vec.data += inv * r
-            check_finite(self.f.gf.vec, f"heat solve at {where}",
-                         "Check the material data and boundary conditions of the scene.")
+            if self._free_mask is None:
+                self._free_mask = np.array(list(self.f.freedofs), dtype=bool)
+            solve_watched(mat, inv, rhs, self.f.gf.vec, self._free_mask, f"heat solve at {where}",
+                          "Check the material data and boundary conditions of the scene (conductivity contrasts "
+                          "beyond 1e12, time steps far below the diffusion time of an element).")
             return StepInfo(1, 0.0, fresh)
         return self._newton(where, rhs)
 

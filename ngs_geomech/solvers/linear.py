@@ -1,4 +1,5 @@
-"""Direct linear solves with a finiteness check."""
+"""Direct linear solves watched: a finiteness check and the residual after the solve (iterative refinement when
+the factorization left a large one; a SolverError naming the solve when refinement does not bring it down)."""
 
 from __future__ import annotations
 
@@ -23,3 +24,41 @@ def check_finite(vec, what: str, hint: str = "") -> None:
     if not np.all(np.isfinite(a)):
         bad = int(np.count_nonzero(~np.isfinite(a)))
         raise SolverError(f"{what}: {bad} of {a.size} values are NaN or infinite. {hint}".strip())
+
+
+RESIDUAL_TOL = 1e-10
+"""Relative residual below which a direct solve is accepted without refinement."""
+RESIDUAL_FAIL = 1e-6
+"""Relative residual above which a solve stops the run (after refinement)."""
+
+
+def solve_watched(mat, inv, rhs, x, freedofs, what: str, hint: str = "", maxit: int = 3) -> float:
+    """Solve: x += inv (rhs - mat x), then refine while the relative residual ||(rhs - mat x)_free|| /
+    (||rhs_free|| + ||mat x|| + ||first residual||) exceeds RESIDUAL_TOL (at most ``maxit`` refinements; they
+    reuse the factorization). Returns the final relative residual; raises SolverError naming ``what`` when it
+    stays above RESIDUAL_FAIL (an ill-conditioned or nearly singular system: stiffness contrasts,
+    near-incompressibility, tiny time steps) or when the solution is not finite."""
+    free = np.asarray(list(freedofs), dtype=bool) if not isinstance(freedofs, np.ndarray) else freedofs
+    r = rhs.CreateVector()
+    ax = rhs.CreateVector()
+    rel = np.inf
+    r0 = 0.0
+    for k in range(maxit + 1):
+        ax.data = mat * x
+        r.data = rhs - ax
+        ra = r.FV().NumPy()
+        if k == 0:
+            r0 = float(np.linalg.norm(ra[free]))
+        # the forces the residual is measured against: the load, the matrix times the solution and the first
+        # residual (the load the solve had to balance: a uniform temperature gives mat x = 0 and rhs = 0)
+        scale = float(np.linalg.norm(rhs.FV().NumPy()[free])) + float(np.linalg.norm(ax.FV().NumPy())) + r0
+        rel = float(np.linalg.norm(ra[free])) / max(scale, 1e-300) if k else np.inf
+        if rel <= RESIDUAL_TOL or k == maxit:
+            break
+        ra[~free] = 0.0
+        x.data += inv * r
+        check_finite(x, what, hint)
+    if not rel <= RESIDUAL_FAIL:
+        raise SolverError(f"{what}: the direct solve leaves a relative residual {rel:.1e} after {maxit} refinement "
+                          f"steps (the system is nearly singular or badly scaled). {hint}".strip())
+    return rel
