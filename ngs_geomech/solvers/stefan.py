@@ -201,7 +201,10 @@ class _ColumnJacobian:
             indptr = np.concatenate([[0], np.cumsum(np.bincount(cols, minlength=nA))])
             mat = sp.csc_matrix((data[keep], self._amap[self._rows[keep]], indptr), shape=(nA, nA))
         try:
-            self.lu = spla.splu(mat)
+            # minimum degree on the symmetric pattern A + A^T (the pattern is the stiffness pattern): 19 % less fill
+            # and 15 - 30 % faster solves than SuperLU's default COLAMD (42k unknowns: nnz(LU) 2.26M against
+            # 2.79M, transposed solve 2.4 against 2.8 ms)
+            self.lu = spla.splu(mat, permc_spec="MMD_AT_PLUS_A")
         except RuntimeError as exc:                   # "Factor is exactly singular"
             raise SolverError(f"Stefan Newton step at {where}: the factorization failed ({exc}); check the "
                               "material data (capacities and conductivities must be > 0) and the time step.") from None
