@@ -67,26 +67,12 @@ def _translation(forms, direction) -> np.ndarray:
     return out
 
 
-def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float | None = None,
-          solver_factory=None, return_system: bool = False) -> dict:
-    """Hertz line contact of a quarter cylinder on a rigid flat (module docstring); ``h_contact`` (m) is the
-    element size along the contact arc (the arc up to 4a from the axis), ``maxh`` (m) the size elsewhere
-    (default R/4).
-
-    Returns {"a", "p0" (closed form), "p0_num" (nodal pressure on the axis), "p0_rel_error", "a_num" (the last
-    node in contact), "a_next" (the first open node), "a_error" (|a_num - a|), "h" (node spacing at a),
-    "profile_max_error" (max |p - p_ref| / p0 over the nodes with x < 0.9 a), "pressure_l2_error" (the
-    same region: sqrt(int (p - p_ref)^2 dx / a) / p0, trapezoidal over the nodes), "force_balance" (|int p - P/2| /
-    (P/2)), "max_penetration" (m), "iterations", "penalty_iterations", "factorizations", "ndof", "wall_s"
-    (contact solve), "x", "p", "p_ref" (nodal profile)}; with ``return_system`` also "system" (the assembled
-    problem the contact solver got: :func:`_system_dict`). ``solver_factory(interfaces, modulus=, floating=)``
-    builds the solver as in :func:`friction_block` (default :class:`ContactSolver` with ``method``)."""
-    R, E, nu = R_HERTZ, E_HERTZ, NU_HERTZ
-    E_star = cc.effective_modulus(E, nu)
-    a_ref = R / 50
-    P = math.pi * E_star * a_ref ** 2 / (4 * R)
-    ref = cc.hertz_line(P, R, E_star)
-    th = 4 * a_ref / R
+def hertz_mesh(h_contact: float, order: int = 1, maxh: float | None = None):
+    """The mesh of :func:`hertz`'s quarter cylinder (boundaries "contact", "top", "sym"; region "cylinder"):
+    ``h_contact`` (m) along the contact arc (up to 4a from the axis), ``maxh`` (m, default R/4) elsewhere,
+    curved to order max(order, 2)."""
+    R = R_HERTZ
+    th = 4 * (R / 50) / R
 
     def on_circle(t):
         return Pnt(R * math.sin(t), R - R * math.cos(t), 0)
@@ -100,6 +86,38 @@ def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float 
     face.name = "cylinder"
     mesh = ngs.Mesh(OCCGeometry(face, dim=2).GenerateMesh(maxh=maxh or R / 4, grading=0.25))
     mesh.Curve(max(order, 2))
+    return mesh
+
+
+def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float | None = None,
+          solver_factory=None, return_system: bool = False, mesh=None, initial_sets=None,
+          return_state: bool = False) -> dict:
+    """Hertz line contact of a quarter cylinder on a rigid flat (module docstring); ``h_contact`` (m) is the
+    element size along the contact arc (the arc up to 4a from the axis), ``maxh`` (m) the size elsewhere
+    (default R/4).
+
+    Returns {"a", "p0" (closed form), "p0_num" (nodal pressure on the axis), "p0_rel_error", "a_num" (the last
+    node in contact), "a_next" (the first open node), "a_error" (|a_num - a|), "h" (node spacing at a),
+    "profile_max_error" (max |p - p_ref| / p0 over the nodes with x < 0.9 a), "pressure_l2_error" (the
+    same region: sqrt(int (p - p_ref)^2 dx / a) / p0, trapezoidal over the nodes), "force_balance" (|int p - P/2| /
+    (P/2)), "max_penetration" (m), "iterations", "penalty_iterations", "factorizations", "ndof", "wall_s"
+    (contact solve), "x", "p", "p_ref" (nodal profile)}; with ``return_system`` also "system" (the assembled
+    problem the contact solver got: :func:`_system_dict`). ``solver_factory(interfaces, modulus=, floating=)``
+    builds the solver as in :func:`friction_block` (default :class:`ContactSolver` with ``method``).
+
+    ``mesh``: solve on this mesh (e.g. an adaptively refined :func:`hertz_mesh`; ``h_contact`` and ``maxh`` are
+    then unused): the forms and the contact operators are built on it. ``initial_sets``: the solver's
+    starting nodal sets [(active, stick, slip)] on that mesh (:meth:`ContactSolver.warm_start`; ignored by a solver
+    without it), or a function of the contact operator returning them. With
+    ``return_state`` also "state": {"mesh", "forms", "op", "solver", "law", "u"} (what an adaptive loop
+    estimates on)."""
+    R, E, nu = R_HERTZ, E_HERTZ, NU_HERTZ
+    E_star = cc.effective_modulus(E, nu)
+    a_ref = R / 50
+    P = math.pi * E_star * a_ref ** 2 / (4 * R)
+    ref = cc.hertz_line(P, R, E_star)
+    if mesh is None:
+        mesh = hertz_mesh(h_contact, order, maxh)
     props = _props(E, nu, ["cylinder"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order, symmetry=["sym"])
     setup.traction["top"] = [expression_function(0.0), expression_function(-P / (2 * R))]
@@ -108,7 +126,10 @@ def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float 
                              obstacle=((0.0, 0.0), (0.0, 1.0)))
     floating = forms.floating_bodies()
     factory = solver_factory or functools.partial(ContactSolver, method=method)
-    solver = factory([(op, ContactLaw())], modulus=nodal_modulus(props), floating=floating)
+    law = ContactLaw()
+    solver = factory([(op, law)], modulus=nodal_modulus(props), floating=floating)
+    if initial_sets is not None and hasattr(solver, "warm_start"):
+        solver.warm_start(forms.X.ndof, initial_sets(op) if callable(initial_sets) else initial_sets)
     u, info = solver.solve(K, f, free, x0, "hertz")
     lam_n, _ = solver.multipliers[0]
     x = op.coords[:, 0]
@@ -131,6 +152,8 @@ def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float 
            "x": xs.tolist(), "p": ps.tolist(), "p_ref": np.asarray(pref).tolist()}
     if return_system:
         out["system"] = _system_dict(K, f, free, x0, floating)
+    if return_state:
+        out["state"] = {"mesh": mesh, "forms": forms, "op": op, "solver": solver, "law": law, "u": u}
     return out
 
 

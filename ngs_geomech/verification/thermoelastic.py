@@ -384,6 +384,23 @@ def _two_region_data(h: float, order: int) -> dict:
     }
 
 
+def manufactured_problem(h: float, order: int) -> dict:
+    """The solved manufactured thermo-elastic problem of :func:`manufactured` at mesh size ``h`` (m): {"mesh",
+    "heat" (the solved HeatForms of T_h), "forms" (the solved ElasticForms), "pdata"
+    (:func:`plane_strain_data`), "exact" (region -> exact u CF, m), "strain" (region -> exact reduced Voigt
+    strain (e_xx, e_yy, 2 e_xy) CF)}."""
+    T = manufactured_temperature()
+    mesh, heat, setup = _build(_two_region_data(h, order), temperature=T)
+    pdata = plane_strain_data(setup.props)
+    exact = manufactured_displacement(pdata)
+    setup.dirichlet = {f"outer_{r}": _steady((exact[r][0], exact[r][1])) for r in REGIONS}
+    setup.body_force = {r: _steady(_body_force(pdata[r], exact[r], T)) for r in REGIONS}
+    forms = ElasticForms(mesh, setup)
+    ElasticSolver(forms).solve("manufactured thermo-elasticity")
+    strain = {r: ngs.CoefficientFunction(_strain(u)) for r, u in exact.items()}
+    return {"mesh": mesh, "heat": heat, "forms": forms, "pdata": pdata, "exact": exact, "strain": strain}
+
+
 def manufactured(order: int, hs) -> dict:
     """Plane strain thermo-elasticity (2.17)-(2.22), law (2.37), on the unit square (m) split at x = 0.5 into
     ``left`` and ``right`` with the anisotropic data :data:`MATERIALS` (glued, conforming mesh), for mesh
@@ -404,14 +421,9 @@ def manufactured(order: int, hs) -> dict:
            "stress_rel": [], "thermal_l2": []}
     T = manufactured_temperature()
     for h in hs:
-        mesh, heat, setup = _build(_two_region_data(h, order), temperature=T)
-        pdata = plane_strain_data(setup.props)
-        exact = manufactured_displacement(pdata)
-        setup.dirichlet = {f"outer_{r}": _steady((exact[r][0], exact[r][1])) for r in REGIONS}
-        setup.body_force = {r: _steady(_body_force(pdata[r], exact[r], T)) for r in REGIONS}
-        forms = ElasticForms(mesh, setup)
         with ngs.TaskManager():
-            ElasticSolver(forms).solve("manufactured thermo-elasticity")
+            prob = manufactured_problem(h, order)
+            mesh, heat, forms, pdata, exact = (prob[k] for k in ("mesh", "heat", "forms", "pdata", "exact"))
             errs = _errors(forms, pdata, exact, order, T)
         _append(out, h, forms.X.ndof, errs)
         dT = heat.temperature() - T

@@ -1,0 +1,577 @@
+"""A posteriori error estimators and refinement indicators, one value per volume element.
+
+Estimators (``kind = "estimator"``) bound the discretization error in the energy norm of the problem,
+
+    heat:        ||e||^2 = int w grad e . kappa f(T) grad e dx              (W/K per m of depth in 2D; W/K in 3D)
+    elasticity:  ||e||^2 = int w eps(e) : C : eps(e) dx                     (J per m of depth in 2D; J in 3D)
+
+(w = r in axisymmetric models, else 1), element by element: eta = sqrt(sum_T eta_T^2).
+
+* ``zz`` (Zienkiewicz-Zhu flux/stress recovery): the flux q_h = kappa f(T_h) grad T_h (W/m^2), or the reduced
+  Voigt stress s_h (Pa), is recovered region by region into a continuous H1 field q* of the solution's order,
+  by NGSolve's local averaging interpolation (``recovery="average"``, the classical nodal averaging) or by a
+  global L2 projection (``recovery="l2"``), and
+
+      eta_T^2 = int_T w (q* - q_h) . (kappa f)^{-1} (q* - q_h) dx,   eta_T^2 = int_T w (s* - s_h) . D^{-1} (s* - s_h) dx
+
+  (the complementary energy of the difference; D the region's reduced stiffness, its linear part for the
+  lambda law). Recovery per region keeps the normal-flux / traction kinks of material interfaces out of q*.
+* ``residual`` (explicit residual estimator, Verfuerth's standard weights):
+
+      eta_T^2 = h_T^2 / k_T ||R_T||_T^2 + sum_{E in dT} c_E h_E / k_T ||J_E||_E^2,
+
+  R_T = Q + div(kappa f grad T_h) (- rho c (T_h - T_old)/dt in a time step), resp. f + div sigma_h; J_E the jump
+  of the normal flux kappa f grad T_h . n (traction sigma_h n) across interior facets (c_E = 1/2: half to each
+  neighbour), and on boundaries with natural conditions the misfit against the data (flux q0, Robin
+  h (T_amb - T), traction, pressure; unnamed boundaries are insulated / traction free; c_E = 1); none on
+  Dirichlet boundaries (per component for elasticity) and on contact interface sides. h_T is the element's
+  longest edge, h_E the facet's (m); k_T = trace(kappa)/dim (W/(m K)) or trace of the in-plane normal block of
+  D / dim (Pa) of the element's region. Jumps are computed with a facet space of the solution's order - 1
+  (exact on straight facets; the one-sided normal fluxes summed over the element boundaries, divided by the
+  facet mass).
+
+Indicators (``kind = "indicator"``, values 1 on the flagged elements, 0 elsewhere; the loop refines them in
+addition to what the marker picks from the estimator):
+
+* ``contact_zone``: the elements touching the contact nodes where the contact status (0 open, 1 stick, 2 slip,
+  as in the contact output) changes between neighbouring nodes of a side (the boundary of the active set and
+  the stick/slip transitions), on the multiplier side and the facing elements of the opposite side.
+* ``phase_front``: the elements the iso-line ``level`` (1/2) of a nodal P1 liquid fraction crosses (the
+  phase boundary of :class:`~ngs_geomech.physics.stefan.StefanForms`), and ``layers`` rings of elements around
+  them (the front's next steps); with ``predicted`` (a second nodal field, e.g. the liquid fraction
+  extrapolated one step ahead) also the elements that field's iso-line crosses.
+
+Estimators and indicators are chosen by name from :data:`ESTIMATORS` (:func:`get_estimator`), so a scene key can
+name them; each entry says what it needs (``needs``: ``"forms"`` the heat or elastic forms, ``"contact"`` the
+mesh with the contact operators and their nodal status, ``"phase"`` the nodal liquid fraction).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import ngsolve as ngs
+import numpy as np
+import scipy.sparse as sp
+
+from ..physics.elasticity import ElasticForms
+from ..physics.thermal import HeatForms
+
+C_VOLUME = 1.0 / math.pi ** 2
+"""Constant of the residual estimator's element term h_T^2/p^2 ||R||^2: the Payne-Weinberger Poincare constant
+(h/pi)^2 of a convex element."""
+C_JUMP = 1.0 / 12.0
+"""Constant of the jump term h_E/p ||J||^2 (summed once per facet): deal.II's Kelly estimator's h/24 per side,
+calibrated for P1 (measured here: the jump term alone then has effectivity ~1.0 on smooth P1 problems)."""
+STATUS_OPEN, STATUS_STICK, STATUS_SLIP = 0, 1, 2
+"""Nodal contact status codes, as in the contact output (:mod:`ngs_geomech.problems.contact`)."""
+
+
+@dataclass
+class Estimate:
+    """Element values of one estimator or indicator: ``eta`` (one per volume element, in the units of the energy
+    norm for an estimator: sqrt(W/K) per sqrt(m) heat, sqrt(J) per sqrt(m) elasticity in 2D; 0/1 for an
+    indicator), its ``name`` and ``kind`` ("estimator" or "indicator")."""
+
+    name: str
+    kind: str
+    eta: np.ndarray
+
+    @property
+    def total(self) -> float:
+        """sqrt(sum_T eta_T^2): the estimated energy-norm error (an indicator: the square root of the count)."""
+        return float(math.sqrt(float(np.sum(self.eta ** 2))))
+
+
+@dataclass(frozen=True)
+class EstimatorEntry:
+    """A registered estimator: ``function(source, **options) -> Estimate`` where ``source`` is what ``needs``
+    names (``"forms"``, ``"contact"``, ``"phase"``)."""
+
+    name: str
+    kind: str
+    needs: str
+    function: Callable
+
+
+ESTIMATORS: dict[str, EstimatorEntry] = {}
+"""The registry: name -> :class:`EstimatorEntry` (filled by :func:`register`)."""
+
+
+def register(name: str, kind: str, needs: str):
+    """Decorator: register an estimator (``kind="estimator"``) or indicator (``"indicator"``) under ``name``."""
+    if kind not in ("estimator", "indicator"):
+        raise ValueError(f"kind must be 'estimator' or 'indicator', got {kind!r}")
+
+    def wrap(fn):
+        ESTIMATORS[name] = EstimatorEntry(name, kind, needs, fn)
+        return fn
+    return wrap
+
+
+def get_estimator(name: str) -> EstimatorEntry:
+    """The registered estimator ``name``; a ValueError naming the known ones (and the closest) otherwise."""
+    if name in ESTIMATORS:
+        return ESTIMATORS[name]
+    close = difflib.get_close_matches(name, list(ESTIMATORS), n=1)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    raise ValueError(f"unknown estimator {name!r}{hint}; known: {', '.join(sorted(ESTIMATORS))}")
+
+
+# ------------------------------------------------------------------------------------------------------------
+# mesh helpers
+# ------------------------------------------------------------------------------------------------------------
+
+def element_vertices(mesh) -> np.ndarray:
+    """Vertex numbers of every volume element (ne x vertices per element), in element order (simplex meshes
+    from netgen's arrays; other meshes element by element)."""
+    try:
+        arr = mesh.ngmesh.Elements2D() if mesh.dim == 2 else mesh.ngmesh.Elements3D()
+        nodes = np.asarray(arr.NumPy()["nodes"], dtype=np.int64)[:, :mesh.dim + 1] - 1
+        if nodes.shape[0] == mesh.ne and np.all(nodes >= 0):
+            return nodes
+    except (AttributeError, KeyError, TypeError, ValueError):
+        pass
+    return np.array([[v.nr for v in el.vertices] for el in mesh.Elements(ngs.VOL)], dtype=np.int64)
+
+
+def _vertex_coords(mesh) -> np.ndarray:
+    try:
+        xy = np.asarray(mesh.ngmesh.Coordinates(), dtype=float)
+        if xy.shape[0] == mesh.nv:
+            return xy[:, :mesh.dim]
+    except (AttributeError, TypeError):
+        pass
+    return np.array([mesh[ngs.NodeId(ngs.VERTEX, k)].point for k in range(mesh.nv)], dtype=float)[:, :mesh.dim]
+
+
+def element_sizes(mesh) -> np.ndarray:
+    """h_T: the longest edge of every volume element (straight-sided measure), m."""
+    xy = _vertex_coords(mesh)
+    ev = element_vertices(mesh)
+    k = ev.shape[1]
+    return np.max([np.linalg.norm(xy[ev[:, a]] - xy[ev[:, b]], axis=1) for a in range(k) for b in range(a + 1, k)],
+                  axis=0)
+
+
+def _p0_field(mesh, values: np.ndarray):
+    """A piecewise constant GridFunction (L2 order 0) with one value per volume element."""
+    g = ngs.GridFunction(ngs.L2(mesh, order=0))
+    g.vec.FV().NumPy()[:] = values
+    return g
+
+
+class _FacetData:
+    """Facet sizes h_E (m; the length in 2D, sqrt(2 area) in 3D) and facet weights as order-0 facet
+    GridFunctions, from two assembled vectors (no loop over facets): int_{dT} v summed over the elements
+    (count x |E|) and int v ds over the boundary (|E| on boundary facets, 0 inside)."""
+
+    def __init__(self, mesh):
+        self.mesh = mesh
+        self.F0 = ngs.FacetFESpace(mesh, order=0)
+        v = self.F0.TestFunction()
+        both = ngs.LinearForm(self.F0)
+        both += v * ngs.dx(element_boundary=True)
+        both.Assemble()
+        bnd = ngs.LinearForm(self.F0)
+        bnd += v * ngs.ds
+        bnd.Assemble()
+        a = np.array(both.vec.FV().NumPy())
+        b = np.array(bnd.vec.FV().NumPy())
+        self.boundary = b > 0
+        self.mass0 = a
+        size = np.where(self.boundary, a, 0.5 * a)     # interior facets are integrated from both sides
+        self.h = ngs.GridFunction(self.F0)
+        self.h.vec.FV().NumPy()[:] = size if mesh.dim == 2 else np.sqrt(2.0 * size)
+
+    def weights(self, zero_on: list[str]):
+        """c_E as a facet GridFunction: 2 on interior facets (the one-sided fluxes sum to the jump, see
+        :func:`_jump_terms`), 1 on boundary facets, 0 on the boundaries ``zero_on`` (names)."""
+        w = ngs.GridFunction(self.F0)
+        arr = w.vec.FV().NumPy()
+        arr[:] = np.where(self.boundary, 1.0, 2.0)
+        if zero_on:
+            v = self.F0.TestFunction()
+            lf = ngs.LinearForm(self.F0)
+            lf += v * ngs.ds(definedon=self.mesh.Boundaries("|".join(sorted(set(zero_on)))))
+            lf.Assemble()
+            arr[np.array(lf.vec.FV().NumPy()) > 0] = 0.0
+        return w
+
+
+def _jump_terms(mesh, order: int, normal_fluxes: list, data: list[list], weights: list, scale, facets: _FacetData,
+                weight_cf) -> np.ndarray:
+    """Per element sum_c int_{dT} scale w c_E,c h_E J_c^2 ds for the normal flux components ``normal_fluxes``
+    (CFs evaluated with the element's outward normal) and the boundary data ``data[c]`` = [(boundary, g)]
+    (the natural-condition value of component c). J_c is the L2 projection onto the facet space of order
+    ``order`` (the solution's order - 1: exact on straight facets) of the one-sided flux summed over the element
+    boundaries: on interior facets half the jump
+    (hence c_E = 2 there, i.e. h_E ||jump||^2 / 2 per neighbour), on boundary facets the misfit q.n - g."""
+    if order == 0:       # the facet mass is diagonal: int_{dT} v summed over the elements
+        F, minv = facets.F0, None
+    else:
+        F = ngs.FacetFESpace(mesh, order=order)
+        uf, vf = F.TnT()
+        m = ngs.BilinearForm(F)
+        m += uf * vf * ngs.dx(element_boundary=True)
+        m.Assemble()
+        minv = m.mat.Inverse(inverse="sparsecholesky")
+    vf = F.TestFunction()
+    total = ngs.CoefficientFunction(0.0)
+    for qn, bdata, w in zip(normal_fluxes, data, weights):
+        lf = ngs.LinearForm(F)
+        lf += qn * vf * ngs.dx(element_boundary=True)
+        for name, g in bdata:
+            lf += -g * vf * ngs.ds(definedon=mesh.Boundaries(name))
+        lf.Assemble()
+        J = ngs.GridFunction(F)
+        if minv is None:
+            J.vec.FV().NumPy()[:] = np.divide(lf.vec.FV().NumPy(), facets.mass0, out=np.zeros(F.ndof),
+                                              where=facets.mass0 > 0)
+        else:
+            J.vec.data = minv * lf.vec
+        total = total + w * J * J
+    integrand = weight_cf * scale * facets.h * total
+    return np.asarray(ngs.Integrate(integrand * ngs.dx(element_boundary=True, bonus_intorder=2), mesh,
+                                    element_wise=True), dtype=float)
+
+
+def _element_integral(mesh, cf, definedon=None) -> np.ndarray:
+    measure = ngs.dx(bonus_intorder=2) if definedon is None else ngs.dx(definedon=definedon, bonus_intorder=2)
+    return np.asarray(ngs.Integrate(cf * measure, mesh, element_wise=True), dtype=float)
+
+
+def _recover(mesh, cf, ncomp: int, order: int, region, recovery: str):
+    """q*: the CF ``cf`` (ncomp components) recovered into a continuous H1 field of ``order`` on ``region``."""
+    Q = ngs.H1(mesh, order=order, dim=ncomp, definedon=region) if ncomp > 1 else \
+        ngs.H1(mesh, order=order, definedon=region)
+    g = ngs.GridFunction(Q)
+    if recovery == "average":
+        g.Set(cf, definedon=region)
+    elif recovery == "l2":
+        u, v = Q.TnT()
+        m = ngs.BilinearForm(Q)
+        m += ngs.InnerProduct(u, v) * ngs.dx(definedon=region)
+        rhs = ngs.LinearForm(Q)
+        rhs += ngs.InnerProduct(cf, v) * ngs.dx(definedon=region, bonus_intorder=2)
+        m.Assemble()
+        rhs.Assemble()
+        g.vec.data = m.mat.Inverse(Q.FreeDofs(), inverse="sparsecholesky") * rhs.vec
+    else:
+        raise ValueError(f"recovery must be 'average' or 'l2', got {recovery!r}")
+    return g
+
+
+def _recovery_order(order: int, wanted: int | None) -> int:
+    return wanted if wanted is not None else (order if order == 1 else order + 1)
+
+
+def _cf_matrix(a: np.ndarray):
+    return ngs.CoefficientFunction(tuple(float(v) for v in np.asarray(a).flatten()), dims=np.asarray(a).shape)
+
+
+# ------------------------------------------------------------------------------------------------------------
+# heat
+# ------------------------------------------------------------------------------------------------------------
+
+def _heat_parts(forms: HeatForms):
+    T = forms.temperature()
+    f = forms.conductivity_factor(T)
+    return T, f, f * (forms.kappa * ngs.grad(T))
+
+
+def heat_energy_error(forms: HeatForms, gradient_exact: dict, order: int | None = None) -> float:
+    """The true error sqrt(int w grad e . kappa f grad e) of the computed temperature against the exact gradient
+    (``gradient_exact``: region -> vector CF, K/m), integrated region by region; the energy norm of the
+    estimators (``order``: quadrature order, default 2p + 6)."""
+    T, f, _ = _heat_parts(forms)
+    q = order or 2 * forms.setup.order + 6
+    tot = 0.0
+    for name, g in gradient_exact.items():
+        e = ngs.grad(T) - g
+        tot += float(ngs.Integrate(forms.weight * f * ngs.InnerProduct(forms.kappa * e, e), forms.mesh, order=q,
+                                   definedon=forms.mesh.Materials(name)))
+    return math.sqrt(max(tot, 0.0))
+
+
+def zz_heat(forms: HeatForms, *, recovery: str = "average", recovery_order: int | None = None) -> Estimate:
+    """Zienkiewicz-Zhu estimator of the heat forms' current temperature (module docstring)."""
+    mesh, s = forms.mesh, forms.setup
+    T, f, q = _heat_parts(forms)
+    eta2 = np.zeros(mesh.ne)
+    for name, p in s.props.items():
+        region = mesh.Materials(name)
+        qs = _recover(mesh, q, mesh.dim, _recovery_order(s.order, recovery_order), region, recovery)
+        d = qs - q
+        kinv = _cf_matrix(np.linalg.inv(np.asarray(p.kappa, dtype=float)))
+        eta2 += _element_integral(mesh, forms.weight / f * ngs.InnerProduct(kinv * d, d), region)
+    return Estimate("zz", "estimator", np.sqrt(np.maximum(eta2, 0.0)))
+
+
+def _heat_sources(forms: HeatForms):
+    parts = {}
+    for region, funcs in forms.setup.sources.items():
+        for fn in (funcs if isinstance(funcs, list) else [funcs]):
+            parts[region] = parts.get(region, 0) + fn(forms.t_new)
+    return forms.mesh.MaterialCF(parts, default=0.0) if parts else ngs.CoefficientFunction(0.0)
+
+
+def residual_heat(forms: HeatForms, *, c_volume: float = C_VOLUME, c_jump: float = C_JUMP) -> Estimate:
+    """Explicit residual estimator of the heat forms' current temperature at t_new (module docstring)."""
+    mesh, s, w = forms.mesh, forms.setup, forms.weight
+    dim = mesh.dim
+    T, f, q = _heat_parts(forms)
+    # R_T = Q + div(kappa f grad T) (- rho c (T - T_old)/dt)
+    R = _heat_sources(forms)
+    if s.order >= 2:
+        H = T.Operator("hesse")
+        R = R + f * sum(forms.kappa[i, j] * H[i, j] for i in range(dim) for j in range(dim))
+    if s.nonlinear:
+        slope = mesh.MaterialCF({n: p.b for n, p in s.props.items()}, default=0.0)
+        R = R + slope * ngs.InnerProduct(forms.kappa * ngs.grad(T), ngs.grad(T))
+    if s.axisymmetric:
+        R = R + q[0] / ngs.x
+    if not s.steady:
+        R = R - forms.rho_c * forms.inv_dt * (T - forms.temperature(forms.gf_old))
+    k = mesh.MaterialCF({n: float(np.trace(p.kappa)) / dim for n, p in s.props.items()}, default=1.0)
+    p = s.order
+    hT = _p0_field(mesh, element_sizes(mesh))
+    eta2 = c_volume / p ** 2 * _element_integral(mesh, w * hT * hT / (k * f) * R * R)
+    # normal flux jumps and boundary misfits
+    n = ngs.specialcf.normal(dim)
+    data = [(name, g(forms.t_new)) for name, g in s.flux.items()]
+    data += [(name, h * (amb(forms.t_new) - T)) for name, (h, amb) in s.robin.items()]
+    facets = _FacetData(mesh)
+    zero = list(s.dirichlet) + [b for pair in s.contacts for b in pair]
+    eta2 += c_jump / p * _jump_terms(mesh, p - 1, [q * n], [data], [facets.weights(zero)], 1 / (k * f), facets, w)
+    return Estimate("residual", "estimator", np.sqrt(np.maximum(eta2, 0.0)))
+
+
+# ------------------------------------------------------------------------------------------------------------
+# elasticity
+# ------------------------------------------------------------------------------------------------------------
+
+def _voigt_index(dim: int):
+    if dim == 2:
+        return {(0, 0): 0, (1, 1): 1, (0, 1): 2, (1, 0): 2}
+    return {(0, 0): 0, (1, 1): 1, (2, 2): 2, (1, 2): 3, (2, 1): 3, (0, 2): 4, (2, 0): 4, (0, 1): 5, (1, 0): 5}
+
+
+def elastic_energy_error(forms: ElasticForms, strain_exact: dict, order: int | None = None) -> float:
+    """The true error sqrt(int w (e_h - e)^T D (e_h - e)) (reduced Voigt strains, engineering shear) of the
+    computed displacement against ``strain_exact`` (region -> reduced Voigt strain CF), region by region: the
+    energy norm of the estimators (linear part of the law)."""
+    u = forms.displacement()
+    q = order or 2 * forms.setup.order + 6
+    tot = 0.0
+    for name, e in strain_exact.items():
+        d = forms.strain_vector(u) - e
+        tot += float(ngs.Integrate(forms.weight * ngs.InnerProduct(_cf_matrix(forms.D[name]) * d, d), forms.mesh,
+                                   order=q, definedon=forms.mesh.Materials(name)))
+    return math.sqrt(max(tot, 0.0))
+
+
+def zz_elastic(forms: ElasticForms, *, recovery: str = "average", recovery_order: int | None = None) -> Estimate:
+    """Zienkiewicz-Zhu stress recovery estimator of the elastic forms' current displacement (module docstring)."""
+    mesh, s = forms.mesh, forms.setup
+    u = forms.displacement()
+    eta2 = np.zeros(mesh.ne)
+    for name in s.props:
+        region = mesh.Materials(name)
+        sh = forms.stress_vector(name, u)
+        D = forms.D[name]
+        ss = _recover(mesh, sh, D.shape[0], _recovery_order(s.order, recovery_order), region, recovery)
+        d = ss - sh
+        eta2 += _element_integral(mesh, forms.weight * ngs.InnerProduct(_cf_matrix(np.linalg.inv(D)) * d, d), region)
+    return Estimate("zz", "estimator", np.sqrt(np.maximum(eta2, 0.0)))
+
+
+def _stiffness_scale(D: np.ndarray, dim: int) -> float:
+    return float(np.trace(D[:dim, :dim])) / dim
+
+
+def residual_elastic(forms: ElasticForms, *, c_volume: float = C_VOLUME, c_jump: float = C_JUMP) -> Estimate:
+    """Explicit residual estimator of the elastic forms' current displacement (module docstring): plane strain,
+    plane stress and 3D, linear law (lam = 1). The thermal stress enters the element residual when the setup's
+    temperature is a GridFunction (its gradient), the initial stress through its expression's derivatives."""
+    mesh, s = forms.mesh, forms.setup
+    dim = mesh.dim
+    if s.model == "axisymmetric":
+        raise ValueError("the residual estimator covers plane and 3D models; use 'zz' for axisymmetric ones")
+    if s.nonlinear:
+        raise ValueError("the residual estimator covers the linear law (lam = 1); use 'zz' for the lambda law")
+    u = forms.displacement()
+    vi = _voigt_index(dim)
+    coords = (ngs.x, ngs.y, ngs.z)[:dim]
+    # element residual f + div sigma_h, region by region
+    R_parts = {}
+    for name, p in s.props.items():
+        D = _cf_matrix(forms.D[name])
+        div = [ngs.CoefficientFunction(0.0) for _ in range(dim)]
+        if s.order >= 2:
+            H = [u.components[c].Operator("hesse") for c in range(dim)]
+            for k in range(dim):
+                de = [None] * len(forms.b[name])
+                for (i, j), a in vi.items():
+                    if i <= j:
+                        de[a] = H[i][j, k] if i == j else H[i][j, k] + H[j][i, k]
+                dsk = D * ngs.CoefficientFunction(tuple(de))
+                for i in range(dim):
+                    div[i] = div[i] + dsk[vi[(i, k)]]
+        dT = forms.delta_T(name)
+        if dT is not None and isinstance(s.temperature, ngs.GridFunction):
+            gT = ngs.grad(s.temperature)
+            for i in range(dim):
+                for k in range(dim):
+                    div[i] = div[i] - float(forms.b[name][vi[(i, k)]]) * gT[k]
+        s0 = forms._sigma0_vector()
+        if s0 is not None:
+            for i in range(dim):
+                for k in range(dim):
+                    div[i] = div[i] + s0[vi[(i, k)]].Diff(coords[k])
+        if s.gravity is not None and p.density:
+            for i in range(dim):
+                div[i] = div[i] + p.density * s.gravity[i]
+        for bname, comps in s.body_force.items():
+            if bname == name:
+                for i in range(dim):
+                    div[i] = div[i] + comps[i](forms.t)
+        R_parts[name] = ngs.CoefficientFunction(tuple(div))
+    R = mesh.MaterialCF(R_parts, default=ngs.CoefficientFunction((0.0,) * dim))
+    k = mesh.MaterialCF({n: _stiffness_scale(forms.D[n], dim) for n in s.props}, default=1.0)
+    p = s.order
+    hT = _p0_field(mesh, element_sizes(mesh))
+    eta2 = c_volume / p ** 2 * _element_integral(mesh, forms.weight * hT * hT / k * ngs.InnerProduct(R, R))
+    # traction jumps and boundary misfits, per component
+    n = ngs.specialcf.normal(dim)
+    sig = mesh.MaterialCF({name: forms.stress_vector(name, u) for name in s.props},
+                          default=ngs.CoefficientFunction((0.0,) * len(next(iter(forms.b.values())))))
+    fluxes = [sum(sig[vi[(c, j)]] * n[j] for j in range(dim)) for c in range(dim)]
+    data = [[] for _ in range(dim)]
+    for name, comps in s.traction.items():
+        for c in range(dim):
+            data[c].append((name, comps[c](forms.t)))
+    for name, fp in s.pressure.items():
+        for c in range(dim):
+            data[c].append((name, -fp(forms.t) * n[c]))
+    facets = _FacetData(mesh)
+    oblique = [name for name, _ in forms.oblique]
+    weights = [facets.weights(list(forms.fixed_names[c]) + oblique) for c in range(dim)]
+    eta2 += c_jump / p * _jump_terms(mesh, p - 1, fluxes, data, weights, 1 / k, facets, forms.weight)
+    return Estimate("residual", "estimator", np.sqrt(np.maximum(eta2, 0.0)))
+
+
+# ------------------------------------------------------------------------------------------------------------
+# registry: estimators
+# ------------------------------------------------------------------------------------------------------------
+
+@register("zz", "estimator", "forms")
+def zz_estimator(forms, *, recovery: str = "average", recovery_order: int | None = None) -> Estimate:
+    """Zienkiewicz-Zhu flux (heat) or stress (elasticity) recovery estimator."""
+    if isinstance(forms, HeatForms):
+        return zz_heat(forms, recovery=recovery, recovery_order=recovery_order)
+    if isinstance(forms, ElasticForms):
+        return zz_elastic(forms, recovery=recovery, recovery_order=recovery_order)
+    raise TypeError(f"the zz estimator needs HeatForms or ElasticForms, got {type(forms).__name__}")
+
+
+@register("residual", "estimator", "forms")
+def residual_estimator(forms, *, c_volume: float = C_VOLUME, c_jump: float = C_JUMP) -> Estimate:
+    """Explicit residual estimator (element residual and flux/traction jumps)."""
+    if isinstance(forms, HeatForms):
+        return residual_heat(forms, c_volume=c_volume, c_jump=c_jump)
+    if isinstance(forms, ElasticForms):
+        return residual_elastic(forms, c_volume=c_volume, c_jump=c_jump)
+    raise TypeError(f"the residual estimator needs HeatForms or ElasticForms, got {type(forms).__name__}")
+
+
+# ------------------------------------------------------------------------------------------------------------
+# indicators
+# ------------------------------------------------------------------------------------------------------------
+
+def contact_status(kind: str, lam_n: np.ndarray, lam_t: np.ndarray, bound=None) -> np.ndarray:
+    """Nodal status (0 open, 1 stick, 2 slip) from the multipliers (Pa) of a contact law ``kind``
+    ("frictionless", "tresca", "coulomb"; ``bound`` the slip bound g_c or the friction coefficient), as the
+    contact output reports it."""
+    lam_n = np.asarray(lam_n, dtype=float)
+    q = np.linalg.norm(lam_t, axis=1) if np.ndim(lam_t) == 2 else np.abs(np.asarray(lam_t, dtype=float))
+    if kind == "frictionless":
+        return np.where(lam_n > 0, STATUS_SLIP, STATUS_OPEN)
+    b = np.broadcast_to(np.asarray(bound, dtype=float), lam_n.shape)
+    if kind == "coulomb":
+        b = b * np.maximum(lam_n, 0.0)
+    sliding = (lam_n > 0) & (q >= b * (1 - 1e-9))
+    return np.where(sliding, STATUS_SLIP, np.where(lam_n > 0, STATUS_STICK, STATUS_OPEN))
+
+
+def _side_edges(mesh, side: str) -> list[tuple[int, ...]]:
+    return [tuple(v.nr for v in el.vertices) for el in mesh.Boundaries(side).Elements()]
+
+
+@register("contact_zone", "indicator", "contact")
+def contact_zone(contacts, *, layers: int = 0, active: bool = False) -> Estimate:
+    """Flag the elements at the boundary of the active set and at stick/slip transitions (module docstring).
+
+    ``contacts``: (mesh, [(ContactOperator, nodal status array)]) (status 0 open, 1 stick, 2 slip; e.g.
+    :func:`contact_status` or the contact output's ``status``); ``layers`` extra rings of elements around the
+    flagged ones; ``active``: flag the whole contact zone (every element touching a side segment with a node in
+    contact), not only its boundary and transitions (for quantities inside the zone, e.g. the peak pressure)."""
+    mesh, contacts = contacts
+    xy = _vertex_coords(mesh)
+    inc = _incidence(mesh)
+    vmark = np.zeros(mesh.nv, dtype=bool)
+    for op, status in contacts:
+        status = np.asarray(status).astype(int)
+        index = {int(v): j for j, v in enumerate(op.nodes)}
+        points = []
+        for seg in _side_edges(mesh, op.side):
+            js = [index[v] for v in seg if v in index]
+            changes = len(js) >= 2 and len({int(status[j]) for j in js}) > 1
+            if changes or (active and any(status[j] > 0 for j in js)):
+                vmark[list(seg)] = True
+                points.append(np.mean(xy[list(seg)], axis=0))
+        if op.opposite is not None and points:
+            reach = 2.0 * float(np.max(op.length)) if op.size else 0.0
+            pts = np.array(points)
+            for seg in _side_edges(mesh, op.opposite):
+                c = np.mean(xy[list(seg)], axis=0)
+                if float(np.min(np.linalg.norm(pts - c, axis=1))) <= reach:
+                    vmark[list(seg)] = True
+    flags = _grow(inc @ vmark > 0, inc, layers)
+    return Estimate("contact_zone", "indicator", flags.astype(float))
+
+
+def _incidence(mesh) -> sp.csr_matrix:
+    """The element-vertex incidence matrix (ne x nv, ones)."""
+    ev = element_vertices(mesh)
+    rows = np.repeat(np.arange(ev.shape[0]), ev.shape[1])
+    return sp.csr_matrix((np.ones(ev.size), (rows, ev.ravel())), shape=(mesh.ne, mesh.nv))
+
+
+def _grow(flags: np.ndarray, inc: sp.csr_matrix, layers: int) -> np.ndarray:
+    """``flags`` widened by ``layers`` rings of elements (sharing a vertex)."""
+    flags = np.asarray(flags, dtype=bool)
+    for _ in range(layers):
+        flags = inc @ (inc.T @ flags.astype(float) > 0) > 0
+    return flags
+
+
+@register("phase_front", "indicator", "phase")
+def phase_front(liquid_fraction, *, level: float = 0.5, layers: int = 1, predicted=None) -> Estimate:
+    """Flag the elements the iso-line ``level`` of the nodal P1 field ``liquid_fraction`` (a GridFunction of an
+    order-1 H1 space, dof = vertex) crosses, plus ``layers`` rings around them, and the elements the iso-line of
+    ``predicted`` (the same kind of field, or None) crosses (module docstring)."""
+    mesh = liquid_fraction.space.mesh
+    ev = element_vertices(mesh)
+    flags = np.zeros(mesh.ne, dtype=bool)
+    for g in (liquid_fraction, predicted):
+        if g is None:
+            continue
+        vals = np.asarray(g.vec.FV().NumPy())[:mesh.nv][ev]
+        lo, hi = vals.min(axis=1), vals.max(axis=1)
+        flags |= (lo <= level) & (hi >= level) & (lo < hi)
+    flags = _grow(flags, _incidence(mesh), layers)
+    return Estimate("phase_front", "indicator", flags.astype(float))
