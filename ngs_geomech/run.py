@@ -182,7 +182,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         phi = stefan.fields["liquid_fraction"]
         thermal_fields.update(liquid_fraction=phi, front=phi)
     history = {"newton_iterations": [], "interface_heat_flow_W": {},
-               "coupling": {"passes": [], "deformation_heat": [], "change_T": [], "change_u": []}}
+               "coupling": {"passes": [], "deformation_heat": [], "change_T": [], "change_u": [],
+                            "conductivity_factor": []}}
     solve_s = 0.0
 
     def output(t: float, k: int | None, last: bool, where: str) -> None:
@@ -233,10 +234,14 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
             if stefan is not None:
                 stefan.set_initial(ts.start)
             output(ts.start, None, True, f"t = {format_time(ts.start)}")
+            if coupling is not None:
+                _update_pressure(heat, stefan, mech, f"t = {format_time(ts.start)}")
             t_done = ts.start
         else:
             state.check_mesh(cp)
             state.restore(cp)
+            if coupling is not None:
+                _update_pressure(heat, stefan, mech, "resume")
             solve_s = float(cp.meta["solve_s"])
             t_done = float(cp.meta["time_s"])
             if show:
@@ -362,6 +367,7 @@ def _coupled_step(scene: Scene, a: float, b: float, where: str, heat, solver, st
             info = solver.solve(where)
             T_now = heat.temperature().vec.FV().NumPy().copy()
         mech.solve(b, f"{where}, coupling pass {p + 1}", record=False)
+        factors = _update_pressure(heat, stefan, mech, where)
         coupling.set_rate(dt)
         u_now = mech.forms.gf.vec.FV().NumPy().copy()
         if prev is not None:
@@ -381,7 +387,20 @@ def _coupled_step(scene: Scene, a: float, b: float, where: str, heat, solver, st
     c["deformation_heat"].append(float(dt * np.sum(load)))
     c["change_T"].append(dT)
     c["change_u"].append(du)
+    c["conductivity_factor"].append(factors)
     mech.record(b)
+
+
+def _update_pressure(heat, stefan, mech, where: str):
+    """Give the heat (Stefan) forms the mean pressure of the last mechanics solve (kappa(T, p)); returns the
+    (min, max) conductivity factors, or None without pressure-dependent conductivities."""
+    forms = stefan.forms if stefan is not None else heat
+    if forms.gf_pressure is None:
+        return None
+    try:
+        return forms.set_pressure(-mech.fields["mean_stress"])
+    except ValueError as exc:
+        raise SolverError(f"coupled step at {where}: {exc}; reduce the load or the pressure coefficient") from None
 
 
 def _coupling_summary(scene: Scene, c: dict) -> dict:
@@ -392,6 +411,9 @@ def _coupling_summary(scene: Scene, c: dict) -> dict:
             "deformation_heat_total": float(np.sum(c["deformation_heat"])),
             "deformation_heat_per_step": c["deformation_heat"],
             "units": {"deformation_heat": "J per m of depth" if scene.scene.dimension != "3d" else "J"},
+            "conductivity_pressure_factor": ({"min": min(f[0] for f in c["conductivity_factor"] if f),
+                                              "max": max(f[1] for f in c["conductivity_factor"] if f)}
+                                             if any(c["conductivity_factor"]) else None),
             "last_change_T_max": float(max(c["change_T"], default=0.0)),
             "last_change_u_max": float(max(c["change_u"], default=0.0))}
 

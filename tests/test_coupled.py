@@ -143,3 +143,53 @@ def test_builtin_contact_melting_scene_writes_the_coupled_output(tmp_path):
     assert {"deformation_heating.png", "phase_boundary.png", "contact_bedding.png", "principal_stress.png"} <= figs
     vtu = sorted((tmp_path / "OUT").glob("contact_melting*.vtu"))[-1].read_text(errors="ignore")
     assert "deformation_heating" in vtu and "liquid_fraction" in vtu
+
+
+def _pressure_scene(c_p: float, k: float, phase_change: bool) -> dict:
+    """A 2 m x 1 m block under a uniform compression (u_x = -1e-3 x on the right, rollers left and bottom, free
+    top, no thermal expansion: a uniform stress), heated from the left: the mean pressure p0 is uniform and
+    constant, so kappa(T, p) = kappa (1 + c_p p0) everywhere."""
+    mat = {"conductivity": k, "rho_c": 2e6, "youngs_modulus": 50e9, "poisson_ratio": 0.25,
+           "conductivity_pressure_coefficient": c_p}
+    if phase_change:
+        mat.update(phase_change_temperature=5.0, latent_heat_volumetric=5e7, rho_c_liquid=2.5e6,
+                   conductivity_liquid=0.6 * k)
+    return {
+        "scene": {"name": "pressure_conductivity", "temperature_unit": "C"},
+        "physics": {"thermal": "transient", "mechanics": "static", "coupling": "staggered"},
+        "mesh": {"maxh": 0.2},
+        "time": {"end": "20 day", "dt": "1 day"},
+        "blocks": [{"name": "block", "shape": "rectangle", "origin": [0, 0], "size": [2.0, 1.0],
+                    "boundaries": {"left": "xmin", "right": "xmax", "bottom": "ymin"}}],
+        "materials": {"block": mat},
+        "initial": {"temperature": 0.0},
+        "boundary_conditions": {"left": {"symmetry": True, "temperature": 20.0}, "bottom": {"symmetry": True},
+                                "right": {"displacement": ["-1e-3*x", "free"]}},
+        "output": {"vtk": False, "figures": False},
+    }
+
+
+@pytest.mark.parametrize("phase_change", [False, True])
+def test_pressure_dependent_conductivity_equals_the_scaled_conductivity(phase_change):
+    """kappa(T, p) = kappa(T) (1 + c_p p) with a uniform pressure p0 gives the run with kappa (1 + c_p p0)."""
+    c_p = 2e-9                                          # 1/Pa
+    res = run_scene(scene_from_dict(_pressure_scene(c_p, 3.0, phase_change)), None, progress=False)
+    f = res.summary["coupling"]["conductivity_pressure_factor"]
+    assert f["max"] - f["min"] < 1e-9 * f["max"]       # uniform
+    ref = run_scene(scene_from_dict(_pressure_scene(0.0, 3.0 * f["min"], phase_change)), None, progress=False)
+    if phase_change:
+        T, T_ref = (r.stefan.forms.nodal_state(r.stefan.solver.e).T for r in (res, ref))
+    else:
+        T, T_ref = (r.forms.temperature().vec.FV().NumPy() for r in (res, ref))
+    diff = float(np.max(np.abs(T - T_ref)))
+    print(f"\nphase change {phase_change}: conductivity factor {f['min']:.6f} (p0 = {(f['min'] - 1) / c_p:.4e} Pa), "
+          f"max |T - T(scaled kappa)| = {diff:.1e} K")
+    # plane strain, e_xx = -1e-3, sigma_yy = 0 (lambda = mu = 20 GPa): sigma_xx = -53.33, sigma_zz = -13.33 MPa,
+    # p0 = 66.67 / 3 = 22.22 MPa
+    assert f["min"] == pytest.approx(1 + c_p * 2.0 / 90 * 1e9, rel=1e-9) and diff < 1e-9
+
+
+def test_pressure_law_out_of_range_stops_by_region():
+    with pytest.raises(SolverError, match=r"coupled step at t = 0 s: conductivity of region 'block': the factor "
+                                          r"1 \+ c_p p = .* is not positive"):
+        run_scene(scene_from_dict(_pressure_scene(-1e-6, 3.0, False)), None, progress=False)

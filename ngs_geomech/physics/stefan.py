@@ -170,7 +170,9 @@ class StefanSetup:
     in x, y, z, t or TimeFunction); ``flux`` maps boundary names to the heat flux into the body (W/m^2);
     ``sources`` maps region names to power densities (W/m^3). Unnamed boundaries are insulated.
     ``interfaces`` lists contact interfaces as (master boundary, minion boundary, penalty): heat passes by the
-    jump penalty of the module docstring (penalty dimensionless, > 0).
+    jump penalty of the module docstring (penalty dimensionless, > 0). ``pressure_coefficients`` maps regions
+    to c_p (1/Pa): their conductivities (both phases) are multiplied by 1 + c_p p, p the mean pressure given by
+    :meth:`StefanForms.set_pressure` (compression > 0).
     """
 
     materials: dict[str, StefanMaterial]
@@ -178,6 +180,7 @@ class StefanSetup:
     flux: dict[str, object] = field(default_factory=dict)
     sources: dict[str, object] = field(default_factory=dict)
     interfaces: list[tuple[str, str, float]] = field(default_factory=list)
+    pressure_coefficients: dict[str, float] = field(default_factory=dict)
 
 
 DEFAULT_INTERFACE_PENALTY = 1e3
@@ -245,6 +248,8 @@ class StefanForms:
                 raise ValueError(f"Stefan problem: material of region {name!r} must be a PhaseChangeMaterial or a "
                                  f"PlainThermalMaterial, got {type(mat).__name__}")
         self.dim = mesh.dim
+        self.version = 0
+        """Changes when the stiffness matrices change (:meth:`set_pressure`)."""
         self.rules = vertex_rules(self.dim)
         types = {el.type for el in mesh.Elements(ngs.VOL)}
         if not types <= set(self.rules):
@@ -283,8 +288,14 @@ class StefanForms:
         u, v = self.V.TnT()
         G = len(self.groups)
         masses = np.zeros((self.n, G))
-        self.stiffness: list[sp.csr_matrix] = []
-        pattern = None
+        self.gf_pressure = None
+        pressure_factor = None
+        if any(c != 0.0 for c in self.setup.pressure_coefficients.values()):
+            self.gf_pressure = ngs.GridFunction(ngs.L2(self.mesh, order=0))
+            pressure_factor = self.mesh.MaterialCF({n: 1 + c * self.gf_pressure
+                                                    for n, c in self.setup.pressure_coefficients.items()},
+                                                   default=1.0)
+        self._group_forms = []
         for g, names in enumerate(self.group_regions):
             where = self.mesh.Materials(regions_regex(names))
             lf = ngs.LinearForm(self.V)
@@ -293,29 +304,14 @@ class StefanForms:
             masses[:, g] = lf.vec.FV().NumPy()
             # the whole mesh with an indicator (not definedon), so that all groups share one sparsity pattern
             indicator = self.mesh.MaterialCF({n: 1.0 for n in names}, default=0.0)
+            if pressure_factor is not None:
+                indicator = indicator * pressure_factor
             a = ngs.BilinearForm(self.V)
             a += indicator * ngs.grad(u) * ngs.grad(v) * ngs.dx
-            a.Assemble()
-            vals, cols, ptr = a.mat.CSR()
-            K = sp.csr_matrix((np.array(vals), np.array(cols), np.array(ptr)), shape=(self.n, self.n))
-            if pattern is None:
-                pattern = (K.indices.copy(), K.indptr.copy())
-            elif not (np.array_equal(pattern[0], K.indices) and np.array_equal(pattern[1], K.indptr)):
-                raise AssertionError("Stefan forms: the region stiffness matrices do not share one pattern")
-            self.stiffness.append(K)
+            self._group_forms.append(a)
         self.interface_conductance: list[float] = []
-        if self.setup.interfaces:
-            KG = self._interface_matrix()
-            K0 = self.stiffness[0]
-            ones = [sp.csr_matrix((np.ones(len(M.indices)), M.indices, M.indptr), shape=(self.n, self.n))
-                    for M in (K0, KG)]
-            union = (ones[0] + ones[1]).tocsr()              # structural union (no cancellation)
-            union.sort_indices()
-            rows = np.repeat(np.arange(self.n), np.diff(union.indptr))
-            self.stiffness = [sp.csr_matrix((np.asarray(K[rows, union.indices]).ravel(), union.indices.copy(),
-                                             union.indptr.copy()), shape=(self.n, self.n))
-                              for K in self.stiffness + [KG]]
-            pattern = (union.indices.copy(), union.indptr.copy())
+        self._interface = self._interface_matrix() if self.setup.interfaces else None
+        pattern = self._collect_stiffness()
         self.pattern_cols = pattern[0]
         self.pattern_rows = np.repeat(np.arange(self.n), np.diff(pattern[1]))
         self.diagonal_positions = np.nonzero(self.pattern_rows == self.pattern_cols)[0]
@@ -326,6 +322,51 @@ class StefanForms:
             raise AssertionError("Stefan forms: a vertex without elements (zero lumped mass)")
         self.mass_by_group = masses
         self.weights = masses / self.mass[:, None]
+
+    def _collect_stiffness(self) -> tuple:
+        """Assemble the groups' stiffness matrices (with the pressure factors) into ``stiffness`` (CSR, one
+        shared pattern; the interface penalty last, in the union pattern); returns the pattern."""
+        self.stiffness = []
+        pattern = None
+        for a in self._group_forms:
+            a.Assemble()
+            vals, cols, ptr = a.mat.CSR()
+            K = sp.csr_matrix((np.array(vals), np.array(cols), np.array(ptr)), shape=(self.n, self.n))
+            if pattern is None:
+                pattern = (K.indices.copy(), K.indptr.copy())
+            elif not (np.array_equal(pattern[0], K.indices) and np.array_equal(pattern[1], K.indptr)):
+                raise AssertionError("Stefan forms: the region stiffness matrices do not share one pattern")
+            self.stiffness.append(K)
+        if self._interface is not None:
+            KG = self._interface
+            K0 = self.stiffness[0]
+            ones = [sp.csr_matrix((np.ones(len(M.indices)), M.indices, M.indptr), shape=(self.n, self.n))
+                    for M in (K0, KG)]
+            union = (ones[0] + ones[1]).tocsr()              # structural union (no cancellation)
+            union.sort_indices()
+            rows = np.repeat(np.arange(self.n), np.diff(union.indptr))
+            self.stiffness = [sp.csr_matrix((np.asarray(K[rows, union.indices]).ravel(), union.indices.copy(),
+                                             union.indptr.copy()), shape=(self.n, self.n))
+                              for K in self.stiffness + [KG]]
+            pattern = (union.indices.copy(), union.indptr.copy())
+        self.__dict__.pop("_abs_stiffness", None)
+        return pattern
+
+    def set_pressure(self, pressure) -> tuple[float, float]:
+        """The mean pressure p (Pa, compression > 0; a CoefficientFunction) of k(p) = k (1 + c_p p) in the
+        regions with a pressure coefficient (element averages): the stiffness matrices are assembled again
+        (same pattern) and ``version`` changes, so that the solver refactors. Returns the (min, max) of the
+        factors; ValueError naming the region when one is not positive."""
+        from .thermal import _check_pressure_factors
+
+        if self.gf_pressure is None:
+            raise ValueError("set_pressure: no region has a pressure coefficient")
+        self.gf_pressure.Set(pressure)
+
+        def changed():
+            self._collect_stiffness()
+            self.version += 1
+        return _check_pressure_factors(self.mesh, self.gf_pressure, self.setup.pressure_coefficients, changed)
 
     def _interface_matrix(self) -> sp.csr_matrix:
         """gamma_c B^T D^-1 B summed over the contact interfaces (module docstring), W/K per metre of depth in

@@ -58,10 +58,33 @@ class HeatSetup:
     robin: dict[str, tuple[float, TimeFunction]] = field(default_factory=dict)
     sources: dict[str, TimeFunction | list[TimeFunction]] = field(default_factory=dict)
     contacts: list[tuple[str, str]] = field(default_factory=list)
+    pressure_coefficients: dict[str, float] = field(default_factory=dict)
+    """Region name -> c_p (1/Pa) of kappa(T, p) = kappa f(T) (1 + c_p p), p the mean pressure (compression > 0)
+    set with :meth:`HeatForms.set_pressure` (the seed's remark on its model: k depends on the pressure)."""
 
     @property
     def nonlinear(self) -> bool:
         return any(p.nonlinear for p in self.props.values())
+
+
+def _check_pressure_factors(mesh, gf_pressure, coefficients: dict, changed) -> tuple[float, float]:
+    """Factors 1 + c_p p per element of the regions with c_p != 0: their (min, max); ValueError naming the
+    region and the pressure when one is not positive. Calls ``changed()`` (the conductivity changed)."""
+    p = gf_pressure.vec.FV().NumPy()
+    lo, hi = float("inf"), float("-inf")
+    for name, c in coefficients.items():
+        if c == 0.0:
+            continue
+        els = [el.nr for el in mesh.Materials(name).Elements()]
+        f = 1.0 + c * p[els]
+        bad = np.nonzero(~(f > 0))[0]
+        if len(bad):
+            raise ValueError(f"conductivity of region {name!r}: the factor 1 + c_p p = {f[bad[0]]:.3g} is not "
+                             f"positive at the pressure {p[els][bad[0]]:.4g} Pa (c_p = {c:g} 1/Pa): the linear "
+                             "pressure law has left its range")
+        lo, hi = min(lo, float(f.min())), max(hi, float(f.max()))
+    changed()
+    return lo, hi
 
 
 class HeatForms:
@@ -94,6 +117,14 @@ class HeatForms:
                                                                  dims=(dim, dim)) for n in names},
                                default=ngs.CoefficientFunction((0.0,) * dim * dim, dims=(dim, dim)))
         self.rho_c = region_cf(mesh, {n: setup.props[n].rho_c or 0.0 for n in names})
+        self.version = 0
+        """Changes when the conductivity changes (:meth:`set_pressure`): the solver's cached matrices are stale."""
+        self.gf_pressure = None
+        if any(c != 0.0 for c in setup.pressure_coefficients.values()):
+            self.gf_pressure = ngs.GridFunction(ngs.L2(mesh, order=0))
+            self.pressure_factor = region_cf(mesh, {n: 1 + c * self.gf_pressure
+                                                    for n, c in setup.pressure_coefficients.items()}, 1.0)
+            self.kappa = self.pressure_factor * self.kappa
         self.extra_load = None
         """An assembled source vector over X (W) added to every right-hand side, e.g. the deformation heating
         of problem (P_c) (lagged, full weight also with theta < 1), or None."""
@@ -154,6 +185,21 @@ class HeatForms:
     def multipliers(self, gf=None) -> list:
         g = gf if gf is not None else self.gf
         return list(g.components[1:]) if self.setup.contacts else []
+
+    def set_pressure(self, pressure) -> tuple[float, float]:
+        """The mean pressure p (Pa, compression > 0; a CoefficientFunction, e.g. minus the mean stress of the
+        mechanics) of kappa(T, p), element averages; returns the range (min, max) of the factors 1 + c_p p.
+        Raises ValueError naming the region when a factor is not positive (c_p p <= -1: the law has left its
+        range)."""
+        if self.gf_pressure is None:
+            raise ValueError("set_pressure: no region has a pressure coefficient")
+        self.gf_pressure.Set(pressure)
+        return _check_pressure_factors(self.mesh, self.gf_pressure, self.setup.pressure_coefficients,
+                                       self._bump)
+
+    def _bump(self) -> None:
+        self.version += 1
+        self._matrices_assembled = False
 
     def conductivity_factor(self, T):
         """f(T) = 1 + b (T - T_ref) per region (dimensionless)."""

@@ -63,7 +63,14 @@ def heat_setup(scene: Scene, geo: GeometryModel, mesh) -> HeatSetup:
     # an interface with an initial gap (Interface.sides) carries no heat: an open gap is insulating (thermal
     # contact resistance is not modelled), its sides are outer boundaries of the heat problem
     setup.contacts = [(cs.master, cs.minion) for cs in geo.contacts.values() if not cs.initial_gap]
+    setup.pressure_coefficients = pressure_coefficients(scene)
     return setup
+
+
+def pressure_coefficients(scene: Scene) -> dict[str, float]:
+    """Region -> c_p (1/Pa) of the regions with a pressure-dependent conductivity."""
+    return {n: float(m.conductivity_pressure_coefficient) for n, m in scene.materials.items()
+            if m.conductivity_pressure_coefficient != 0.0}
 
 
 def initial_temperature(scene: Scene, mesh, t_param):

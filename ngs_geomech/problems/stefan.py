@@ -33,7 +33,7 @@ from ..physics.stefan import (
 )
 from ..scene.model import Scene
 from ..solvers.stefan import StefanSolver
-from .heat import initial_temperature, region_measure, source_function
+from .heat import initial_temperature, pressure_coefficients, region_measure, source_function
 
 LEVEL = 0.5
 """The phase boundary is the iso-line liquid_fraction = LEVEL."""
@@ -67,7 +67,7 @@ def _summed(functions: list):
 def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> StefanSetup:
     """The StefanSetup of a validated scene on its mesh; ``geo`` (the scene's geometry model) gives the contact
     interfaces heat passes through (touching blocks; the jump penalty of :mod:`ngs_geomech.physics.stefan`)."""
-    setup = StefanSetup(materials=stefan_materials(scene))
+    setup = StefanSetup(materials=stefan_materials(scene), pressure_coefficients=pressure_coefficients(scene))
     if geo is not None:
         penalty = {itf.name: itf.thermal_penalty for itf in scene.interfaces}
         setup.interfaces = [(cs.master, cs.minion, penalty.get(cs.name) or DEFAULT_INTERFACE_PENALTY)

@@ -232,6 +232,11 @@ class Material:
     conductivity_temperature_coefficient: float = field(number, 0.0,
                                                         doc="b in kappa(T) = kappa (1 + b (T - T_ref)), 1/K")
     reference_temperature: float = field(number, 0.0, doc="T_ref of the conductivity law, degC or K")
+    conductivity_pressure_coefficient: float = field(number, 0.0,
+                                                     doc="c_p in kappa(T, p) = kappa(T) (1 + c_p p), 1/Pa, p the "
+                                                         "mean pressure (compression > 0) of the mechanics; needs "
+                                                         "physics.coupling (the pressure of the last mechanics "
+                                                         "solve enters each heat step)")
     rho_c: float | None = field(optional(number), None, doc="volumetric heat capacity rho*c, J/(m^3 K)")
     density: float | None = field(optional(number), None, doc="rho, kg/m^3 (with specific_heat)")
     specific_heat: float | None = field(optional(number), None, doc="c, J/(kg K) (with density)")

@@ -101,6 +101,15 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
         if softening and ms.regularization <= 0:
             problems.append(Problem("mechanics.regularization", f"must be positive: rheology_lambda < 1 in "
                                     f"{softening} is singular at zero strain"))
+    for name, mat in scene.materials.items():
+        c_p = mat.conductivity_pressure_coefficient
+        item = f"materials.{name}.conductivity_pressure_coefficient"
+        if not math.isfinite(c_p):
+            problems.append(Problem(item, f"must be finite, got {c_p}"))
+        elif c_p != 0.0 and ph.coupling == "none":
+            problems.append(Problem(item, "a pressure-dependent conductivity needs the pressure of the mechanics "
+                                    "in every heat step: set physics.coupling = 'staggered' or 'iterated' (with "
+                                    "physics.thermal = 'transient' and physics.mechanics = 'static')"))
     if ph.coupling != "none":
         if ph.thermal != "transient" or ph.mechanics is None:
             problems.append(Problem("physics.coupling", f"{ph.coupling!r} couples a transient heat problem with "

@@ -79,7 +79,7 @@ class HeatSolver:
         self.set_dirichlet()
         rhs = self.f.right_hand_side()
         if not self.f.setup.nonlinear:
-            mat, inv, fresh = self._system(f"{self.f.inv_dt.Get():.14g}")
+            mat, inv, fresh = self._system(f"{self.f.inv_dt.Get():.14g}:{self.f.version}")
             if self._free_mask is None:
                 self._free_mask = np.array(list(self.f.freedofs), dtype=bool)
             solve_watched(mat, inv, rhs, self.f.gf.vec, self._free_mask, f"heat solve at {where}",

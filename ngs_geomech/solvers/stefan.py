@@ -127,6 +127,7 @@ class _ColumnJacobian:
 
     def __init__(self, forms: StefanForms, max_changed: int | None = None):
         f = forms
+        self.forms = forms
         self.free = np.nonzero(f.free)[0]
         nF = len(self.free)
         self.nF = nF
@@ -141,10 +142,8 @@ class _ColumnJacobian:
         self._diag = np.nonzero(self._rows == self._cols)[0]
         if len(self._diag) != nF:
             raise AssertionError("Stefan Jacobian: a diagonal entry is missing from the pattern")
-        self._kdata = [K.data[sel] for K in f.stiffness]
-        self._kdiag = [kd[self._diag].copy() for kd in self._kdata]
-        for kd in self._kdata:
-            kd[self._diag] = 0.0                      # the off-diagonal part; the diagonal is d
+        self._sel = sel
+        self._load_stiffness()
         self._transpose = np.lexsort((self._cols, self._rows))
         if not (np.array_equal(self._rows[self._transpose], self._cols)
                 and np.array_equal(self._cols[self._transpose], self._rows)):
@@ -167,6 +166,15 @@ class _ColumnJacobian:
         self._band = None                               # factored rows kept of v_i (factored numbering), None: all
         self._bmap = np.zeros(0, dtype=int)             # factored -> row of _store, -1: not kept
         self._limit = 0
+
+    def _load_stiffness(self) -> None:
+        """The stiffness values in the free x free pattern (again after the forms' matrices changed)."""
+        f = self.forms
+        self.version = f.version
+        self._kdata = [K.data[self._sel] for K in f.stiffness]
+        self._kdiag = [kd[self._diag].copy() for kd in self._kdata]
+        for kd in self._kdata:
+            kd[self._diag] = 0.0                      # the off-diagonal part; the diagonal is d
 
     def _factor(self, d: np.ndarray, w: np.ndarray, dt: float, where: str, recent: np.ndarray | None = None) -> None:
         """Factor M0 = M(d, w); ``recent`` (free nodes, bool): the nodes whose columns changed in the last cycle,
@@ -284,12 +292,15 @@ class _ColumnJacobian:
         is taken as that one (the steps t1 - t0 of a constant schedule differ in the last bits)."""
         if self.nF == 0:
             return np.zeros(0)
+        stale = self.version != self.forms.version     # the conductivities changed: factor anew
+        if stale:
+            self._load_stiffness()
         if self._d0 is not None and abs(dt - self.dt0) <= 1e-12 * self.dt0:
             dt = self.dt0
         d = mc / dt
         for g, kd in enumerate(self._kdiag):
             d = d + kd * wd[:, g]
-        if self._d0 is None or dt != self.dt0:
+        if self._d0 is None or dt != self.dt0 or stale:
             self._factor(d, w, dt, where)
             return self._solve0(b)
         changed = (d != self._d0) | np.any(w != self._w0, axis=1)
