@@ -25,6 +25,9 @@ from pathlib import Path
 import ngsolve as ngs
 import numpy as np
 
+from .adapt.estimators import contact_status as est_contact_status
+from .adapt.loop import adaptive_solve, refine_mesh
+from .adapt.marking import StopRule
 from .checkpoint import CHECKPOINT_WALL_S, Plan, RunState, Snapshot, check_scene, plan_steps
 from .checkpoint import where as checkpoint_where
 from .errors import Problem, ResumeError, SceneError, SolverError
@@ -140,32 +143,19 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     axi = scene.scene.dimension == "axisymmetric"
     name = scene.scene.name
     tic = _time.perf_counter()
-    fields = {"region": mesh.MaterialCF({n: i for i, n in enumerate(mesh.GetMaterials())}, default=-1)}
-    heat = solver = T = stefan = None
-    if stefan_scene(scene):           # phase change: the enthalpy (Stefan) solver replaces the heat solver
-        stefan = StefanRun(scene, mesh, geo)
-        T = stefan.fields["temperature"]
-        fields.update(stefan.fields)
-    elif scene.physics.thermal:
-        setup = heat_setup(scene, geo, mesh)
-        heat = HeatForms(mesh, setup)
-        solver = HeatSolver(heat)
-        T = heat.temperature()
-        fields["temperature"] = T
-        fields["heat_flux"] = heat.heat_flux(T)
-        if setup.nonlinear:
-            fields["kirchhoff_theta"] = heat.kirchhoff(T)
-    mech = None
-    if scene.physics.mechanics:
-        mech = _Mechanics(scene, geo, mesh, T)
-        fields.update(mech.fields)
-        if show:
-            for w in mech.warnings:
-                print(f"warning: {w}", flush=True)
-    coupling = None
-    if scene.physics.coupling != "none" and mech is not None and T is not None:
-        coupling = _deformation_heating(scene, mesh, mech, heat, stefan)
-        fields["deformation_heating"] = coupling.source
+    phys = _Physics(scene, geo, mesh)
+    adaptive = None
+    if scene.adaptivity is not None:          # validated: a stationary scene
+        adaptive = _SceneAdaptive(scene, geo, phys, show)
+        run_ = adaptive_solve(adaptive, **adaptive.settings())
+        adaptive.result = run_
+        phys, mesh = adaptive.phys, adaptive.mesh
+        timings["adaptivity_s"] = _time.perf_counter() - tic
+    fields, heat, solver, T, stefan, mech, coupling = (phys.fields, phys.heat, phys.solver, phys.T, phys.stefan,
+                                                       phys.mech, phys.coupling)
+    if show and mech is not None:
+        for w in mech.warnings:
+            print(f"warning: {w}", flush=True)
     probes = ProbeSet(mesh, scene.output.probes, axi)
     timings["setup_s"] = _time.perf_counter() - tic
     vtk = None
@@ -195,7 +185,9 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         if stefan is not None:
             stefan.record(t)
         if mech is not None:
-            if coupling is None or k is None:        # coupled runs solve the mechanics in every step
+            if adaptive is not None:                 # solved on the final mesh by the adaptive loop
+                mech.record(t)
+            elif coupling is None or k is None:      # coupled runs solve the mechanics in every step
                 mech.solve(t, where)
             probes.record(t, mech.probe_fields)
         if vtk:
@@ -216,8 +208,11 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     if not transient:
         tic = _time.perf_counter()
         if heat is not None:
-            heat.t_new.Set(0.0)
-            info = solver.solve("steady state")
+            if adaptive is None:
+                heat.t_new.Set(0.0)
+                info = solver.solve("steady state")
+            else:
+                info = adaptive.heat_info
             history["newton_iterations"].append(info.iterations)
             _interface_flows(heat, history, axi)
         output(0.0, None, True, "steady state")
@@ -313,9 +308,11 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         summary["stefan"] = stefan.summary()
     if coupling is not None:
         summary["coupling"] = _coupling_summary(scene, history["coupling"])
+    if adaptive is not None:
+        summary["adaptivity"] = adaptive.summary()
     if staging is not None:
         tic = _time.perf_counter()
-        _figures(scene, mesh, T, probes, staging.path / "figures", mech, stefan, coupling)
+        _figures(scene, mesh, T, probes, staging.path / "figures", mech, stefan, coupling, adaptive)
         timings["output_s"] = _time.perf_counter() - tic
     return RunResult(mesh=mesh, forms=heat, summary=summary, out=None, timings=timings, mechanics=mech,
                      stefan=stefan)
@@ -441,6 +438,108 @@ def _stop(exc: BaseException, staging: OutputDir | None, state: RunState, snap: 
         raise KeyboardInterrupt(hint) from exc
 
 
+class _Physics:
+    """What a scene solves on one mesh: heat (or Stefan) forms and solver, mechanics, the coupling, and the
+    output fields; built only as the scene declares."""
+
+    def __init__(self, scene: Scene, geo: GeometryModel, mesh):
+        self.mesh = mesh
+        self.fields = {"region": mesh.MaterialCF({n: i for i, n in enumerate(mesh.GetMaterials())}, default=-1)}
+        self.heat = self.solver = self.T = self.stefan = None
+        if stefan_scene(scene):           # phase change: the enthalpy (Stefan) solver replaces the heat solver
+            self.stefan = StefanRun(scene, mesh, geo)
+            self.T = self.stefan.fields["temperature"]
+            self.fields.update(self.stefan.fields)
+        elif scene.physics.thermal:
+            setup = heat_setup(scene, geo, mesh)
+            self.heat = HeatForms(mesh, setup)
+            self.solver = HeatSolver(self.heat)
+            self.T = self.heat.temperature()
+            self.fields["temperature"] = self.T
+            self.fields["heat_flux"] = self.heat.heat_flux(self.T)
+            if setup.nonlinear:
+                self.fields["kirchhoff_theta"] = self.heat.kirchhoff(self.T)
+        self.mech = None
+        if scene.physics.mechanics:
+            self.mech = _Mechanics(scene, geo, mesh, self.T)
+            self.fields.update(self.mech.fields)
+        self.coupling = None
+        if scene.physics.coupling != "none" and self.mech is not None and self.T is not None:
+            self.coupling = _deformation_heating(scene, mesh, self.mech, self.heat, self.stefan)
+            self.fields["deformation_heating"] = self.coupling.source
+
+    @property
+    def ndof(self) -> int:
+        return ((self.heat.X.ndof if self.heat is not None else 0)
+                + (self.mech.forms.X.ndof if self.mech is not None else 0))
+
+
+class _SceneAdaptive:
+    """A stationary scene as an :class:`ngs_geomech.adapt.loop.AdaptiveProblem`: each step solves the steady heat
+    problem and then the mechanics on the current mesh; the scene's estimator measures the target problem's
+    error; refining bisects the marked elements (curved again to the mesh order) and builds the physics anew on
+    the refined mesh (contact pairs and mortar couplings included)."""
+
+    def __init__(self, scene: Scene, geo: GeometryModel, phys: _Physics, show: bool):
+        a = scene.adaptivity
+        self.scene, self.geo, self.phys, self.mesh, self.show = scene, geo, phys, phys.mesh, show
+        self.target = a.target or ("mechanics" if scene.physics.mechanics else "heat")
+        self.estimator = a.estimator
+        self.heat_info = None
+        self.result = None
+        self.refinements = 0
+
+    def settings(self) -> dict:
+        a = self.scene.adaptivity
+        return {"estimator": a.estimator, "indicators": tuple(a.indicators), "marker": a.marker,
+                "theta": a.theta, "stop": StopRule(tolerance=a.tolerance, max_dofs=a.max_dofs,
+                                                   max_refinements=a.max_refinements)}
+
+    @property
+    def ndof(self) -> int:
+        return self.phys.ndof
+
+    def solve(self) -> dict:
+        p = self.phys
+        where = f"adaptive step {self.refinements} (steady state)"
+        if p.heat is not None:
+            p.heat.t_new.Set(0.0)
+            self.heat_info = p.solver.solve(where)
+        if p.mech is not None:
+            p.mech.solve(0.0, where, record=False)
+        if self.show:
+            print(f"adaptivity: step {self.refinements}: {p.ndof} dofs, {self.mesh.ne} elements", flush=True)
+        return {}
+
+    def estimator_input(self, needs: str):
+        p = self.phys
+        if needs == "forms":
+            return p.mech.forms if self.target == "mechanics" else p.heat
+        if needs == "contact":
+            m = p.mech
+            items = []
+            for spec, (lam_n, lam_t) in zip(m.contacts, m.solver.contact.multipliers):
+                law = spec.law
+                bound = law.slip_bound if law.kind == "tresca" else law.friction
+                items.append((spec.op, est_contact_status(law.kind, lam_n, lam_t, bound)))
+            return self.mesh, items
+        raise ValueError(f"a scene has no {needs!r} input for an estimator")
+
+    def refine(self, marks) -> None:
+        order = self.scene.mesh.order
+        refine_mesh(self.mesh, marks, order if order >= 2 else 0)
+        self.refinements += 1
+        self.phys = _Physics(self.scene, self.geo, self.mesh)
+
+    def summary(self) -> dict:
+        r = self.result
+        return {"estimator": self.estimator, "target": self.target, "marker": self.scene.adaptivity.marker,
+                "theta": self.scene.adaptivity.theta, "stop_reason": r.stop,
+                "steps": [{"refinement": s.refinement, "ndof": s.ndof, "elements": s.elements,
+                           "estimate": s.estimate, "marked": s.marked, "flagged": s.flagged,
+                           "solve_s": s.solve_s, "estimate_s": s.estimate_s} for s in r.steps]}
+
+
 class _Mechanics:
     """The elastic part of a run: forms, solver, output fields, solve history."""
 
@@ -516,9 +615,17 @@ def _interface_flows(forms: HeatForms, history: dict, axi: bool) -> None:
 
 
 def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None, stefan=None,
-             coupling=None) -> None:
+             coupling=None, adaptive=None) -> None:
     if not scene.output.figures:
         return
+    if adaptive is not None:
+        steps = adaptive.result.steps
+        directory.mkdir(parents=True, exist_ok=True)
+        figures.convergence_figure([s.ndof for s in steps], {f"estimate ({adaptive.estimator})":
+                                                            [s.estimate for s in steps]},
+                                   directory / "adaptivity.png",
+                                   title=f"{scene.scene.name}: adaptive refinement ({adaptive.target})",
+                                   ylabel="estimated error (energy norm)")
     t_unit = "degC" if scene.scene.temperature_unit == "C" else "K"
     units = {"temperature": t_unit, "von_mises": "Pa", "mean_stress": "Pa", "sigma_1": "Pa", "sigma_3": "Pa",
              "displacement_x": "m", "displacement_y": "m", "displacement_z": "m", "liquid_fraction": "-",

@@ -107,3 +107,17 @@ def interface_profiles(s: np.ndarray, panels: list[dict[str, np.ndarray]], path:
     axes[0, 0].set_title(title)
     fig.tight_layout()
     _save(fig, path)
+
+
+def convergence_figure(dofs, curves: dict[str, list], path: Path, *, title: str, ylabel: str) -> None:
+    """Log-log curves against the number of unknowns (e.g. an adaptive run's estimates)."""
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for name, vals in curves.items():
+        ax.loglog(dofs, vals, marker="o", label=name)
+    ax.set_xlabel("unknowns")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    _save(fig, path)

@@ -393,6 +393,34 @@ class Output:
     probes: list = field(list_of(nested(Probe)), [], doc="probes recorded over time")
 
 
+ESTIMATORS = ("zz", "residual")
+INDICATORS = ("contact_zone",)
+MARKERS = ("doerfler", "maximum", "uniform")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Adaptivity:
+    """``[adaptivity]``: stationary scenes refined by SOLVE -> ESTIMATE -> MARK -> REFINE
+    (:mod:`ngs_geomech.adapt`) before the output is written on the final mesh."""
+
+    estimator: str = field(one_of(*ESTIMATORS), "zz",
+                           doc="'zz' (flux / stress recovery, Zienkiewicz-Zhu) or 'residual' (element residual "
+                               "and jumps)")
+    target: str | None = field(optional(one_of("heat", "mechanics")), None,
+                               doc="the problem whose error is estimated (default: mechanics when on, else heat)")
+    indicators: list = field(list_of(one_of(*INDICATORS)), [],
+                             doc="elements flagged in addition: 'contact_zone' (the active set's boundary and "
+                                 "stick/slip transitions of every mechanical contact)")
+    marker: str = field(one_of(*MARKERS), "doerfler",
+                        doc="'doerfler' (bulk: the fewest elements holding theta of the squared estimate), "
+                            "'maximum' (eta_T >= theta max eta) or 'uniform'")
+    theta: float = field(number, 0.5, doc="the marker's parameter, in (0, 1]")
+    tolerance: float | None = field(optional(number), None,
+                                    doc="stop when the estimate (energy norm, the estimator's units) is below it")
+    max_dofs: int | None = field(optional(integer), None, doc="stop before a mesh would exceed this many dofs")
+    max_refinements: int = field(integer, 6, doc="stop after this many refinements")
+
+
 @dataclass(frozen=True, kw_only=True)
 class Scene:
     """A whole scene: geometry, materials, conditions, physics, time and output settings."""
@@ -409,3 +437,5 @@ class Scene:
     initial: Initial = field(nested(Initial), Initial(), doc="initial conditions")
     time: TimeSettings | None = field(optional(nested(TimeSettings)), None, doc="time settings (transient)")
     output: Output = field(nested(Output), Output(), doc="output settings")
+    adaptivity: Adaptivity | None = field(optional(nested(Adaptivity)), None,
+                                          doc="adaptive refinement (stationary scenes)")

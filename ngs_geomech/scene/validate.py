@@ -76,6 +76,42 @@ def _check_names(scene: Scene, problems: list[Problem]) -> None:
         inames.add(itf.name)
 
 
+def _check_adaptivity(scene: Scene, problems: list[Problem]) -> None:
+    a = scene.adaptivity
+    if a is None:
+        return
+    ph = scene.physics
+    if ph.thermal == "transient" or (ph.thermal is None and scene.time is not None):
+        problems.append(Problem("adaptivity", "adaptive refinement is available for stationary scenes (steady heat "
+                                "and/or static mechanics without [time]); time-dependent scenes are not adapted yet"))
+    target = a.target or ("mechanics" if ph.mechanics else "heat")
+    if target == "mechanics" and ph.mechanics is None:
+        problems.append(Problem("adaptivity.target", "'mechanics' needs physics.mechanics = 'static'"))
+    if target == "heat" and ph.thermal is None:
+        problems.append(Problem("adaptivity.target", "'heat' needs physics.thermal"))
+    if a.estimator == "residual" and target == "mechanics":
+        if scene.scene.dimension == "axisymmetric":
+            problems.append(Problem("adaptivity.estimator", "the residual estimator of elasticity is not available "
+                                    "for axisymmetric scenes: use 'zz'"))
+        bad = sorted(n for n, m in scene.materials.items() if m.rheology_lambda != 1.0)
+        if bad:
+            problems.append(Problem("adaptivity.estimator", f"the residual estimator of elasticity needs the linear "
+                                    f"law (rheology_lambda = 1; {bad} are not): use 'zz'"))
+    if "contact_zone" in a.indicators and (ph.mechanics is None or not any(
+            itf.type == "contact" for itf in scene.interfaces) and not any(
+            bc.foundation is not None for bc in scene.boundary_conditions.values())):
+        problems.append(Problem("adaptivity.indicators", "'contact_zone' needs mechanics with a contact interface or "
+                                "a foundation"))
+    if not (0 < a.theta <= 1):
+        problems.append(Problem("adaptivity.theta", f"must be in (0, 1], got {a.theta}"))
+    if a.tolerance is not None and not (a.tolerance > 0 and math.isfinite(a.tolerance)):
+        problems.append(Problem("adaptivity.tolerance", f"must be > 0, got {a.tolerance}"))
+    if a.max_dofs is not None and a.max_dofs < 1:
+        problems.append(Problem("adaptivity.max_dofs", f"must be >= 1, got {a.max_dofs}"))
+    if a.max_refinements < 0:
+        problems.append(Problem("adaptivity.max_refinements", f"must be >= 0, got {a.max_refinements}"))
+
+
 def _check_settings(scene: Scene, problems: list[Problem]) -> None:
     ph = scene.physics
     if ph.thermal is None and ph.mechanics is None:
@@ -110,6 +146,7 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem(item, "a pressure-dependent conductivity needs the pressure of the mechanics "
                                     "in every heat step: set physics.coupling = 'staggered' or 'iterated' (with "
                                     "physics.thermal = 'transient' and physics.mechanics = 'static')"))
+    _check_adaptivity(scene, problems)
     if ph.coupling != "none":
         if ph.thermal != "transient" or ph.mechanics is None:
             problems.append(Problem("physics.coupling", f"{ph.coupling!r} couples a transient heat problem with "
