@@ -88,7 +88,8 @@ from the T crossing moves from node to node (no clean order). Energy imbalance a
 Targets: Newton mean <= 4: met (largest mean 1.86, max 5 iterations); not growing: met (1.22 at h = 0.05,
 1.44 - 1.86 from h = 0.0125 on, up and down between levels; log-log slope -0.12); time ratio <= 3: NOT met,
 3.1 - 3.3 from h = 0.0125 to 0.003125 in this run (2.8 - 4.0 in others; one-phase 2.2 - 3.4), 4.10 at 170k
-nodes (level 2; order of the front over all six levels 1.08, L2 1.06). Against a linear step with its factorization the Stefan step costs 0.1 - 0.25 of it.
+nodes (level 2; order of the front over all six levels 1.08, L2 1.06). Against a linear step with its
+factorization the Stefan step costs 0.1 - 0.25 of it.
 
 Where a step's time goes (profile, two-phase, h = 0.00625, 4.2 - 4.8 ms): 2.8 SuperLU solves (1.1 ms: two per
 Newton iteration with a correction), 2.6 correction columns (0.75 ms, batched), 0.025 factorizations of 14 ms
