@@ -146,7 +146,8 @@ class RunState:
         if self.stefan is not None:
             n += self.stefan.solver.factorizations
         if self.mech is not None:
-            n += self.mech.solver.factorizations
+            m = self.mech
+            n += m.factorizations if hasattr(m, "capture") else m.solver.factorizations
         return self.factorizations_before + n
 
     # -- capture and save -----------------------------------------------------------------------------
@@ -162,7 +163,10 @@ class RunState:
         if self.coupling is not None:
             arrays.update(self.coupling.capture())
         latest: list = []
-        if self.mech is not None:
+        if self.mech is not None and hasattr(self.mech, "capture"):         # dynamic / viscous mechanics
+            mech_arrays, mech_lengths = self.mech.capture()
+            arrays.update(mech_arrays)
+        elif self.mech is not None:
             m = self.mech
             if self._mech_copy is None or self._mech_copy[0] != len(m.times):   # mechanics solved since
                 mech_arrays = {"mechanics": np.array(m.forms.gf.vec.FV().NumPy())}
@@ -180,7 +184,9 @@ class RunState:
                    "lines": {n: len(s.entries) for n, s in self.lines.items()},
                    "stefan": stefan_lengths,
                    "coupling": len(self.history["coupling"]["passes"]) if "coupling" in self.history else 0}
-        if self.mech is not None:
+        if self.mech is not None and hasattr(self.mech, "capture"):
+            lengths["dynamics"] = mech_lengths
+        elif self.mech is not None:
             m = self.mech
             lengths["mech_times"] = len(m.times)
             lengths["mech_history"] = len(m.solver.history)
@@ -206,7 +212,9 @@ class RunState:
         if self.stefan is not None:
             meta["stefan"] = self.stefan.meta(L["stefan"])
         arrays = dict(snap.arrays)
-        if self.mech is not None:
+        if self.mech is not None and hasattr(self.mech, "capture"):
+            meta["dynamics"] = self.mech.meta(L["dynamics"])
+        elif self.mech is not None:
             m = self.mech
             meta["mechanics"] = {
                 "times": m.times[:L["mech_times"]],
@@ -244,7 +252,9 @@ class RunState:
             self.vtk.restore(meta["vtk"])
         for n, s in self.lines.items():
             s.restore(meta["lines"].get(n, []))
-        if self.mech is not None:
+        if self.mech is not None and hasattr(self.mech, "capture"):
+            self.mech.restore(arrays, meta["dynamics"])
+        elif self.mech is not None:
             m, mm = self.mech, meta["mechanics"]
             m.forms.gf.vec.FV().NumPy()[:] = arrays["mechanics"]
             m.times[:] = mm["times"]

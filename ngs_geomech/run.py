@@ -48,6 +48,7 @@ from .probes import THERMAL, ProbeSet
 from .problems.contact import check_supported, contact_specs, contact_warnings
 from .problems.contact_output import ContactOutput
 from .problems.coupled import KELVIN, DeformationHeating, relative_change
+from .problems.dynamic_run import DynamicsRun
 from .problems.heat import heat_setup, initial_temperature
 from .problems.mechanics import elastic_setup, mechanics_warnings
 from .problems.stefan import StefanRun
@@ -171,6 +172,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     if stefan is not None:
         phi = stefan.fields["liquid_fraction"]
         thermal_fields.update(liquid_fraction=phi, front=phi)
+    every_step = bool(getattr(mech, "every_step", False))
     history = {"newton_iterations": [], "interface_heat_flow_W": {},
                "coupling": {"passes": [], "deformation_heat": [], "change_T": [], "change_u": [],
                             "conductivity_factor": []}}
@@ -187,8 +189,10 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         if mech is not None:
             if adaptive is not None:                 # solved on the final mesh by the adaptive loop
                 mech.record(t)
-            elif coupling is None or k is None:      # coupled runs solve the mechanics in every step
+            elif k is None or (coupling is None and not every_step):
                 mech.solve(t, where)
+            elif coupling is None:                   # dynamics: advanced in every step, recorded here
+                mech.record(t)
             probes.record(t, mech.probe_fields)
         if vtk:
             vtk.write(t)
@@ -267,6 +271,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                     if stefan is not None:
                         info = stefan.step(a, b, where)
                         history["newton_iterations"].append(info.iterations)
+                    if every_step:
+                        mech.solve(b, where, record=False)
                 output(b, k, k == nsteps - 1, where)
                 solve_s += _time.perf_counter() - tic
                 if staging is not None:          # (a run writing nothing has no checkpoints)
@@ -329,13 +335,14 @@ def _heat_step(heat: HeatForms, solver: HeatSolver, a: float, b: float) -> None:
 def _deformation_heating(scene: Scene, mesh, mech, heat: HeatForms | None, stefan: StefanRun | None):
     """The deformation-heating source of problem (P_c) against the heat problem's test functions."""
     offset = KELVIN if scene.scene.temperature_unit == "C" else 0.0
+    extra = mech.dissipation_source() if hasattr(mech, "dissipation_source") else None   # viscous heat (2.6)
     if stefan is not None:
         V = stefan.forms.V
         return DeformationHeating(mech.forms, V, V.TestFunction(), ngs.dx(intrules=vertex_rules(mesh.dim)), 1.0,
-                                  offset)
+                                  offset, extra)
     tests = heat.X.TestFunction()
     v = tests[0] if heat.setup.contacts else tests
-    return DeformationHeating(mech.forms, heat.X, v, heat.volume_measure(), heat.weight, offset)
+    return DeformationHeating(mech.forms, heat.X, v, heat.volume_measure(), heat.weight, offset, extra)
 
 
 def _coupled_step(scene: Scene, a: float, b: float, where: str, heat, solver, stefan, mech, coupling,
@@ -460,7 +467,10 @@ class _Physics:
             if setup.nonlinear:
                 self.fields["kirchhoff_theta"] = self.heat.kirchhoff(self.T)
         self.mech = None
-        if scene.physics.mechanics:
+        if scene.physics.mechanics in ("dynamic", "viscous"):
+            self.mech = DynamicsRun(scene, geo, mesh, self.T)
+            self.fields.update(self.mech.fields)
+        elif scene.physics.mechanics:
             self.mech = _Mechanics(scene, geo, mesh, self.T)
             self.fields.update(self.mech.fields)
         self.coupling = None

@@ -150,6 +150,8 @@ class ViscoelasticForms:
 
     elastic: ElasticForms
     viscous: dict = field(default_factory=dict)
+    inertia: bool = True
+    """False: no mass matrix (``M`` is zero; the quasi-static viscous problem needs no density)."""
 
     def __post_init__(self):
         ef, s = self.elastic, self.elastic.setup
@@ -193,16 +195,19 @@ class ViscoelasticForms:
         X, w = ef.X, ef.weight
         u, v = X.TnT()
         u, v = self._u(u), self._u(v)
-        mform = ngs.BilinearForm(X)
-        missing = []
-        for name, rho in self.density.items():
-            if rho is None:
-                missing.append(name)
-                continue
-            mform += w * rho * ngs.InnerProduct(u, v) * self._dx(name)
-        if missing:
-            raise ValueError(f"the mass matrix needs a density (kg/m^3) in regions {missing}")
-        self.M = self._to_scipy(mform)
+        if self.inertia:
+            mform = ngs.BilinearForm(X)
+            missing = []
+            for name, rho in self.density.items():
+                if rho is None:
+                    missing.append(name)
+                    continue
+                mform += w * rho * ngs.InnerProduct(u, v) * self._dx(name)
+            if missing:
+                raise ValueError(f"the mass matrix needs a density (kg/m^3) in regions {missing}")
+            self.M = self._to_scipy(mform)
+        else:
+            self.M = sp.csr_matrix((X.ndof, X.ndof))
         cform = ngs.BilinearForm(X)
         for name, D in self.Dv.items():
             cform += w * ngs.InnerProduct(ef._cf_matrix(D) * ef.strain_vector(u), ef.strain_vector(v)) * self._dx(name)

@@ -54,11 +54,12 @@ class DeformationHeating:
     """The source Q_def = -Theta_0 beta . e(u_t) (module docstring) of an elastic problem (``mech_forms``,
     :class:`ngs_geomech.physics.elasticity.ElasticForms`), against the test function ``v`` of a heat space
     ``space`` with the volume measure ``dx`` and weight ``weight`` (2 pi r-free: r in axisymmetric heat forms).
-    ``offset`` is added to the materials' stress-free temperatures to make Theta_0 absolute (273.15 for degC).
+    ``offset`` is added to the materials' stress-free temperatures to make Theta_0 absolute (273.15 for degC);
+    ``extra`` (a CoefficientFunction, W/m^3, or None) is added to the source: the viscous dissipation density.
 
     The displacement rate is held in :attr:`rate` (a GridFunction of the displacement space, m/s)."""
 
-    def __init__(self, mech_forms, space, v, dx, weight=1.0, offset: float = 0.0):
+    def __init__(self, mech_forms, space, v, dx, weight=1.0, offset: float = 0.0, extra=None):
         self.mech = mech_forms
         V = mech_forms.V
         self.rate = ngs.GridFunction(V)
@@ -76,7 +77,9 @@ class DeformationHeating:
             b = mech_forms.b[name]
             terms[name] = -th0 * ngs.InnerProduct(ngs.CoefficientFunction(tuple(float(x) for x in b)), e)
         self.source = mech_forms.mesh.MaterialCF(terms, default=0.0)
-        """Q_def, W/m^3."""
+        if extra is not None:                      # e.g. the viscous dissipation of dynamic mechanics (2.6)
+            self.source = self.source + extra
+        """Q_def (plus ``extra``), W/m^3."""
         self.space = space
         self.lf = ngs.LinearForm(space)
         self.lf += weight * self.source * v * dx

@@ -53,9 +53,12 @@ class Physics:
 
     thermal: str | None = field(optional(one_of("steady", "transient")), None,
                                 doc="heat conduction (2.17) steady or transient (2.43)")
-    mechanics: str | None = field(optional(one_of("static")), None,
+    mechanics: str | None = field(optional(one_of("static", "dynamic", "viscous")), None,
                                   doc="'static': (quasi-)static elasticity (2.17)-(2.18), with thermal stresses "
-                                      "when thermal is on; solved at every time of the thermal run")
+                                      "when thermal is on, solved at the output times; 'dynamic': the global model "
+                                      "(2.6)-(2.16) with inertia (density), Kelvin-Voigt viscosity "
+                                      "(viscosity_time) and Prony branches (prony), every time step; 'viscous': "
+                                      "the same without inertia (quasi-static creep and relaxation)")
     plane_model: str = field(one_of("plane_strain", "plane_stress"), "plane_strain",
                              doc="2D plane scenes: plane strain (eps_zz = 0) or plane stress (sigma_zz = 0)")
     coupling: str = field(one_of("none", "staggered", "iterated"), "none",
@@ -189,6 +192,14 @@ conductivity_value = either(number, matrix, what="a number or a symmetric matrix
 
 
 @dataclass(frozen=True, kw_only=True)
+class PronyTerm:
+    """One Maxwell branch of a material's Prony series."""
+
+    modulus_ratio: float = field(number, doc="C_k / C (> 0)")
+    relaxation_time: float = field(time, doc="tau_k, s (> 0)")
+
+
+@dataclass(frozen=True, kw_only=True)
 class Orthotropic:
     """Orthotropic engineering constants in the material axes 1, 2, 3 (Pa); nu_ij = -eps_j / eps_i."""
 
@@ -232,6 +243,12 @@ class Material:
     conductivity_temperature_coefficient: float = field(number, 0.0,
                                                         doc="b in kappa(T) = kappa (1 + b (T - T_ref)), 1/K")
     reference_temperature: float = field(number, 0.0, doc="T_ref of the conductivity law, degC or K")
+    viscosity_time: float | None = field(optional(time), None,
+                                         doc="Kelvin-Voigt viscosity C^v = viscosity_time * C (s; dynamic or viscous "
+                                             "mechanics)")
+    prony: list = field(list_of(nested(PronyTerm)), [],
+                        doc="Prony series of Maxwell branches in parallel with the (relaxed) elastic C: "
+                            "[{modulus_ratio = r, relaxation_time = tau}, ...], C_k = r C")
     conductivity_pressure_coefficient: float = field(number, 0.0,
                                                      doc="c_p in kappa(T, p) = kappa(T) (1 + c_p p), 1/Pa, p the "
                                                          "mean pressure (compression > 0) of the mechanics; needs "
@@ -317,10 +334,25 @@ class Source:
 
 @dataclass(frozen=True, kw_only=True)
 class Initial:
-    """``[initial]``: initial temperature, optionally per region."""
+    """``[initial]``: initial temperature, optionally per region; initial velocity (dynamic mechanics)."""
 
     temperature: object = field(expr, 0.0, doc="initial temperature T(x, 0), degC or K")
     regions: dict = field(dict_of(expr), {}, doc="region name -> initial temperature there")
+    velocity: list | None = field(optional(list_of(expr)), None,
+                                  doc="initial velocity u_t(x, 0), m/s, one expression per component "
+                                      "(physics.mechanics = 'dynamic')")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Dynamics:
+    """``[dynamics]``: time integration of physics.mechanics = 'dynamic'."""
+
+    rho_inf: float = field(number, 1.0, doc="generalized-alpha spectral radius at infinite frequency, [0, 1]: 1 "
+                                            "no numerical damping (energy conserving, contact never adds energy), "
+                                            "0 the highest modes damped in one step")
+    mass: str = field(one_of("auto", "consistent", "lumped"), "auto",
+                      doc="'lumped' (row sums, P1; with contact the contact nodes' mass is moved to their "
+                          "neighbours: no chattering), 'consistent', or 'auto' (lumped with contact and P1)")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -436,6 +468,7 @@ class Scene:
     mechanics: MechanicsSettings = field(nested(MechanicsSettings), MechanicsSettings(), doc="mechanics settings")
     initial: Initial = field(nested(Initial), Initial(), doc="initial conditions")
     time: TimeSettings | None = field(optional(nested(TimeSettings)), None, doc="time settings (transient)")
+    dynamics: Dynamics = field(nested(Dynamics), Dynamics(), doc="dynamic mechanics settings")
     output: Output = field(nested(Output), Output(), doc="output settings")
     adaptivity: Adaptivity | None = field(optional(nested(Adaptivity)), None,
                                           doc="adaptive refinement (stationary scenes)")

@@ -76,6 +76,57 @@ def _check_names(scene: Scene, problems: list[Problem]) -> None:
         inames.add(itf.name)
 
 
+def _check_dynamics(scene: Scene, problems: list[Problem]) -> None:
+    """physics.mechanics = 'dynamic' | 'viscous' and the rate keys of the materials."""
+    ph = scene.physics
+    rate = ph.mechanics in ("dynamic", "viscous")
+    for name, m in scene.materials.items():
+        p = f"materials.{name}"
+        if (m.viscosity_time is not None or m.prony) and not rate:
+            problems.append(Problem(f"{p}.{'viscosity_time' if m.viscosity_time is not None else 'prony'}",
+                                    "applies to physics.mechanics = 'dynamic' or 'viscous'"))
+        if m.viscosity_time is not None and not (m.viscosity_time > 0 and math.isfinite(m.viscosity_time)):
+            problems.append(Problem(f"{p}.viscosity_time", f"must be > 0 s, got {m.viscosity_time}"))
+        for k, b in enumerate(m.prony):
+            if not (b.modulus_ratio > 0 and math.isfinite(b.modulus_ratio)):
+                problems.append(Problem(f"{p}.prony[{k}].modulus_ratio", f"must be > 0, got {b.modulus_ratio}"))
+            if not (b.relaxation_time > 0 and math.isfinite(b.relaxation_time)):
+                problems.append(Problem(f"{p}.prony[{k}].relaxation_time", f"must be > 0 s, got {b.relaxation_time}"))
+        if rate and m.rheology_lambda != 1.0:
+            problems.append(Problem(f"{p}.rheology_lambda", f"physics.mechanics = {ph.mechanics!r} needs the linear "
+                                    f"law (1), got {m.rheology_lambda}"))
+        if ph.mechanics == "dynamic" and m.density is None:
+            problems.append(Problem(f"{p}.density", "dynamic mechanics needs the density (kg/m^3) of every material"))
+    if scene.initial.velocity is not None:
+        dim = scene_dim(scene)
+        if ph.mechanics != "dynamic":
+            problems.append(Problem("initial.velocity", "applies to physics.mechanics = 'dynamic'"))
+        elif len(scene.initial.velocity) != dim:
+            problems.append(Problem("initial.velocity", f"needs {dim} components, got {len(scene.initial.velocity)}"))
+    if not rate:
+        return
+    if scene.time is None:
+        problems.append(Problem("time", f"physics.mechanics = {ph.mechanics!r} is time-dependent: it needs [time]"))
+    if ph.thermal == "steady":
+        problems.append(Problem("physics.thermal", f"physics.mechanics = {ph.mechanics!r} runs in time: the heat "
+                                "problem must be 'transient' (or off)"))
+    if ph.mechanics == "viscous" and not any(m.viscosity_time is not None or m.prony
+                                             for m in scene.materials.values()):
+        problems.append(Problem("physics.mechanics", "'viscous' needs a material with viscosity_time or prony"))
+    if ph.coupling == "iterated":
+        problems.append(Problem("physics.coupling", f"'iterated' is not available with physics.mechanics = "
+                                f"{ph.mechanics!r} (its state cannot be stepped twice); use 'staggered'"))
+    d = scene.dynamics
+    if not 0.0 <= d.rho_inf <= 1.0:
+        problems.append(Problem("dynamics.rho_inf", f"must lie in [0, 1], got {d.rho_inf}"))
+    if d.mass == "lumped" and scene.mesh.order != 1:
+        problems.append(Problem("dynamics.mass", "'lumped' needs mesh.order = 1"))
+    for i, itf in enumerate(scene.interfaces):
+        if itf.type == "contact" and itf.method == "uzawa":
+            problems.append(Problem(f"interfaces[{i}] ({itf.name}).method", "'uzawa' is not available with "
+                                    f"physics.mechanics = {ph.mechanics!r}: use 'ssn' or 'penalty'"))
+
+
 def _check_adaptivity(scene: Scene, problems: list[Problem]) -> None:
     a = scene.adaptivity
     if a is None:
@@ -147,6 +198,7 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
                                     "in every heat step: set physics.coupling = 'staggered' or 'iterated' (with "
                                     "physics.thermal = 'transient' and physics.mechanics = 'static')"))
     _check_adaptivity(scene, problems)
+    _check_dynamics(scene, problems)
     if ph.coupling != "none":
         if ph.thermal != "transient" or ph.mechanics is None:
             problems.append(Problem("physics.coupling", f"{ph.coupling!r} couples a transient heat problem with "
