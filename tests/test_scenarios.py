@@ -1,0 +1,99 @@
+"""The built-in geomechanics scenarios of issue 7, each run at a coarse, short level and checked for physical sanity.
+
+``plate_collision`` (the seed's test model, Central Aleutians): runs to the end; in-plane principal stresses of the
+order of the convergence strain times E; the plates in contact where they converge; force balance; the Stefan
+energy balance; the melting zone melted as far as the linear geotherm reaches past the solidus (and no further
+within the short run)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ngs_geomech import api
+from ngs_geomech.io.stress_figures import principal_2d
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+YEAR = 365.25 * 86400.0
+
+# scene data (geometries/plate_collision.toml)
+E = 1.5e11                      # Pa, every block
+CONVERGENCE = 0.06              # m/year, on the back-arc edge
+END = 1.0e5 * YEAR              # s
+OVERRIDING_WIDTH = 300.0e3      # m, trench (x = 100 km) to the back-arc edge (x = 400 km)
+T_BASE, DEPTH = 1300.0, 150.0e3  # geotherm T = T_BASE * depth / DEPTH (degC)
+THETA_R = 1000.0                # degC, solidus of the melting zone
+ZONE_TOP, ZONE_BOTTOM = 90.0e3, 140.0e3   # m, depth range of the melting zone
+
+
+@pytest.fixture(scope="module")
+def plate_collision():
+    overrides = ["mesh.maxh=30e3", "blocks.melt_zone.maxh=10e3", "time.dt=25000 year", "output.every=1"]
+    return api.run("plate_collision", None, overrides=overrides, progress=False)
+
+
+def _vertex_values(result, cf):
+    mesh = result.mesh
+    pts = [v.point for v in mesh.vertices]
+    return np.array([cf(mesh(*p)) for p in pts])
+
+
+def test_plate_collision_runs_to_the_end(plate_collision):
+    s = plate_collision.summary
+    assert s["mechanics"]["times_s"][-1] == pytest.approx(END, rel=1e-12)
+    assert s["stefan"]["output_times_s"][-1] == pytest.approx(END, rel=1e-12)
+    assert not s["warnings"]
+
+
+def test_plate_collision_stresses_of_the_order_of_the_convergence_strain_times_e(plate_collision):
+    sig = _vertex_values(plate_collision, plate_collision.mechanics.fields["stress"])   # 3x3 row-major
+    assert np.all(np.isfinite(sig))
+    s1, s2, _ = principal_2d(sig[:, 0], sig[:, 4], sig[:, 1])
+    peak = float(np.max(np.maximum(np.abs(s1), np.abs(s2))))
+    expected = E * CONVERGENCE * END / YEAR / OVERRIDING_WIDTH      # 6 km over 300 km: 3e9 Pa
+    print(f"\nmax |in-plane principal stress| {peak:.3e} Pa, convergence strain times E {expected:.3e} Pa; "
+          f"most compressive {float(np.min(s2)):.3e} Pa")
+    assert 0.1 * expected < peak < 10.0 * expected
+    assert float(np.min(s2)) < -0.1 * expected             # the collision compresses
+
+
+def test_plate_collision_contact_closed_where_the_plates_converge(plate_collision):
+    c = plate_collision.summary["mechanics"]["contact"]
+    itf = c["interfaces"]
+    for name, row in itf.items():
+        print(f"\n{name}: normal force {row['normal_force']:.3e} N/m, max pressure {row['max_pressure_Pa']:.3e} Pa, "
+              f"nodes {row['nodes']}, max penetration {row['max_penetration_m']:.1e} m", end="")
+        assert row["normal_force"] >= 0.0
+        assert row["max_penetration_m"] < 1e-6
+    wedge = itf["slab_wedge"]            # the advancing mantle wedge against the steep slab face: closed
+    assert wedge["nodes"]["stick"] + wedge["nodes"]["slip"] > wedge["nodes"]["open"]
+    assert wedge["normal_force"] > 0.0
+    assert itf["slab_base_2"]["normal_force"] > 0.0       # the slab pressed onto its rigid foundation
+    assert itf["megathrust"]["normal_force"] > 0.0        # touching where the arc plate is pushed onto the slab
+    assert c["force_balance"]["imbalance_rel"] < 1e-8
+
+
+def test_plate_collision_stefan_energy_balance(plate_collision):
+    e = plate_collision.summary["stefan"]["energy"]
+    print(f"\nStefan energy imbalance {e['imbalance_rel']:.1e} (max over time {e['imbalance_rel_max']:.1e})")
+    assert e["imbalance_rel"] < 1e-8
+    assert e["imbalance_rel_max"] < 1e-8
+
+
+def test_plate_collision_melting_zone_melts_as_far_as_the_geotherm_says(plate_collision):
+    s = plate_collision.summary
+    frac = s["stefan"]["melted_fraction"]["melt_zone"]
+    depth_solidus = THETA_R / T_BASE * DEPTH                           # 115.4 km
+    expected = (ZONE_BOTTOM - depth_solidus) / (ZONE_BOTTOM - ZONE_TOP)  # 0.492: below the solidus isotherm
+    # 1e5 years of conduction move the solidus isotherm by ~sqrt(kappa t) ~ 2 km << the zone; the nodal
+    # (lumped) melted volume is exact to about half an element of the zone (maxh 10 km over 50 km)
+    print(f"\nmelted fraction {frac[0]:.4f} -> {frac[-1]:.4f}, geotherm {expected:.4f}")
+    assert 0.0 < frac[-1] < 1.0
+    assert frac[0] == pytest.approx(expected, abs=0.1)
+    assert abs(frac[-1] - frac[0]) < 0.02
+    tmax = s["probes"]["melt_zone_T_max"]["max"]
+    assert tmax == pytest.approx(T_BASE * ZONE_BOTTOM / DEPTH, abs=10.0)      # 1213 C, deformation heat < 10 K
+    T = _vertex_values(plate_collision, plate_collision.stefan.fields["temperature"])
+    print(f"temperature {T.min():.2f} .. {T.max():.2f} C")
+    assert T.min() > -1.0 and T.max() < T_BASE + 10.0                          # the geotherm's range
