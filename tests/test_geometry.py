@@ -353,3 +353,25 @@ def test_order_2_curves_a_circle():
     # P1: the inscribed polygon, error ~ h^2; P2: curved edges, error ~ h^4 or better
     assert errors[1] > 1e-3
     assert errors[2] < errors[1] / 100
+
+
+def test_clockwise_polygon_is_taken_counterclockwise_with_its_edge_names():
+    """A clockwise polygon was refused as 'entirely covered by blocks declared after it' (its face had negative
+    area); it is now the same polygon counterclockwise, each edge keeping its name."""
+    from ngs_geomech.geometry.mesh import make_mesh
+    from ngs_geomech.scene.parse import scene_from_dict
+    from ngs_geomech.scene.validate import validate
+
+    def scene(points, edges):
+        return scene_from_dict({"scene": {"name": "cw"}, "physics": {"thermal": "steady"}, "mesh": {"maxh": 0.25},
+                                "blocks": [{"name": "a", "shape": "polygon", "points": points, "edges": edges}],
+                                "materials": {"a": {"conductivity": 1.0}},
+                                "boundary_conditions": {"bottom": {"temperature": 0.0}, "right": {"temperature": 1.0}}})
+    ccw = scene([[0, 0], [1, 0], [1, 1], [0, 1]], ["bottom", "right", "top", "left"])
+    cw = scene([[0, 0], [0, 1], [1, 1], [1, 0]], ["left", "top", "right", "bottom"])
+    meshes = [make_mesh(validate(s), s.mesh) for s in (ccw, cw)]
+    for m in meshes:
+        assert set(m.GetBoundaries()) == {"bottom", "right", "top", "left"}
+        pts = {name: sorted({tuple(np.round(m[v].point, 9)) for el in m.Boundaries(name).Elements()
+                             for v in el.vertices}) for name in ("bottom", "right")}
+        assert all(p[1] == 0.0 for p in pts["bottom"]) and all(p[0] == 1.0 for p in pts["right"])

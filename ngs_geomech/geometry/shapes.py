@@ -50,6 +50,11 @@ def make_block(block: Block, dim: int):
         names = block.edges or [""] * len(pts)
         if len(names) != len(pts):
             raise ValueError(f"edges names {len(names)} sides but the polygon has {len(pts)}")
+        xy = np.asarray(pts, dtype=float)
+        area2 = float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
+        if area2 < 0:           # clockwise: the same polygon counterclockwise (a clockwise face has negative area)
+            pts = [pts[0]] + list(pts[:0:-1])
+            names = list(names[::-1])
         wp = occ.WorkPlane().MoveTo(*pts[0])
         for p, name in zip(pts[1:], names[:-1]):
             wp.LineTo(*p, name=name or None)
@@ -77,6 +82,9 @@ def make_block(block: Block, dim: int):
         if np.linalg.norm(pos - np.array(block.start)) > 1e-9 * scale:
             raise ValueError(f"profile is not closed: ends at {pos.tolist()}, starts at {block.start}")
         shape = wp.Face()
+        if shape.mass < 0:
+            raise ValueError("the profile runs clockwise: list its segments counterclockwise (the region on the "
+                             "left of the direction of travel)")
     elif s == "box":
         _need(block, "origin", 3)
         _need(block, "size", 3)

@@ -364,6 +364,13 @@ class ContactSolver:
         tic = time.perf_counter()
         n = len(x0)
         ifs = self._interfaces(n)
+        freef = np.asarray(free, dtype=float)
+        for it in ifs:
+            # a node whose normal constraint involves only prescribed displacements (a foundation's end node on a
+            # boundary with u_n given) cannot take part: its multiplier would be undetermined (1e21 Pa was
+            # reported, balanced by an equal support reaction); the support carries that load
+            absB = abs(it.Bn[:, :n])
+            it.keep = it.keep & ((absB @ freef) > 1e-10 * (absB @ np.ones(n)))
         N = n + sum(it.blocks * it.m for it in ifs)
         kr, kc, kv = (np.asarray(a) for a in matrix.COO())
         kr, kc = kr.astype(np.int64), kc.astype(np.int64)
