@@ -18,8 +18,11 @@ contact operators rebuilt and the mesh curved again after every refinement, the 
 the last active set). Errors: p0 (nodal pressure on the axis) against a reference p0 from a finer adaptive run
 (the closed form is a half space's: the finite cylinder differs from it by ~2-3e-3, which no refinement removes;
 the error against the closed form is reported too), and the half width (midpoint of the last contact node and the
-first open one) against the closed form. Stefan front metrics (``stefan_*``) are a later step (the time-dependent
-adaptive loop): not in this study.
+first open one) against the closed form. (4) The Neumann two-phase Stefan strip (verification/stefan.py, t = 0.05
+-> 0.5 s): uniform meshes (dt = 0.2 h) against front-following meshes (:mod:`ngs_geomech.adapt.stefan`: netgen
+remeshes the strip from a 0.05 m base with the size restricted to 0.05 / 2^levels on the elements the iso-line 1/2
+crosses plus 2 levels + 2 rings, whenever the front is about to leave that band; the enthalpy carried over by the
+lumped projection; dt = 0.2 h_fine); error of the front from the melted volume.
 
 Ratios: the first adaptive step whose error is at most the finest uniform mesh's: its dofs over the finest
 uniform mesh's dofs (``hertz_dof_ratio_adaptive_vs_uniform``, p0 against the reference), and the adaptive run's
@@ -56,6 +59,18 @@ Measured (2 shared cores, one NGSolve thread; level 0 16-24 s alone, 42 s beside
                  (0.36 s against 4.1 s); the adaptive run goes on to 1.6e-4 at 98k dofs
         orders in dofs: uniform 0.42-0.44 (p0), adaptive ~1.0 (p0 is a nodal value at the axis, where the
         contact-zone indicator refines every step)
+    Stefan front (level 1 measured alone; relative front error, dofs of the front-following runs = mean over the
+    steps):
+        uniform  h = 0.025 0.0125 0.00625 0.003125:   717 2842 10806 42051 dofs, 6.34e-3 3.34e-3 1.37e-3 6.34e-4,
+                 0.04 0.27 1.41 25.4 s
+        front    levels 2 3 4 (h_min 0.013 0.0065 0.0032): 391 636 1048 dofs, 3.25e-3 2.28e-3 3.81e-4, 0.30 0.69 3.15 s,
+                 2 2 9 remeshes, heat change per transfer <= 8e-6, energy balance 6e-15
+        -> the finest uniform error (6.3e-4) at 4 levels: stefan_dof_ratio 0.025, stefan_time_ratio 0.12 (targets
+           1/5, 1/3: met). The front error of the front-following runs is not monotone in the levels (3 levels:
+           2.3e-3, worse than the uniform mesh of the same finest size): away from the band the mesh is the
+           0.05 m base, whose flux error reaches the front; a gradient (ZZ) criterion beside the front indicator
+           is the next step. Level 0 (h to 0.0125, levels 1-2): dof ratio 0.14, time ratio 1.2 (netgen's
+           remeshing dominates such small runs).
     Contact solver warm start from the previous active set (same adaptive meshes, 156 ... 51k dofs): 1-2
     iterations and one factorization per mesh, against 5-14 iterations and 1-4 factorizations cold (contact solve
     0.6 s instead of 2.8 s at 51k dofs). The uniform series is warm-started too, so its solve time, the
@@ -78,6 +93,8 @@ import time
 from pathlib import Path
 
 from ngs_geomech.verification import adaptivity as ad
+from ngs_geomech.verification import stefan as sst
+from ngs_geomech.verification import stefan_adaptive as sad
 from ngs_geomech.verification.study import (
     convergence_entry,
     convergence_tables,
@@ -90,12 +107,17 @@ from ngs_geomech.verification.study import (
 STUDY = "mesh_convergence"
 LEVELS = {
     0: {"hs": (0.2, 0.1, 0.05), "corner_uniform": 5, "corner_dofs": 12000, "hertz_uniform": 5,
-        "hertz_dofs": 30000, "hertz_reference": 100000},
+        "hertz_dofs": 30000, "hertz_reference": 100000, "stefan_uniform": (0.025, 0.0125), "stefan_levels": (1, 2)},
     1: {"hs": (0.2, 0.1, 0.05, 0.025), "corner_uniform": 7, "corner_dofs": 200000, "hertz_uniform": 6,
-        "hertz_dofs": 100000, "hertz_reference": 250000},
+        "hertz_dofs": 100000, "hertz_reference": 250000, "stefan_uniform": (0.025, 0.0125, 0.00625, 0.003125),
+        "stefan_levels": (2, 3, 4)},
     2: {"hs": (0.2, 0.1, 0.05, 0.025, 0.0125), "corner_uniform": 8, "corner_dofs": 500000, "hertz_uniform": 7,
-        "hertz_dofs": 250000, "hertz_reference": 600000},
+        "hertz_dofs": 250000, "hertz_reference": 600000,
+        "stefan_uniform": (0.025, 0.0125, 0.00625, 0.003125, 0.0015625), "stefan_levels": (2, 3, 4, 5)},
 }
+STEFAN_BASE_H = 0.05
+"""The Stefan front runs: the base mesh size (m) of the front-following meshes; fine size 0.05 / 2^levels;
+dt = 0.2 x the finest size (uniform: 0.2 h); remeshed when the front is about to leave the refined band."""
 """Per level: manufactured mesh sizes (m), corner uniform levels and adaptive dof budget, Hertz uniform levels,
 adaptive dof budget and the reference run's dof budget. Level 2 has not been run yet (Hertz uniform to ~490k
 dofs: expect several minutes)."""
@@ -184,17 +206,63 @@ def run(level: int) -> tuple[dict, dict]:
         metrics["hertz_adaptive_contact_iterations_max_warm"] = max(hz["adaptive"]["iterations"][1:])
         tables["hertz"] = hz
         tables["hertz_reach"] = {"p0": hit, "half_width": half}
+
+        # (4) the Neumann Stefan front: uniform meshes against front-following meshes
+        tic = time.perf_counter()
+        stefan = _stefan(p)
+        timing["stefan_s"] = time.perf_counter() - tic
+        tables["stefan"] = stefan
+        metrics.update(stefan["metrics"])
     timing["total_s"] = time.perf_counter() - t_start
     result = {"study": STUDY, "level": level, "metrics": {k: float(v) for k, v in metrics.items()
                                                           if isinstance(v, (int, float)) and math.isfinite(v)},
-              "convergence": convergence, "timing_s": timing}
+              "convergence": convergence, "timing_s": timing,
+              "stefan": {k: tables["stefan"][k] for k in ("uniform", "adaptive")}}
     return result, tables
+
+
+def _stefan(p: dict) -> dict:
+    """Uniform strips (h, dt = 0.2 h) against front-following meshes (base 0.05 m, ``levels``, dt = 0.2 h_fine):
+    front error (melted volume), unknowns (adaptive: mean over the steps), wall time; the first adaptive run whose
+    error is at most the finest uniform one gives the dof and time ratios."""
+    problem = sst.TWO_PHASE
+    t0, t1 = 0.05, 0.5
+    uni = [sad.neumann_uniform(problem, h, 0.2 * h, t0, t1) for h in p["stefan_uniform"]]
+    ada = []
+    for lev in p["stefan_levels"]:
+        hf = STEFAN_BASE_H / 2 ** lev
+        ada.append(sad.neumann_adaptive(problem, STEFAN_BASE_H, lev, 0.2 * hf, t0, t1, layers=2 * lev + 2,
+                                        remesh_every=0, transfer="projection"))
+    fin = uni[-1]
+    hit = next((a for a in ada if a["front_rel_error"] <= fin["front_rel_error"]), None)
+    m = {"stefan_front_error_finest_uniform": fin["front_rel_error"],
+         "stefan_front_error_finest_adaptive": ada[-1]["front_rel_error"],
+         "stefan_transfer_error_max": max(a["transfer_error_max"] for a in ada),
+         "stefan_energy_imbalance_adaptive_max": max(a["energy_imbalance_rel"] for a in ada)}
+    if hit is not None:
+        m["stefan_dof_ratio_adaptive_vs_uniform"] = hit["ndof_mean"] / fin["ndof"]
+        m["stefan_time_ratio_adaptive_vs_uniform"] = hit["wall_s"] / fin["wall_s"]
+    return {"uniform": uni, "adaptive": ada, "metrics": m}
+
+
+def _stefan_lines(st_tables: dict) -> list[str]:
+    lines = ["", "Neumann two-phase front (relative error of the melted-volume front at t = 0.5 s)",
+             f"{'mesh':>28} {'dofs':>8} {'front err':>10} {'wall s':>8} {'Newton':>6} {'remeshes':>8}"]
+    for u in st_tables["uniform"]:
+        lines.append(f"{'uniform h = ' + format(u['h'], 'g'):>28} {u['ndof']:8d} {u['front_rel_error']:10.2e} "
+                     f"{u['wall_s']:8.2f} {u['newton_mean']:6.2f} {'':>8}")
+    for a in st_tables["adaptive"]:
+        lines.append(f"{'front, ' + str(a['levels']) + ' levels, h_min ' + format(a['h_min'], '.2g'):>28} "
+                     f"{a['ndof_mean']:8.0f} {a['front_rel_error']:10.2e} {a['wall_s']:8.2f} {a['newton_mean']:6.2f} "
+                     f"{a['remeshes']:8d}")
+    return lines
 
 
 def report(result: dict) -> str:
     """The convergence tables (h = dofs^-1/2), the metrics and the timings."""
     return "\n".join([f"study {result['study']}, level {result['level']} (h = dofs^-1/2: orders in h are twice "
-                      "those in dofs)"] + convergence_tables(result, "dofs^-1/2") + metrics_lines(result, 56))
+                      "those in dofs)"] + convergence_tables(result, "dofs^-1/2")
+                     + (_stefan_lines(result["stefan"]) if "stefan" in result else []) + metrics_lines(result, 56))
 
 
 def main(level: int = 0, out: str | Path | None = None) -> dict:
