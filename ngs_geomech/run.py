@@ -460,7 +460,8 @@ class _Physics:
         elif scene.physics.thermal:
             setup = heat_setup(scene, geo, mesh)
             self.heat = HeatForms(mesh, setup)
-            self.solver = HeatSolver(self.heat)
+            sv = scene.solver
+            self.solver = HeatSolver(self.heat, solver=sv.linear, tol=sv.tolerance, maxit=sv.max_iterations)
             self.T = self.heat.temperature()
             self.fields["temperature"] = self.T
             self.fields["heat_flux"] = self.heat.heat_flux(self.T)
@@ -571,8 +572,10 @@ class _Mechanics:
                                                relaxation=relax)
             self.contact_output = ContactOutput(self.forms, self.contacts)
         else:
+            sv = scene.solver
             self.solver = ElasticSolver(self.forms, method=ms.nonlinear_solver, tol=ms.tolerance,
-                                        maxit=ms.max_iterations, relaxation=ms.secant_relaxation)
+                                        maxit=ms.max_iterations, relaxation=ms.secant_relaxation, solver=sv.linear,
+                                        linear_tol=sv.tolerance, linear_maxit=sv.max_iterations)
             self.contact_output = None
             free = self.forms.unheld_rigid_motions()
             if free:

@@ -68,7 +68,7 @@ def impact_scene(end: float = 8e-4, dt: float = 2.5e-5) -> dict:
 
 
 def test_block_impact_on_a_foundation_gains_no_energy(tmp_path):
-    res = run_scene(scene_from_dict(impact_scene()), tmp_path / "OUT", progress=False)
+    run_scene(scene_from_dict(impact_scene()), tmp_path / "OUT", progress=False)
     m = json.loads((tmp_path / "OUT" / "summary.json").read_text())["mechanics"]
     h = m["history"]
     closed = [e["bottom"]["nodes_closed"] for e in h]

@@ -23,6 +23,7 @@ _spec.loader.exec_module(extremes)
 
 EXPECTED = {
     "poisson_0.3": "accurate",
+    "poisson_0.4999": "accurate",
     "poisson_0.4999_u_deviatoric": "accurate",
     "poisson_0.5": "clear_error",
     "contrast_contact_1e+06": "accurate",
@@ -62,13 +63,9 @@ EXPECTED = {
 }
 """A cheap subset of the cases (about 5 s in all) and the outcome each must have."""
 
-KNOWN_DEFECTS = ("poisson_0.4999",)
-"""Cases the study classifies 'nan_or_hang' (see the study's docstring): expected to be 'accurate' once fixed."""
-
-
 @pytest.fixture(scope="module")
 def rows():
-    return {r["case"]: r for r in extremes.run_cases(list(EXPECTED) + list(KNOWN_DEFECTS), level=0)}
+    return {r["case"]: r for r in extremes.run_cases(list(EXPECTED), level=0)}
 
 
 @pytest.mark.parametrize("name", list(EXPECTED))
@@ -79,16 +76,10 @@ def test_case_outcome(rows, name):
     assert r["wall_s"] < 20.0
 
 
-@pytest.mark.xfail(reason="known defect reported by studies/extremes (P2 mean stress near nu = 1/2)", strict=False)
-@pytest.mark.parametrize("name", KNOWN_DEFECTS)
-def test_known_defect(rows, name):
-    assert rows[name]["outcome"] == "accurate", rows[name]["message"]
-
-
 def test_every_case_is_classified_once():
     names = [c.name for c in extremes.CASES]
     assert len(names) == len(set(names))
-    assert set(EXPECTED) | set(KNOWN_DEFECTS) <= set(names)
+    assert set(EXPECTED) <= set(names)
 
 
 def test_classify_vague_and_timeout():

@@ -57,8 +57,8 @@ def manufactured(order: int) -> dict:
 
 
 @functools.cache
-def incompressible(nu: float, order: int) -> dict:
-    return te.near_incompressible(nu, order, HS)
+def incompressible(nu: float, order: int, formulation: str = "displacement") -> dict:
+    return te.near_incompressible(nu, order, HS, formulation)
 
 
 @pytest.mark.parametrize("case", te.CYLINDER_CASES)
@@ -125,7 +125,25 @@ def test_near_incompressibility_p1_locks_p2_does_not():
     assert p2["stress_rel"][-1] < p1["stress_rel"][-1] / 20
 
 
-def _block_scene(order: int, nu: float):
+def test_near_incompressibility_mixed_formulation():
+    """The same problem with the mixed displacement-pressure formulation ('auto' picks it at nu = 0.4999; Taylor-Hood
+    P2-P1, stabilized P1-P1): errors within a small factor of the compressible (nu = 0.3, displacement) ones at
+    every h, the optimal orders of u and the stress."""
+    res = {p: incompressible(0.4999, p, "auto") for p in (1, 2)}
+    for p, r in res.items():
+        assert r["mixed"]
+        print_table(f"near incompressible, plane strain, nu = 0.4999, mixed formulation, P{p}: relative errors", r["h"],
+                    {"u L2": r["l2_rel"], "u H1": r["h1_rel"], "stress": r["stress_rel"]}, {"dofs": r["dofs"]})
+        print(f"fitted orders: L2 {r['order_l2']:.3f}, H1 {r['order_h1']:.3f}, stress {r['order_stress']:.3f}")
+        comp = incompressible(0.3, p)
+        ratio = [a / b for a, b in zip(r["h1_rel"], comp["h1_rel"])]
+        print(f"H1 error ratio to nu = 0.3 (displacement): {[round(v, 2) for v in ratio]}")
+        assert max(ratio) < 3
+        assert r["order_h1"] >= p - 0.1 and r["order_stress"] >= p - 0.15 and r["order_l2"] >= p + 0.8
+        assert r["stress_rel"][-1] < 3 * comp["stress_rel"][-1]
+
+
+def _block_scene(order: int, nu: float, formulation: str = "displacement"):
     return scene_from_dict({
         "scene": {"name": "locking_warning", "dimension": "plane"},
         "physics": {"mechanics": "static"},
@@ -134,7 +152,7 @@ def _block_scene(order: int, nu: float):
                     "boundaries": {"base": "ymin"}}],
         "materials": {"rock": {"youngs_modulus": 1e9, "poisson_ratio": nu, "density": 2000.0}},
         "boundary_conditions": {"base": {"displacement": [0.0, 0.0]}},
-        "mechanics": {"gravity": [0.0, -9.81]},
+        "mechanics": {"gravity": [0.0, -9.81], "formulation": formulation},
         "output": {"vtk": False, "figures": False}}, source="locking_warning")
 
 
@@ -142,9 +160,10 @@ def test_locking_warning_in_summary():
     p1 = api.run(_block_scene(1, 0.495), None, progress=False).summary["warnings"]
     p2 = api.run(_block_scene(2, 0.495), None, progress=False).summary["warnings"]
     p1_ok = api.run(_block_scene(1, 0.3), None, progress=False).summary["warnings"]
-    print(f"\nP1 nu = 0.495: {p1}\nP2 nu = 0.495: {p2}\nP1 nu = 0.3: {p1_ok}")
+    p1_auto = api.run(_block_scene(1, 0.495, "auto"), None, progress=False).summary["warnings"]
+    print(f"\nP1 nu = 0.495: {p1}\nP2 nu = 0.495: {p2}\nP1 nu = 0.3: {p1_ok}\nP1 nu = 0.495 auto (mixed): {p1_auto}")
     assert len(p1) == 1 and "rock" in p1[0] and "0.4950" in p1[0] and "order" in p1[0]
-    assert p2 == [] and p1_ok == []
+    assert p2 == [] and p1_ok == [] and p1_auto == []
 
 
 def _square_setup(lam: float = 1.0, **kw) -> tuple:

@@ -14,6 +14,28 @@ with a multiplier (the normal traction, Pa) <mu, u.n> + <lambda, v.n>.
 
 Models: plane strain and plane stress (x, y), axisymmetric (r = x, z = y; e_thetatheta = u_r / r, weight
 r, u_r = 0 on the axis) and 3D. Units: u in m, stresses in Pa, T in K (or degC), beta in Pa/K.
+
+Near incompressibility (issue 8): the displacement formulation's mean stress K tr e(u_h) is K times a small,
+badly approximated number when nu -> 1/2 (P2: error ~ h / (1 - 2 nu)). Isotropic linear regions (lam = 1) can
+use a mixed displacement-pressure formulation instead (``ElasticSetup.formulation``; :func:`mixed_regions`):
+the mean stress p (Pa) is an unknown, the stress is
+
+    sigma = 2 mu dev e(u) + p I - dev(beta) (T - T0) + sigma0,
+
+with dev and tr of the full 3x3 strain (plane strain: e_zz = 0 counts in the trace and sigma_zz = -2 mu tr e / 3
++ p; axisymmetric: the hoop strain u_r / r counts), and p = K (tr e(u) - (tr beta / 3K) (T - T0)) holds weakly:
+
+    int w [2 mu dev e(u) : dev e(v) + p tr e(v)] = loads + int w (T - T0) dev(beta) : e(v),
+    int w q [tr e(u) - p / K] - s(p, q) = int w q (tr beta / 3K) (T - T0)     for all q,
+
+(tr beta / 3K = 3 alpha for isotropic alpha), which stays valid at K -> infinity (the p q / K term vanishes).
+Spaces: Taylor-Hood for order k >= 2 (u in P_k, p continuous P_{k-1}); for P1 the equal-order pair P1-P1 with
+the Brezzi-Pitkaranta stabilization s(p, q) = int w ALPHA_P1 h^2 / mu grad p . grad q (MINI's bubbles condensed
+give a term of this form; kept on P1 so that u stays in the plain P1 space the contact operators are built
+on). One pressure space per mixed region (p jumps across material interfaces). The pressure unknown is scaled
+by a modulus (``pressure_scale``) so that its rows are forces like the displacement rows. The compressible
+problem is the same continuous problem (eliminating p gives K tr e tr e(v)), so results differ from the
+displacement formulation by discretization error only.
 """
 
 from __future__ import annotations
@@ -28,6 +50,13 @@ from ..elastic_materials import ElasticProperties, axisymmetric, plane_strain, p
 from .coefficients import TimeFunction, regions_regex
 
 MODELS = ("plane_strain", "plane_stress", "axisymmetric", "3d")
+FORMULATIONS = ("displacement", "mixed", "auto")
+MIXED_POISSON = 0.45
+"""Poisson ratio above which ``formulation = "auto"`` solves an isotropic linear region with the mixed
+formulation (see :func:`mixed_regions`; the measurements are in tests/test_incompressible.py)."""
+ALPHA_P1 = 0.05
+"""Brezzi-Pitkaranta stabilization factor of the P1-P1 pair (s(p, q) = ALPHA_P1 h^2 / mu grad p . grad q)."""
+_TRACE = {"plane_strain": (1, 1, 0), "axisymmetric": (1, 1, 1, 0), "3d": (1, 1, 1, 0, 0, 0)}
 
 
 @dataclass
@@ -55,10 +84,73 @@ class ElasticSetup:
     temperature: object | None = None
     regularization: float = 1e-6
     body_force: dict[str, list] = field(default_factory=dict)
+    formulation: str = "auto"
 
     @property
     def nonlinear(self) -> bool:
         return any(p.lam != 1.0 for p in self.props.values())
+
+
+def mixed_regions(setup: ElasticSetup) -> tuple[list[str], list[str]]:
+    """(the regions solved with the mixed displacement-pressure formulation, notes for the user).
+
+    ``formulation`` "displacement": none. "auto": the isotropic regions with nu > MIXED_POISSON, provided every
+    region is linear (lam = 1) and the model is not plane stress (sigma_zz = 0 leaves no volumetric
+    constraint: no locking); a region with nu > MIXED_POISSON the mixed formulation cannot take (anisotropic,
+    or lam != 1 somewhere) is named in a note (the displacement formulation's mean stress may be inaccurate).
+    "mixed": every isotropic region; a nonlinear region or plane stress raise ValueError, anisotropic regions
+    keep the displacement formulation (named in a note)."""
+    f = setup.formulation
+    if f not in FORMULATIONS:
+        raise ValueError(f"unknown formulation {f!r} (one of {', '.join(FORMULATIONS)})")
+    if f == "displacement":
+        return [], []
+    iso = {name: p.youngs_modulus_and_poisson() for name, p in setup.props.items()}
+    if f == "mixed":
+        if setup.model == "plane_stress":
+            raise ValueError("the mixed displacement-pressure formulation is for plane strain, axisymmetric and 3D "
+                             "models (plane stress has no volumetric constraint)")
+        bad = [name for name, p in setup.props.items() if p.lam != 1.0]
+        if bad:
+            raise ValueError(f"the mixed displacement-pressure formulation needs the linear law (rheology_lambda = 1):"
+                             f" regions {', '.join(bad)}")
+        notes = [f"materials.{name}: anisotropic: the mixed formulation covers isotropic materials only, this region "
+                 "keeps the displacement formulation" for name, c in iso.items() if c is None]
+        return [name for name, c in iso.items() if c is not None], notes
+    high = [name for name, p in setup.props.items() if p.max_poisson > MIXED_POISSON + 1e-9]
+    if not high or setup.model == "plane_stress":
+        return [], []
+    nonlinear = [name for name, p in setup.props.items() if p.lam != 1.0]
+    notes = []
+    for name in high:
+        nu = setup.props[name].max_poisson
+        why = ("is anisotropic (the mixed formulation covers isotropic materials only)" if iso[name] is None else
+               f"has rheology_lambda != 1 in {', '.join(nonlinear)} (the mixed formulation needs the linear law)"
+               if nonlinear else "")
+        if why:
+            notes.append(f"materials.{name}: Poisson ratio {nu:.4f} > {MIXED_POISSON}: the region {why}; it keeps the "
+                         "displacement formulation, whose mean stress is inaccurate near nu = 0.5 "
+                         "(error ~ h / (1 - 2 nu))")
+    if nonlinear:
+        return [], notes
+    return [name for name in high if iso[name] is not None], notes
+
+
+@dataclass
+class _Mixed:
+    """The data of one region of the mixed formulation: bulk and shear moduli (Pa), the deviatoric reduced
+    stiffness Ddev = D - K m m^T (Pa), the deviatoric thermal vector bdev = b - b_m m (Pa/K), b_m / K (1/K),
+    b_m = tr(beta)/3, the plane strain sigma_zz row and thermal coefficient of the deviatoric part, and the
+    index of the region's pressure space in X."""
+
+    K: float
+    mu: float
+    Ddev: np.ndarray
+    bdev: np.ndarray
+    bm_over_K: float
+    bm: float
+    zz: tuple | None
+    index: int
 
 
 @dataclass
@@ -156,10 +248,22 @@ class ElasticForms:
         dir_all = regions_regex({n for names in comp_dirichlet for n in names}) if any(comp_dirichlet) else ""
         self.multiplier_spaces = [ngs.H1(mesh, order=setup.order, definedon=mesh.Boundaries(name),
                                          dirichlet=dir_all) for name, _ in self.oblique]
-        self.X = ngs.FESpace([self.V, *self.multiplier_spaces]) if self.oblique else self.V
+        self._material_matrices()
+        # the mixed formulation: one pressure space per region, after V and the multipliers
+        names, self.formulation_notes = mixed_regions(setup)
+        self.pressure_spaces = [ngs.H1(mesh, order=max(setup.order - 1, 1), definedon=mesh.Materials(name))
+                                for name in names]
+        self.mixed: dict[str, _Mixed] = {}
+        for k, name in enumerate(names):
+            self.mixed[name] = self._mixed_data(name, 1 + len(self.multiplier_spaces) + k)
+        self.pressure_scale = max((m.mu for m in self.mixed.values()), default=1.0)
+        """Pa per unit of the pressure unknowns (the largest shear modulus of the mixed regions)."""
+        extra = [*self.multiplier_spaces, *self.pressure_spaces]
+        self.compound = bool(extra)
+        """True when X = [V, multipliers, pressures] (else X = V)."""
+        self.X = ngs.FESpace([self.V, *extra]) if extra else self.V
         self.gf = ngs.GridFunction(self.X)
         self.weight = ngs.x if setup.model == "axisymmetric" else ngs.CoefficientFunction(1.0)
-        self._material_matrices()
         self.u_frozen = ngs.GridFunction(self.V)   # the last iterate u_n of the secant method
         # one quadrature (order 2 order) for every integral of the energy, the secant form and its right-hand
         # side: NGSolve's default orders differ between energies and linear forms (a P2 temperature in the
@@ -196,9 +300,34 @@ class ElasticForms:
                 D, b = red.D, red.beta
             self.D[name], self.b[name], self.zz[name] = np.asarray(D), np.asarray(b), zz
 
+    def _mixed_data(self, name: str, index: int) -> _Mixed:
+        p = self.setup.props[name]
+        m = np.asarray(_TRACE[self.setup.model], dtype=float)
+        C = np.asarray(p.C, dtype=float)
+        mu = float(C[5, 5])
+        K = float(C[0, 0] + 2 * C[0, 1]) / 3
+        bm = float(np.trace(np.asarray(p.beta, dtype=float))) / 3
+        zz = None
+        if self.zz[name] is not None:
+            row, bz = self.zz[name]
+            zz = (np.asarray(row, dtype=float) - K * m, float(bz) - bm)
+        return _Mixed(K=K, mu=mu, Ddev=self.D[name] - K * np.outer(m, m), bdev=self.b[name] - bm * m,
+                      bm_over_K=bm / K, bm=bm, zz=zz, index=index)
+
     def displacement(self, gf=None):
+        """The displacement (GridFunction of V) of ``gf`` (a GridFunction of X; default: the solution)."""
         g = gf if gf is not None else self.gf
-        return g.components[0] if self.oblique else g
+        return g.components[0] if self.compound else g
+
+    def pressure(self, name: str, gf=None):
+        """The mean stress p (Pa) of mixed region ``name`` in ``gf`` (default: the solution), a CF."""
+        g = gf if gf is not None else self.gf
+        return self.pressure_scale * g.components[self.mixed[name].index]
+
+    def trace_strain(self, e):
+        """The trace tr e (-) of a reduced Voigt strain vector e (plane strain: e_zz = 0; axisymmetric: with e_tt)."""
+        m = _TRACE[self.setup.model]
+        return sum(e[k] for k, c in enumerate(m) if c)
 
     def strain_vector(self, u):
         """Reduced Voigt strain: (exx, eyy, gxy) plane; (err, ezz, ett, grz) axisymmetric; 6 in 3D."""
@@ -244,10 +373,19 @@ class ElasticForms:
         return ngs.InnerProduct(e, self._cf_matrix(self.D[name]) * e)
 
     def stress_vector(self, name: str, u):
-        """Reduced Voigt stress of region ``name`` (Pa), the law (2.18) with the lambda factor."""
+        """Reduced Voigt stress of region ``name`` (Pa), the law (2.18) with the lambda factor. In a region of
+        the mixed formulation the volumetric part is the solution's pressure (:meth:`pressure`), whatever u."""
         e = self.strain_vector(u)
-        s = self.factor(name, e) * (self._cf_matrix(self.D[name]) * e)
         dT = self.delta_T(name)
+        if name in self.mixed:
+            mx = self.mixed[name]
+            m = self._cf_vector(np.asarray(_TRACE[self.setup.model], dtype=float))
+            s = self._cf_matrix(mx.Ddev) * e + self.pressure(name) * m
+            if dT is not None:
+                s = s - dT * self._cf_vector(mx.bdev)
+            s0 = self._sigma0_vector()
+            return s if s0 is None else s + s0
+        s = self.factor(name, e) * (self._cf_matrix(self.D[name]) * e)
         if dT is not None:
             s = s - dT * self._cf_vector(self.b[name])
         s0 = self._sigma0_vector()
@@ -275,16 +413,51 @@ class ElasticForms:
                          * ngs.ds(definedon=self.mesh.Boundaries(name), intrules=self.bnd_intrules))
         return terms
 
+    def _mixed_terms(self, name: str, u, v, pt, qt):
+        """(bilinear integrand, load integrand tested with (v, q), Lagrangian integrand in (u, p)) of mixed
+        region ``name`` without the weight; pt, qt the pressure trial and test functions of X (unknowns in units
+        of ``pressure_scale``)."""
+        mx = self.mixed[name]
+        ps = self.pressure_scale
+        p, q = ps * pt, ps * qt
+        eu, ev = self.strain_vector(u), self.strain_vector(v)
+        Dd = self._cf_matrix(mx.Ddev)
+        tu, tv = self.trace_strain(eu), self.trace_strain(ev)
+        a = ngs.InnerProduct(Dd * eu, ev) + p * tv + q * tu - p * q / mx.K
+        lag = 0.5 * ngs.InnerProduct(Dd * eu, eu) + p * tu - p * p / (2 * mx.K)
+        if self.setup.order == 1:
+            h = ngs.specialcf.mesh_size
+            stab = ALPHA_P1 * h * h / mx.mu
+            a = a - ps * ps * stab * ngs.InnerProduct(ngs.grad(pt), ngs.grad(qt))
+            lag = lag - 0.5 * ps * ps * stab * ngs.InnerProduct(ngs.grad(pt), ngs.grad(pt))
+        f = ngs.CoefficientFunction(0.0)
+        dT = self.delta_T(name)
+        if dT is not None:
+            f = dT * (ngs.InnerProduct(self._cf_vector(mx.bdev), ev) + mx.bm_over_K * q)
+            lag = lag - dT * (ngs.InnerProduct(self._cf_vector(mx.bdev), eu) + mx.bm_over_K * p)
+        return a, f, lag
+
+    def _trial_test(self):
+        """(u, v, trials, tests): displacement trial/test functions and those of X (tuples when compound)."""
+        trials, tests = self.X.TnT()
+        if self.compound:
+            return trials[0], tests[0], trials, tests
+        return trials, tests, (trials,), (tests,)
+
     def _build(self):
         s, w = self.setup, self.weight
-        if self.oblique:
-            trials, tests = self.X.TnT()
-            u, v = trials[0], tests[0]
-        else:
-            u, v = self.X.TnT()
+        u, v, trials, tests = self._trial_test()
         # energy (Newton) -------------------------------------------------------------------------
         energy = 0
         for name, p in s.props.items():
+            if name in self.mixed:     # the Lagrangian: its derivative is the residual of the mixed system
+                k = self.mixed[name].index
+                _, _, lag = self._mixed_terms(name, u, v, trials[k], tests[k])
+                s0 = self._sigma0_vector()
+                if s0 is not None:
+                    lag = lag + ngs.InnerProduct(s0, self.strain_vector(u))
+                energy += w * lag * ngs.dx(definedon=self.mesh.Materials(name), intrules=self.intrules)
+                continue
             e = self.strain_vector(u)
             W = p.energy(self.A1(name, e), s.regularization)
             dT = self.delta_T(name)
@@ -306,12 +479,20 @@ class ElasticForms:
         sec = ngs.BilinearForm(self.X)
         rhs = ngs.LinearForm(self.X)
         for name in s.props:
-            D = self._cf_matrix(self.D[name])
-            fac = self.linear_switch + (1 - self.linear_switch) * self.factor(name, self.strain_vector(self.u_frozen))
             mdx = ngs.dx(definedon=self.mesh.Materials(name), intrules=self.intrules)
-            sec += w * fac * ngs.InnerProduct(D * self.strain_vector(u), self.strain_vector(v)) * mdx
+            if name in self.mixed:
+                k = self.mixed[name].index
+                a, f, _ = self._mixed_terms(name, u, v, trials[k], tests[k])
+                sec += w * a * mdx
+                if self.delta_T(name) is not None:
+                    rhs += w * f * mdx
+            else:
+                D = self._cf_matrix(self.D[name])
+                fac = self.linear_switch + (1 - self.linear_switch) * self.factor(name,
+                                                                                  self.strain_vector(self.u_frozen))
+                sec += w * fac * ngs.InnerProduct(D * self.strain_vector(u), self.strain_vector(v)) * mdx
             dT = self.delta_T(name)
-            if dT is not None:
+            if dT is not None and name not in self.mixed:
                 rhs += w * dT * ngs.InnerProduct(self._cf_vector(self.b[name]), self.strain_vector(v)) * mdx
             s0 = self._sigma0_vector()
             if s0 is not None:
@@ -439,9 +620,11 @@ class ElasticForms:
                 comps = (sv[0], sv[3], 0, sv[3], sv[1], 0, 0, 0, sv[2])
             else:
                 if m == "plane_strain":
-                    row, bz = self.zz[name]
+                    row, bz = self.zz[name] if name not in self.mixed else self.mixed[name].zz
                     e = self.strain_vector(u)
                     szz = self.factor(name, e) * ngs.InnerProduct(self._cf_vector(np.asarray(row)), e)
+                    if name in self.mixed:
+                        szz = szz + self.pressure(name)
                     dT = self.delta_T(name)
                     if dT is not None:
                         szz = szz - dT * float(bz)
@@ -457,7 +640,14 @@ class ElasticForms:
         u = u if u is not None else self.displacement()
         vals = {}
         for name, p in self.setup.props.items():
-            vals[name] = p.energy(self.A1(name, self.strain_vector(u)), self.setup.regularization)
+            e = self.strain_vector(u)
+            if name in self.mixed:    # 1/2 e : C : e = mu dev e : dev e + (K tr e)^2 / (2K), K tr e = p + b_m dT
+                mx = self.mixed[name]
+                dT = self.delta_T(name)
+                ktr = self.pressure(name) + (mx.bm * dT if dT is not None else 0.0)
+                vals[name] = 0.5 * ngs.InnerProduct(self._cf_matrix(mx.Ddev) * e, e) + ktr * ktr / (2 * mx.K)
+                continue
+            vals[name] = p.energy(self.A1(name, e), self.setup.regularization)
         return self.mesh.MaterialCF(vals, default=0.0)
 
 

@@ -54,6 +54,7 @@ class DynamicsRun:
         self.scene = scene
         self.kind = scene.physics.mechanics
         self.setup = elastic_setup(scene, geo, mesh, temperature)
+        self.setup.formulation = "displacement"      # the dynamic forms are built on X = V (validated)
         self.forms = ElasticForms(mesh, self.setup)
         self.contacts = contact_specs(scene, geo, mesh, self.forms.V)
         self.vforms = ViscoelasticForms(self.forms, viscous_properties(scene, self.setup.props),

@@ -7,7 +7,7 @@ import numpy as np
 from ..elastic_materials import elastic_properties
 from ..geometry.assemble import GeometryModel
 from ..physics.coefficients import expression_function
-from ..physics.elasticity import ElasticSetup
+from ..physics.elasticity import ElasticSetup, mixed_regions
 from ..scene.model import Scene
 
 
@@ -39,7 +39,7 @@ def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> E
     ms = scene.mechanics
     setup = ElasticSetup(props=props, model=mechanics_model(scene), order=scene.mesh.order,
                          gravity=tuple(ms.gravity) if ms.gravity else None,
-                         temperature=temperature, regularization=ms.regularization)
+                         temperature=temperature, regularization=ms.regularization, formulation=ms.formulation)
     for name, bc in scene.boundary_conditions.items():
         if bc.displacement is not None:
             setup.dirichlet[name] = [None if c == "free" else expression_function(c) for c in bc.displacement]
@@ -59,13 +59,15 @@ def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> E
 
 def mechanics_warnings(scene: Scene, setup: ElasticSetup) -> list[str]:
     """Warnings a user should see before trusting the result (printed on stdout, kept in summary.json)."""
-    out = []
+    mixed, notes = mixed_regions(setup)
+    out = list(notes)
     if scene.mesh.order == 1:
         for name, p in setup.props.items():
             nu = p.max_poisson
-            if nu is not None and nu > 0.49:
-                out.append(f"materials.{name}: Poisson ratio {nu:.4f} > 0.49 with P1 elements locks "
-                           "(stresses and displacements far too small); use mesh.order = 2 or higher")
+            if nu is not None and nu > 0.49 and name not in mixed:
+                out.append(f"materials.{name}: Poisson ratio {nu:.4f} > 0.49 with P1 elements of the displacement "
+                           "formulation locks (stresses and displacements far too small); use mechanics.formulation "
+                           "= 'mixed' or mesh.order = 2 or higher")
     for name, p in setup.props.items():
         if p.lam < 0.5:
             out.append(f"materials.{name}: rheology_lambda {p.lam:g} < 0.5 makes the stress-strain law non-monotone "

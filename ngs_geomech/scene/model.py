@@ -360,6 +360,11 @@ class MechanicsSettings:
     """``[mechanics]``: loads and nonlinear solver of the elastic problem."""
 
     gravity: list | None = field(optional(point), None, doc="gravitational acceleration vector, m/s^2")
+    formulation: str = field(one_of("auto", "displacement", "mixed"), "auto",
+                             doc="'displacement', 'mixed' (displacement-pressure: Taylor-Hood for order >= 2, "
+                                 "stabilized P1-P1; isotropic linear regions, for Poisson ratios near 1/2) or "
+                                 "'auto' (mixed in the isotropic regions with nu > 0.45 when the law is linear)")
+
     initial_stress: list | None = field(optional(list_of(list_of(expr))), None,
                                         doc="initial (e.g. lithostatic) stress tensor sigma0, Pa (expressions)")
     nonlinear_solver: str = field(one_of("newton", "secant"), "newton",
@@ -372,6 +377,18 @@ class MechanicsSettings:
     max_iterations: int = field(integer, 100, doc="iteration limit of the nonlinear solver")
     regularization: float = field(number, 1e-6, doc="delta in (A1/A_ref + delta)^lambda (lambda < 1 is singular "
                                                     "at zero strain)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SolverSettings:
+    """``[solver]``: the linear solver of heat and elasticity systems without contact (contact, mortar heat
+    coupling, Stefan and the mixed formulation always solve directly)."""
+
+    linear: str = field(one_of("auto", "direct", "iterative"), "auto",
+                        doc="'direct' (sparse Cholesky / UMFPACK), 'iterative' (CG with BDDC for order >= 2, AMG "
+                            "for P1) or 'auto' (iterative above 60k unknowns per system in 3D, 1M in 2D)")
+    tolerance: float = field(number, 1e-10, doc="relative residual of the iterative solver")
+    max_iterations: int = field(integer, 2000, doc="iteration limit of the iterative solver")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -469,6 +486,7 @@ class Scene:
     initial: Initial = field(nested(Initial), Initial(), doc="initial conditions")
     time: TimeSettings | None = field(optional(nested(TimeSettings)), None, doc="time settings (transient)")
     dynamics: Dynamics = field(nested(Dynamics), Dynamics(), doc="dynamic mechanics settings")
+    solver: SolverSettings = field(nested(SolverSettings), SolverSettings(), doc="linear solver settings")
     output: Output = field(nested(Output), Output(), doc="output settings")
     adaptivity: Adaptivity | None = field(optional(nested(Adaptivity)), None,
                                           doc="adaptive refinement (stationary scenes)")

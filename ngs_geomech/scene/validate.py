@@ -76,6 +76,26 @@ def _check_names(scene: Scene, problems: list[Problem]) -> None:
         inames.add(itf.name)
 
 
+def _check_formulation(scene: Scene, problems: list[Problem]) -> None:
+    ph, ms = scene.physics, scene.mechanics
+    if ms.formulation == "mixed" and ph.mechanics is not None:
+        if ph.mechanics in ("dynamic", "viscous"):
+            problems.append(Problem("mechanics.formulation", f"'mixed' is not available with physics.mechanics = "
+                                    f"{ph.mechanics!r}: use 'displacement' or 'auto'"))
+        if scene.scene.dimension == "plane" and ph.plane_model == "plane_stress":
+            problems.append(Problem("mechanics.formulation", "'mixed' is for plane strain, axisymmetric and 3D "
+                                    "(plane stress does not lock)"))
+        bad = sorted(n for n, m in scene.materials.items() if m.rheology_lambda != 1.0)
+        if bad:
+            problems.append(Problem("mechanics.formulation", f"'mixed' needs the linear law (rheology_lambda = 1); "
+                                    f"{bad} are not"))
+    s = scene.solver
+    if not (s.tolerance > 0 and math.isfinite(s.tolerance)):
+        problems.append(Problem("solver.tolerance", f"must be > 0, got {s.tolerance}"))
+    if s.max_iterations < 1:
+        problems.append(Problem("solver.max_iterations", f"must be >= 1, got {s.max_iterations}"))
+
+
 def _check_dynamics(scene: Scene, problems: list[Problem]) -> None:
     """physics.mechanics = 'dynamic' | 'viscous' and the rate keys of the materials."""
     ph = scene.physics
@@ -199,6 +219,7 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
                                     "physics.thermal = 'transient' and physics.mechanics = 'static')"))
     _check_adaptivity(scene, problems)
     _check_dynamics(scene, problems)
+    _check_formulation(scene, problems)
     if ph.coupling != "none":
         if ph.thermal != "transient" or ph.mechanics is None:
             problems.append(Problem("physics.coupling", f"{ph.coupling!r} couples a transient heat problem with "

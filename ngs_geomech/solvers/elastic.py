@@ -45,6 +45,7 @@ from scipy.optimize import brentq
 from ..errors import SolverError
 from ..physics.coefficients import regions_regex
 from ..physics.elasticity import ElasticForms
+from .iterative import DEFAULT_TOL, PCG, Preconditioned, choose_solver
 from .linear import check_finite, inverse, solve_watched
 
 _SINGULAR_HINT = ("a body without enough displacement or symmetry conditions has a rigid motion; with "
@@ -76,11 +77,19 @@ class ElasticSolver:
     """Drives :class:`ElasticForms`: Dirichlet data, linear solves, secant and Newton iterations."""
 
     def __init__(self, forms: ElasticForms, *, method: str = "newton", tol: float = 1e-8, maxit: int = 100,
-                 relaxation: float | None = None, primal_dual: bool | None = None):
+                 relaxation: float | None = None, primal_dual: bool | None = None, solver: str = "auto",
+                 linear_tol: float = DEFAULT_TOL, linear_maxit: int = 2000):
         """``relaxation``: None (default) takes the energy-minimising step along the secant direction
         u~_{n+1} - u_n, a number w the fixed step u_{n+1} = u_n + w (u~_{n+1} - u_n) (w = 1: the plain
         secant modules method (2.32)). ``primal_dual``: the Newton tangent with an independent stress for the
-        regions with lam < 1 (None: when there are such regions; False: the exact Hessian everywhere)."""
+        regions with lam < 1 (None: when there are such regions; False: the exact Hessian everywhere).
+
+        ``solver``: the linear solves, "direct" (UMFPACK), "iterative" (preconditioned CG to the relative residual
+        ``linear_tol``, at most ``linear_maxit`` iterations; :mod:`~ngs_geomech.solvers.iterative`) or "auto"
+        (iterative above ``iterative.AUTO_DOFS`` dofs). Iterative only for the pure displacement formulation
+        (X = V: no oblique symmetry multipliers, no mixed pressures) and for the secant systems and the exact Newton
+        Hessian; the primal-dual Newton tangent (unsymmetric) stays direct. Contact
+        (:mod:`~ngs_geomech.solvers.elastic_contact`) keeps its direct saddle-point solver."""
         if method not in ("newton", "secant"):
             raise ValueError(f"unknown nonlinear solver {method!r}")
         if relaxation is not None and not relaxation > 0:
@@ -98,6 +107,12 @@ class ElasticSolver:
         self._fixed = ngs.Projector(forms.V.FreeDofs(), False)
         self._linear_inverse = None
         self.factorizations = 0
+        self.solver = choose_solver(solver, forms.X.ndof, forms.mesh.dim, spd=forms.X is forms.V)
+        self._pcg = PCG(linear_tol, linear_maxit) if self.solver == "iterative" else None
+        self._pre: dict[str, Preconditioned] = {}
+        self._secant_ready = False
+        self.cg_iterations: list[int] = []
+        """CG iterations of every iterative linear solve, in order."""
         self._free_mask = None
         self.history: list[NonlinearInfo] = []
 
@@ -115,9 +130,49 @@ class ElasticSolver:
                                                 definedon=self.f.mesh.Boundaries(regions_regex(set(names))))
         u.vec.data += self._fixed * (self._tmp.vec - u.vec)
 
+    def _preconditioner(self, name: str, form) -> Preconditioned:
+        """The preconditioner registered on ``form`` (created once, before its next assembly)."""
+        pre = self._pre.get(name)
+        if pre is None:
+            f = self.f
+            scale = None
+            if f.setup.order == 1:    # displacement decomposition: a per-region modulus (the largest diagonal of D)
+                scale = f.mesh.MaterialCF({r: float(np.max(np.diag(np.asarray(f.D[r])))) for r in f.D},
+                                          default=1.0)
+            pre = self._pre[name] = Preconditioned(form, f.V, f.setup.order, vector=True, scale=scale,
+                                                   weight=f.weight)
+        return pre
+
+    def _assemble(self, form, where: str, linearize_at=None) -> None:
+        try:
+            if linearize_at is None:
+                form.Assemble()
+            else:
+                form.AssembleLinearization(linearize_at)
+        except Exception as exc:  # NgException from the preconditioner's set-up (singular coarse problem)
+            raise SolverError(f"elastic solve at {where}: the preconditioner could not be built ({exc}). "
+                              f"{_SINGULAR_HINT}") from None
+
+    def _cg(self, mat, pre: Preconditioned, rhs, x, what: str) -> int:
+        info = self._pcg.solve(mat, pre.mat, rhs, x, what, "Check the elastic data and the supports (" + _SINGULAR_HINT
+                               + "), or use the direct solver.")
+        check_finite(x, what)
+        self.cg_iterations.append(info.iterations)
+        return info.iterations
+
     def _solve_secant_system(self, where: str, reuse: bool):
         """One linear solve with the coefficients frozen at u_frozen; returns nothing (updates gf)."""
         f = self.f
+        if self.solver == "iterative":
+            pre = self._preconditioner("secant", f.secant_form)
+            if not (reuse and self._secant_ready):
+                self._assemble(f.secant_form, where)
+                pre.update()
+                self._secant_ready = True
+                self.factorizations += 1
+            f.secant_rhs.Assemble()
+            self._cg(f.secant_form.mat, pre, f.secant_rhs.vec, f.gf.vec, f"elastic solve at {where}")
+            return
         if not (reuse and self._linear_inverse is not None):
             f.secant_form.Assemble()
             self._linear_inverse = inverse(f.secant_form.mat, f.X.FreeDofs(), False, f"elastic solve at {where}",
@@ -208,7 +263,7 @@ class ElasticSolver:
         """||s d||_1 / ||u||_1 of the displacement parts (the quantity of (2.35))."""
         f = self.f
         dgf.vec.data = step_vec
-        du = dgf.components[0] if f.oblique else dgf
+        du = f.displacement(dgf)
         return h1_norm(du, f.mesh) / max(h1_norm(f.displacement(), f.mesh), 1e-300)
 
     def _secant(self, where: str) -> NonlinearInfo:
@@ -272,10 +327,20 @@ class ElasticSolver:
         self._residual(x, res)
         r0 = max(float(ngs.Norm(res)), 1e-300)
         for it in range(1, self.maxit + 1):
-            mat = pd.assemble() if pd is not None else _assembled_hessian(f, x)
-            inv = inverse(mat, f.X.FreeDofs(), False, f"elastic Newton at {where}", _SINGULAR_HINT)
-            self.factorizations += 1
-            d.data = -1.0 * (inv * res)
+            if pd is None and self.solver == "iterative":     # the exact Hessian is SPD: CG
+                pre = self._preconditioner("newton", f.newton_form)
+                self._assemble(f.newton_form, where, linearize_at=x)
+                pre.update()
+                self.factorizations += 1
+                rhs = res.CreateVector()
+                rhs.data = -1.0 * res
+                d[:] = 0.0
+                self._cg(f.newton_form.mat, pre, rhs, d, f"elastic Newton at {where}")
+            else:
+                mat = pd.assemble() if pd is not None else _assembled_hessian(f, x)
+                inv = inverse(mat, f.X.FreeDofs(), False, f"elastic Newton at {where}", _SINGULAR_HINT)
+                self.factorizations += 1
+                d.data = -1.0 * (inv * res)
             g0 = float(ngs.InnerProduct(res, d))
             if g0 > 0 or not math.isfinite(g0):
                 if pd is not None and not pd.is_reset:   # not with a positive tangent; restart from the secant
@@ -348,11 +413,7 @@ class _PrimalDual:
         sig = ngs.CoefficientFunction(tuple(self.sig))
         self.step_gf = ngs.GridFunction(f.V)
         u_gf = f.displacement()
-        if f.oblique:
-            trials, tests = f.X.TnT()
-            u, v = trials[0], tests[0]
-        else:
-            u, v = f.X.TnT()
+        u, v, trials, tests = f._trial_test()
         w = f.weight
         delta = s.regularization
         form = ngs.BilinearForm(f.X, symmetric=False)
@@ -416,7 +477,7 @@ class _PrimalDual:
         tmp.vec.data = step
         if s > 0 and math.isfinite(s) and s != 1.0:
             tmp.vec.data *= 1.0 / s
-        self.step_gf.vec.data = (tmp.components[0] if f.oblique else tmp).vec
+        self.step_gf.vec.data = f.displacement(tmp).vec
         new = np.asarray(self._lin(self.points)).reshape(-1, self.nv)
         x.data += step                      # evaluate the bound at the new strain, then restore x
         cons = np.asarray(self._cons(self.points)).ravel()

@@ -99,7 +99,7 @@ class ElasticContactSolver:
                 x.data *= w
                 x.data += (1.0 - w) * prev
             du.vec.data = x - prev
-            d = du.components[0] if f.oblique else du
+            d = f.displacement(du)
             change = h1_norm(d, f.mesh) / max(h1_norm(f.displacement(), f.mesh), 1e-300)
             info.steps.append(w)
             info.changes.append(change)

@@ -12,23 +12,36 @@ import numpy as np
 from ..errors import SolverError
 from ..physics.coefficients import regions_regex
 from ..physics.thermal import HeatForms
+from .iterative import DEFAULT_TOL, PCG, Preconditioned, choose_solver
 from .linear import check_finite, inverse, solve_watched
 
 
 @dataclass
 class StepInfo:
-    """What one solve did: Newton iterations (1 for linear solves) and the final relative residual."""
+    """What one solve did: Newton iterations (1 for linear solves) and the final relative residual;
+    ``cg_iterations`` the CG iterations of an iterative linear solve (0 for direct solves)."""
 
     iterations: int
     residual: float
     factorized: bool
+    cg_iterations: int = 0
 
 
 class HeatSolver:
     """Drives :class:`HeatForms`: Dirichlet data, assembly, factorization cache, Newton."""
 
-    def __init__(self, forms: HeatForms, newton_tol: float = 1e-10, newton_maxit: int = 30):
+    def __init__(self, forms: HeatForms, newton_tol: float = 1e-10, newton_maxit: int = 30, *,
+                 solver: str = "auto", tol: float = DEFAULT_TOL, maxit: int = 2000):
+        """``solver``: "direct" (sparse Cholesky, UMFPACK), "iterative" (preconditioned CG to the relative
+        residual ``tol``, at most ``maxit`` iterations; :mod:`~ngs_geomech.solvers.iterative`) or "auto"
+        (iterative above ``iterative.AUTO_DOFS`` dofs). Only the linear problem without contact interfaces (an SPD
+        step matrix) is solved iteratively; k(T) Newton and the mortar saddle point stay direct."""
         self.f = forms
+        self.solver = choose_solver(solver, forms.X.ndof, forms.mesh.dim, spd=self.symmetric_for(forms))
+        self._pcg = PCG(tol, maxit) if self.solver == "iterative" else None
+        self._pre = None
+        self.cg_iterations: list[int] = []
+        """CG iterations of every iterative solve, in order."""
         self.newton_tol = newton_tol
         self.newton_maxit = newton_maxit
         self._cache: dict[str, tuple] = {}
@@ -41,7 +54,11 @@ class HeatSolver:
 
     @property
     def symmetric(self) -> bool:
-        s = self.f.setup
+        return self.symmetric_for(self.f)
+
+    @staticmethod
+    def symmetric_for(forms: HeatForms) -> bool:
+        s = forms.setup
         return not s.nonlinear and not s.contacts
 
     def set_dirichlet(self) -> None:
@@ -78,6 +95,8 @@ class HeatSolver:
         """Solve for the new state (t_new, inv_dt already set, old state in gf_old)."""
         self.set_dirichlet()
         rhs = self.f.right_hand_side()
+        if self.solver == "iterative":
+            return self._solve_iterative(where, rhs)
         if not self.f.setup.nonlinear:
             mat, inv, fresh = self._system(f"{self.f.inv_dt.Get():.14g}:{self.f.version}")
             if self._free_mask is None:
@@ -87,6 +106,29 @@ class HeatSolver:
                           "beyond 1e12, time steps far below the diffusion time of an element).")
             return StepInfo(1, 0.0, fresh)
         return self._newton(where, rhs)
+
+    def _solve_iterative(self, where: str, rhs) -> StepInfo:
+        """Preconditioned CG on the step matrix (the form's own matrix: its preconditioner is rebuilt with each
+        assembly, so one dt is kept, not two)."""
+        f = self.f
+        key = f"{f.inv_dt.Get():.14g}:{f.version}"
+        fresh = key != getattr(self, "_iter_key", None)
+        if self._pre is None:
+            self._pre = Preconditioned(f.lhs, f.V, f.setup.order, vector=False)
+        if fresh:
+            try:
+                f.lhs.Assemble()
+            except Exception as exc:  # NgException from the preconditioner's set-up
+                raise SolverError(f"heat solve at {where}: the preconditioner ({self._pre.kind}) could not be "
+                                  f"built ({exc}). Check the material data and boundary conditions.") from None
+            self._iter_key = key
+            self.factorizations += 1
+        info = self._pcg.solve(f.lhs.mat, self._pre.mat, rhs, f.gf.vec, f"heat solve at {where}",
+                               "Check the material data and boundary conditions of the scene, or use the direct "
+                               "solver.")
+        check_finite(f.gf.vec, f"heat solve at {where}")
+        self.cg_iterations.append(info.iterations)
+        return StepInfo(1, info.residual, fresh, info.iterations)
 
     def _newton(self, where: str, rhs) -> StepInfo:
         f, gf = self.f, self.f.gf

@@ -253,6 +253,21 @@ def cylinder_thermal_stresses_profile(r, a: float, b: float, theta: Callable[[fl
     return _cylinder_from_integrals(r, a, b, th.reshape(r.shape), I_r.reshape(r.shape), I_b, E, nu, alpha, case)
 
 
+def cylinder_pressure_stresses(r, a: float, b: float, p_in: float, E: float, nu: float) -> CylinderSolution:
+    """Lame's thick-walled cylinder a < r < b under an internal pressure ``p_in`` (Pa), free outer surface, plane
+    strain (eps_z = 0; Timoshenko & Goodier section 28): with A = p_in a^2 / (b^2 - a^2), B = A b^2,
+
+        sigma_r = A - B / r^2,   sigma_theta = A + B / r^2,   sigma_z = 2 nu A,
+        u_r = (1 + nu) / E ((1 - 2 nu) A r + B / r),
+
+    valid up to nu = 1/2 (mean stress 2 (1 + nu) A / 3, uniform). Stresses in Pa, u_r in m."""
+    r = np.asarray(r, dtype=float)
+    A = p_in * a ** 2 / (b ** 2 - a ** 2)
+    B = A * b ** 2
+    return CylinderSolution(_out(A - B / r ** 2), _out(A + B / r ** 2), _out(np.full_like(r, 2 * nu * A)),
+                            _out((1 + nu) / E * ((1 - 2 * nu) * A * r + B / r)))
+
+
 def cylinder_reference_errors() -> list[tuple[str, float, float, float, float]]:
     """(component, r in m, reference Pa, computed Pa, relative error) for :data:`CYLINDER_REFERENCE`."""
     p = CYLINDER_REFERENCE

@@ -17,6 +17,9 @@ equilibrium -div tau = f, prescribed displacements (2.20) and symmetry u_n = 0, 
    with different anisotropic stiffnesses and thermal expansion tensors; the temperature is the thermal
    solve's solution; exact body force and Dirichlet data; L2 and H1 errors and orders for P1, P2.
 3. :func:`near_incompressible`: plane strain without temperature at nu = 0.3 and nu = 0.4999: P1 locking.
+4. :func:`incompressible_cylinder`: the thick-walled cylinder (plane strain quarter ring or axisymmetric section)
+   under an internal pressure (Lame) or the thermal load, at any nu < 1/2, with the displacement or the mixed
+   displacement-pressure formulation: errors of u_r, sigma_r, sigma_theta, sigma_z and the mean stress.
 
 Units: lengths m, displacements m, stresses and moduli Pa, temperatures K, alpha in 1/K. In 2D the L2 norm
 of u is in m^2 (m per m of depth: the integral over the area), the H1 seminorm of u in m.
@@ -26,6 +29,7 @@ Nothing here prints or writes files; every function returns a plain dict.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 
@@ -44,7 +48,7 @@ from ..scene.parse import scene_from_dict
 from ..scene.validate import validate
 from ..solvers.elastic import ElasticSolver
 from ..solvers.heat import HeatSolver
-from .elastic_closed_forms import cylinder_thermal_stresses
+from .elastic_closed_forms import cylinder_pressure_stresses, cylinder_thermal_stresses
 from .manufactured import observed_order
 
 # ------------------------------------------------------------------------------------------------------------
@@ -454,10 +458,12 @@ def incompressible_displacement(lam_over_mu: float):
                                     U_SCALE * (-psi.Diff(ngs.x) + c * phi.Diff(ngs.y))))
 
 
-def near_incompressible(nu: float, order: int, hs) -> dict:
+def near_incompressible(nu: float, order: int, hs, formulation: str = "auto") -> dict:
     """Plane strain, no temperature, isotropic E = 10 GPa and Poisson ratio ``nu`` on the unit square (m),
     exact :func:`incompressible_displacement` as Dirichlet data on the whole boundary and body force
-    f = -div sigma (Diff), elements of ``order``, mesh sizes ``hs`` (m).
+    f = -div sigma (Diff), elements of ``order``, mesh sizes ``hs`` (m), ``formulation`` of
+    :class:`ElasticSetup` ("displacement" shows the locking; ``mixed`` in the result: whether the mixed
+    formulation was used).
 
     Returns ``nu``, ``lambda_over_mu``, ``h``, ``dofs``, absolute errors ``l2`` (m^2), ``h1`` (m), ``stress``
     (L2 of the 3x3 stress incl. sigma_zz, Pa m), relative errors ``*_rel`` (to the exact solution's norms,
@@ -467,8 +473,8 @@ def near_incompressible(nu: float, order: int, hs) -> dict:
     """
     lam_over_mu = 2 * nu / (1 - 2 * nu)
     exact = incompressible_displacement(lam_over_mu)
-    out = {"nu": nu, "order": order, "lambda_over_mu": lam_over_mu, "h": [], "dofs": [], "l2": [], "h1": [],
-           "stress": [], "l2_rel": [], "h1_rel": [], "stress_rel": []}
+    out = {"nu": nu, "order": order, "lambda_over_mu": lam_over_mu, "formulation": formulation, "mixed": None,
+           "h": [], "dofs": [], "l2": [], "h1": [], "stress": [], "l2_rel": [], "h1_rel": [], "stress_rel": []}
     for h in hs:
         data = {"scene": {"name": "near_incompressible", "dimension": "plane"},
                 "physics": {"mechanics": "static", "plane_model": "plane_strain"},
@@ -482,10 +488,128 @@ def near_incompressible(nu: float, order: int, hs) -> dict:
         pdata = plane_strain_data(setup.props)
         setup.dirichlet = {"outer": _steady((exact[0], exact[1]))}
         setup.body_force = {"body": _steady(_body_force(pdata["body"], exact))}
+        setup.formulation = formulation
         forms = ElasticForms(mesh, setup)
+        out["mixed"] = bool(forms.mixed)
         with ngs.TaskManager():
             ElasticSolver(forms).solve("near-incompressible manufactured solution")
             errs = _errors(forms, pdata, {"body": exact}, order)
         _append(out, h, forms.X.ndof, errs)
     _orders(out)
+    return out
+
+
+# ------------------------------------------------------------------------------------------------------------
+# 4. Near incompressibility: the cylinder with the displacement and the mixed formulation
+# ------------------------------------------------------------------------------------------------------------
+
+P_INNER = 10e6
+"""Internal pressure (Pa) of the Lame cylinder of :func:`incompressible_cylinder`."""
+
+
+def _ni_cylinder_scene(case: str, h: float, order: int, nu: float, load: str) -> dict:
+    c = CYLINDER
+    thermal = load == "thermal"
+    a, b = c["a"], c["b"]
+    material = {"conductivity": 1.0, "youngs_modulus": c["E"], "poisson_ratio": nu,
+                "thermal_expansion": c["alpha"] if thermal else 0.0, "stress_free_temperature": 0.0}
+    bcs = {"inner": {"temperature": c["Ti"]}, "outer": {"temperature": 0.0}} if thermal else \
+        {"inner": {"pressure": P_INNER}}
+    if case == "plane_strain":
+        arc = np.linspace(0.0, math.pi / 2, ARC_POINTS)
+        block = {"name": "wall", "shape": "profile", "start": [a, 0.0], "segments": [
+            {"line": [b, 0.0], "name": "sym_x"},
+            {"spline": [[b * math.cos(t), b * math.sin(t)] for t in arc[1:]], "name": "outer"},
+            {"line": [0.0, a], "name": "sym_y"},
+            {"spline": [[a * math.cos(t), a * math.sin(t)] for t in arc[::-1][1:]], "name": "inner"}]}
+        bcs.update({"sym_x": {"symmetry": True}, "sym_y": {"symmetry": True}})
+        dimension = "plane"
+    elif case == "axisymmetric":
+        block = {"name": "wall", "shape": "rectangle", "origin": [a, 0.0], "size": [b - a, AXI_LENGTH],
+                 "boundaries": {"inner": "xmin", "outer": "xmax", "bottom": "ymin", "top": "ymax"}}
+        bcs.update({"bottom": {"symmetry": True}, "top": {"symmetry": True}})
+        dimension = "axisymmetric"
+    else:
+        raise ValueError(f"case must be 'plane_strain' or 'axisymmetric', got {case!r}")
+    physics = {"mechanics": "static", "plane_model": "plane_strain"}
+    if thermal:
+        physics["thermal"] = "steady"
+    return {"scene": {"name": f"ni_cylinder_{case}", "dimension": dimension, "temperature_unit": "K"},
+            "physics": physics, "mesh": {"maxh": h, "order": order}, "blocks": [block],
+            "materials": {"wall": material}, "boundary_conditions": bcs, "output": {"vtk": False, "figures": False}}
+
+
+@functools.lru_cache(maxsize=16)
+def _ni_cylinder_mesh(case: str, h: float, order: int, load: str):
+    """(mesh, geometry model, temperature CF or None) of :func:`incompressible_cylinder`: independent of nu, kept
+    for the next nu (meshing the splines and the thermal solve cost more than the elastic solve)."""
+    mesh, heat, _ = _build(_ni_cylinder_scene(case, h, order, 0.3, load))
+    scene = scene_from_dict(_ni_cylinder_scene(case, h, order, 0.3, load), source="ni_cylinder")
+    return mesh, validate(scene), heat.temperature() if heat is not None else None
+
+
+def incompressible_cylinder(case: str, nu: float, order: int, hs, *, load: str = "pressure",
+                            formulation: str = "auto") -> dict:
+    """The thick-walled cylinder (:data:`CYLINDER` radii, E) of ``case`` ("plane_strain": quarter ring with
+    symmetry on the straight edges; "axisymmetric": the section 0 < z < 0.5 m with u_z = 0 on both ends) at
+    Poisson ratio ``nu`` under ``load`` "pressure" (:data:`P_INNER` inside, Lame's closed form) or "thermal"
+    (the steady temperature of the thermal solve, alpha of :data:`CYLINDER`), P``order``, mesh sizes ``hs``
+    (m), solved with ``formulation`` (:class:`ElasticSetup`).
+
+    Errors at the sample points of :func:`cylinder` (41 radii on 5 rays / 3 heights), each the largest
+    |num - exact|: ``u_r`` over max |u_r|, ``sigma_r``, ``sigma_theta``, ``sigma_z`` and ``mean`` (the mean
+    stress) over max |sigma_theta|; ``max_stress`` the largest of the stress errors; fitted orders
+    ``order_<key>``; ``mixed`` whether the mixed formulation was used; ``dofs``."""
+    c = CYLINDER
+    rs = c["a"] + (c["b"] - c["a"]) * SAMPLE_FRACTIONS
+    fine = np.linspace(c["a"], c["b"], 2001)
+
+    def exact(r):
+        if load == "pressure":
+            return cylinder_pressure_stresses(r, c["a"], c["b"], P_INNER, c["E"], nu)
+        return cylinder_thermal_stresses(r, c["a"], c["b"], c["Ti"], c["E"], nu, c["alpha"], case="plane_strain")
+
+    scale = float(np.max(np.abs(exact(fine).sigma_theta)))
+    uscale = float(np.max(np.abs(exact(fine).u_r)))
+    keys = ("u_r", "sigma_r", "sigma_theta", "sigma_z", "mean")
+    out = {"case": case, "nu": nu, "order": order, "load": load, "formulation": formulation, "h": [], "dofs": [],
+           **{k: [] for k in keys}, "max_stress": [], "mixed": None}
+    for h in hs:
+        mesh, geo, temperature = _ni_cylinder_mesh(case, h, order, load)
+        scene = scene_from_dict(_ni_cylinder_scene(case, h, order, nu, load), source="ni_cylinder")
+        setup = elastic_setup(scene, geo, mesh, temperature)
+        setup.formulation = formulation
+        forms = ElasticForms(mesh, setup)
+        out["mixed"] = bool(forms.mixed)
+        ElasticSolver(forms).solve("near-incompressible cylinder")
+        sigma = forms.stress_tensor()
+        u = forms.displacement()
+        errs = dict.fromkeys(keys, 0.0)
+        rays = [(math.cos(t), math.sin(t), None) for t in RING_ANGLES] if case == "plane_strain" else \
+            [(1.0, 0.0, z) for z in (0.0, 0.5 * AXI_LENGTH, AXI_LENGTH)]
+        for cs, sn, z in rays:
+            xs, ys = (rs * cs, rs * sn) if z is None else (rs, np.full_like(rs, z))
+            inside = mesh(xs, ys)["nr"] >= 0     # (P1: the straight-sided ring lies inside the curved one)
+            pts = mesh(xs[inside], ys[inside])
+            S = np.asarray(sigma(pts)).reshape(-1, 3, 3)
+            U = np.asarray(u(pts)).reshape(-1, 2)
+            ex = exact(rs[inside])
+            if z is None:
+                er, et = np.array([cs, sn, 0.0]), np.array([-sn, cs, 0.0])
+                sr, st, sz = (np.einsum("i,nij,j->n", er, S, er), np.einsum("i,nij,j->n", et, S, et), S[:, 2, 2])
+                ur = U[:, 0] * cs + U[:, 1] * sn
+            else:
+                sr, st, sz, ur = S[:, 0, 0], S[:, 2, 2], S[:, 1, 1], U[:, 0]
+            for key, num, ref, sc in (("u_r", ur, ex.u_r, uscale), ("sigma_r", sr, ex.sigma_r, scale),
+                                      ("sigma_theta", st, ex.sigma_theta, scale), ("sigma_z", sz, ex.sigma_z, scale),
+                                      ("mean", (sr + st + sz) / 3, (ex.sigma_r + ex.sigma_theta + ex.sigma_z) / 3,
+                                       scale)):
+                errs[key] = max(errs[key], float(np.max(np.abs(num - ref))) / sc)
+        out["h"].append(float(h))
+        out["dofs"].append(int(forms.X.ndof))
+        for k in keys:
+            out[k].append(errs[k])
+        out["max_stress"].append(max(errs[k] for k in keys[1:]))
+    for k in (*keys, "max_stress"):
+        out[f"order_{k}"] = observed_order(out["h"], out[k]) if len(out["h"]) > 1 else float("nan")
     return out

@@ -1,0 +1,210 @@
+"""Scaling of the 3D thermo-elastic solve (issue 10): wall time and peak memory against dofs, direct vs
+preconditioned CG, CG iterations under refinement, and MPI (1 versus 2 worker ranks).
+
+Physics: the box of :mod:`ngs_geomech.verification.scaling` (2 x 1 x 1 m rock, P2, steady heat with T = 100 K /
+0 K on the ends and a uniform source, then the thermal stress with the base fixed), built from its scene dict
+through the library classes. Each size and solver runs in its own process (``worker.py``) so that its peak memory
+is the process's max RSS (NGSolve's C++ allocations included). Solvers: "direct" (sparse Cholesky for heat,
+UMFPACK for elasticity: the library's direct path) up to :data:`DIRECT_MAX` dofs, "iterative" (CG with BDDC on
+the vertex wirebasket, tolerance 1e-10) at every size; 2 NGSolve threads. ``time_exponent`` is the slope of
+log(heat + elastic solve time) against log(dofs) for the default solver ("auto": direct below
+``AUTO_DOFS[3]`` dofs per system, iterative above) over the sizes; ``dofs`` = heat + elastic dofs.
+
+MPI (when ``mpiexec`` and mpi4py are installed: ``pip install mpi4py mpich``, which NGSolve's pip wheel runs with):
+``mpiexec -n 3 python studies/scaling/mpi_box.py`` at the largest MPI size of the level. netgen's
+``Distribute`` keeps no elements on rank 0, so 3 ranks are 2 workers; ``mpi_speedup_2_ranks`` = the serial
+1-thread iterative solve time / the 2-worker solve time (1 thread each), ``mpi_max_rel_difference`` the largest
+difference of T and u at 63 sample points between the distributed and the serial solution (relative to the
+largest value of each field).
+
+Command: ``python studies/scaling/run.py --level 0 --out out/scaling`` (level 0: 3 sizes up to 15k dofs,
+~30 s; level 1: up to ~0.4M dofs, ~6 min; level 2: up to ~1.5M dofs, on demand, ~11 min).
+
+Measured (level 2, 640 s in all; 2 cores shared with other jobs and, during the first two sizes, a test run, so
+the small sizes' times are noisy; 2 NGSolve threads; direct only up to DIRECT_MAX; "auto" with AUTO_DOFS[3] =
+60k per system):
+
+      maxh      dofs  cg T  cg u   iter s iter GiB  direct s  dir GiB   auto s
+     0.150     15080    29    70    19.14     0.19      7.80     0.28     7.80
+     0.100     58296    32    75    12.55     0.28     22.82     1.12    22.82
+     0.070    212936    30    70    17.78     0.67         -        -        -
+     0.050    432060    37    86    35.55     1.30         -        -    35.55
+     0.040    684576    40   107    62.35     2.11         -        -    62.35
+     0.035   1526724    31    77   158.04     5.40         -        -   158.04
+    MPI at 684576 dofs: serial 1 thread 47.69 s, 2 workers (3 ranks) 73.42 s, elements per rank [0, 58608, 58643],
+    CG serial [40, 106] / MPI [41, 107], max rel. difference 5.5e-12
+
+    time_exponent 0.57 (auto, all sizes: the noisy small sizes flatten it), time_exponent_iterative_top3 1.18
+    (0.43M -> 1.53M dofs), largest_dofs 1.53e6, peak_memory_gib_largest 5.4, direct vs iterative 2.1e-11,
+    mpi_speedup_2_ranks 0.65 (rank 0 holds no elements but its MPI waits poll a core: 3 busy processes on 2
+    cores), mpi_max_rel_difference 5.5e-12.
+Level 0 (quiet machine): 2.5k / 9.9k / 15k dofs, iterative 0.42 / 1.03 / 1.62 s, direct 0.37 / 1.46 / 2.88 s.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ngs_geomech.solvers.iterative import AUTO_DOFS
+from ngs_geomech.verification.scaling import max_rel_difference
+from ngs_geomech.verification.study import metrics_lines, study_cli, study_main
+
+STUDY = "scaling"
+HERE = Path(__file__).resolve().parent
+LEVELS = {
+    0: {"maxh": (0.3, 0.2, 0.15), "mpi_maxh": 0.2},
+    1: {"maxh": (0.2, 0.15, 0.1, 0.07, 0.05), "mpi_maxh": 0.07},
+    2: {"maxh": (0.15, 0.1, 0.07, 0.05, 0.04, 0.035), "mpi_maxh": 0.04},
+}
+"""Mesh sizes (m) of the P2 box per level, and the size of the MPI comparison."""
+ORDER = 2
+THREADS = 2
+DIRECT_MAX = 200_000
+"""Largest total dofs solved directly (UMFPACK on 3D elasticity grows like dofs^2 in time and fills memory)."""
+
+
+def _python() -> str:
+    return sys.executable
+
+
+def _run_worker(maxh: float, solver: str, threads: int, tmp: Path) -> dict:
+    out = tmp / f"w_{maxh}_{solver}_{threads}.json"
+    proc = subprocess.run([_python(), str(HERE / "worker.py"), str(maxh), str(ORDER), solver, str(threads), str(out)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"worker {maxh} {solver} failed:\n{proc.stderr[-3000:]}")
+    return json.loads(out.read_text())
+
+
+def _mpiexec() -> str | None:
+    try:
+        import mpi4py  # noqa: F401
+    except ImportError:
+        return None
+    return shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or shutil.which("mpiexec")
+
+
+def _slope(x, y) -> float:
+    if len(x) < 2:
+        return math.nan
+    return float(np.polyfit(np.log(np.asarray(x, float)), np.log(np.asarray(y, float)), 1)[0])
+
+
+def _compare_points(a: dict, b: dict) -> float:
+    keys = sorted(set(a) & set(b), key=int)
+    if len(keys) < len(b):
+        raise RuntimeError("the MPI run did not return every sample point")
+    A, B = np.array([a[k] for k in keys]), np.array([b[k] for k in keys])
+    return max(max_rel_difference(A[:, 0], B[:, 0]), max_rel_difference(A[:, 1:], B[:, 1:]))
+
+
+def run(level: int) -> tuple[dict, dict]:
+    if level not in LEVELS:
+        raise ValueError(f"level must be one of {sorted(LEVELS)}, got {level}")
+    p = LEVELS[level]
+    t_start = time.perf_counter()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmpdir:
+        tmp = Path(tmpdir)
+        for maxh in p["maxh"]:
+            it = _run_worker(maxh, "iterative", THREADS, tmp)
+            d = _run_worker(maxh, "direct", THREADS, tmp) if it["dofs"] <= DIRECT_MAX else None
+            row = {"maxh": maxh, "dofs": it["dofs"], "dofs_heat": it["dofs_heat"], "dofs_elastic": it["dofs_elastic"],
+                   "iterative_s": it["solve_s"], "iterative_heat_s": it["heat_s"],
+                   "iterative_elastic_s": it["elastic_s"], "iterative_gib": it["peak_rss_gib"],
+                   "cg_heat": it["cg_heat"][0], "cg_elastic": it["cg_elastic"][0], "mesh_s": it["mesh_s"],
+                   "direct_s": d["solve_s"] if d else None, "direct_heat_s": d["heat_s"] if d else None,
+                   "direct_elastic_s": d["elastic_s"] if d else None, "direct_gib": d["peak_rss_gib"] if d else None}
+            if d:
+                row["direct_vs_iterative_max_rel_difference"] = _compare_points(it["points"], d["points"])
+            heat_auto = "iterative" if it["dofs_heat"] > AUTO_DOFS[3] else "direct"
+            el_auto = "iterative" if it["dofs_elastic"] > AUTO_DOFS[3] else "direct"
+            src = {"iterative": it, "direct": d}
+            if src[heat_auto] is not None and src[el_auto] is not None:
+                row["auto_s"] = src[heat_auto]["heat_s"] + src[el_auto]["elastic_s"]
+            rows.append(row)
+        mpi = None
+        mpiexec = _mpiexec()
+        if mpiexec is not None:
+            h = p["mpi_maxh"]
+            serial = _run_worker(h, "iterative", 1, tmp)
+            out = tmp / "mpi.json"
+            proc = subprocess.run([mpiexec, "-n", "3", _python(), str(HERE / "mpi_box.py"), str(h), str(ORDER),
+                                   str(out)], capture_output=True, text=True, env={**os.environ})
+            if proc.returncode != 0:
+                raise RuntimeError(f"mpiexec failed:\n{proc.stderr[-3000:]}")
+            m = json.loads(out.read_text())
+            mpi = {"maxh": h, "dofs": m["dofs_heat"] + m["dofs_elastic"], "serial_1thread_s": serial["solve_s"],
+                   "mpi_2workers_s": m["solve_s"], "elements_per_rank": m["elements_per_rank"],
+                   "cg_serial": [serial["cg_heat"][0], serial["cg_elastic"][0]],
+                   "cg_mpi": [m["cg_heat"][0], m["cg_elastic"][0]],
+                   "max_rel_difference": _compare_points(m["points"], serial["points"])}
+    auto = [(r["dofs"], r["auto_s"]) for r in rows if r.get("auto_s")]
+    it_pts = [(r["dofs"], r["iterative_s"]) for r in rows]
+    d_pts = [(r["dofs"], r["direct_s"]) for r in rows if r["direct_s"]]
+    largest = rows[-1]
+    metrics = {
+        "time_exponent": _slope(*zip(*auto)) if len(auto) >= 2 else _slope(*zip(*it_pts)),
+        "time_exponent_iterative": _slope(*zip(*it_pts)),
+        "time_exponent_iterative_top3": _slope(*zip(*it_pts[-3:])),
+        "largest_dofs": float(largest["dofs"]),
+        "peak_memory_gib_largest": float(largest["iterative_gib"]),
+        "cg_iterations_heat_max": float(max(r["cg_heat"] for r in rows)),
+        "cg_iterations_elastic_max": float(max(r["cg_elastic"] for r in rows)),
+        "cg_iterations_elastic_ratio_last_first": rows[-1]["cg_elastic"] / rows[0]["cg_elastic"],
+    }
+    if len(d_pts) >= 2:
+        metrics["time_exponent_direct"] = _slope(*zip(*d_pts))
+    diffs = [r["direct_vs_iterative_max_rel_difference"] for r in rows if "direct_vs_iterative_max_rel_difference" in r]
+    if diffs:
+        metrics["direct_vs_iterative_max_rel_difference"] = max(diffs)
+    if mpi is not None:
+        metrics["mpi_speedup_2_ranks"] = mpi["serial_1thread_s"] / mpi["mpi_2workers_s"]
+        metrics["mpi_max_rel_difference"] = mpi["max_rel_difference"]
+    timing = {"total_s": time.perf_counter() - t_start}
+    result = {"study": STUDY, "level": level, "metrics": metrics, "convergence": [], "rows": rows, "mpi": mpi,
+              "timing_s": timing}
+    return result, {}
+
+
+def _fmt(v, width: int) -> str:
+    return f"{v:{width}.2f}" if v is not None else f"{'-':>{width}}"
+
+
+def table(result: dict) -> list[str]:
+    lines = ["", f"{'maxh':>6} {'dofs':>9} {'cg T':>5} {'cg u':>5} {'iter s':>8} {'iter GiB':>8} "
+                 f"{'direct s':>9} {'dir GiB':>8} {'auto s':>8}"]
+    for r in result["rows"]:
+        lines.append(f"{r['maxh']:6.3f} {r['dofs']:9d} {r['cg_heat']:5d} {r['cg_elastic']:5d} "
+                     f"{r['iterative_s']:8.2f} {r['iterative_gib']:8.2f} {_fmt(r['direct_s'], 9)} "
+                     f"{_fmt(r['direct_gib'], 8)} {_fmt(r.get('auto_s'), 8)}")
+    m = result.get("mpi")
+    if m:
+        lines.append(f"MPI at {m['dofs']} dofs: serial 1 thread {m['serial_1thread_s']:.2f} s, 2 workers "
+                     f"{m['mpi_2workers_s']:.2f} s (elements per rank {m['elements_per_rank']}), CG serial "
+                     f"{m['cg_serial']} / MPI {m['cg_mpi']}, max rel. difference {m['max_rel_difference']:.1e}")
+    else:
+        lines.append("MPI: mpiexec or mpi4py not installed (pip install mpi4py mpich)")
+    return lines
+
+
+def report(result: dict) -> str:
+    return "\n".join([f"study {result['study']}, level {result['level']}"] + table(result) + metrics_lines(result))
+
+
+def main(level: int = 0, out: str | Path | None = None) -> dict:
+    return study_main(run, level, out)
+
+
+if __name__ == "__main__":
+    study_cli(__doc__, run, report)
