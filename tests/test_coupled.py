@@ -92,7 +92,7 @@ def test_coupled_run_resumes_after_a_failed_step(tmp_path, monkeypatch):
 
     def step(self, t_old, t_new, extra_load=None):
         calls["n"] += 1
-        if calls["n"] == 13:
+        if calls["n"] >= 13:              # every try from the 13th step on: the step halvings fail as well
             raise SolverError("Stefan Newton step diverged (injected)")
         return original(self, t_old, t_new, extra_load)
     monkeypatch.setattr(StefanSolver, "step", step)

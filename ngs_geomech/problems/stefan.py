@@ -35,6 +35,9 @@ from ..scene.model import Scene
 from ..solvers.stefan import StefanSolver
 from .heat import initial_temperature, pressure_coefficients, region_measure, source_function
 
+MAX_HALVINGS = 6
+"""A Stefan step whose Newton iteration fails is split in halves at most this often (dt / 64)."""
+
 LEVEL = 0.5
 """The phase boundary is the iso-line liquid_fraction = LEVEL."""
 
@@ -117,7 +120,8 @@ class StefanRun:
                              for n, m in f.setup.materials.items()}, default=0.0)
         self.fields = {"temperature": T, "enthalpy": f.gf_enthalpy, "liquid_fraction": f.gf_liquid_fraction,
                        "heat_flux": -k * ngs.grad(T)}
-        self.iterations: list[int] = []                  # per step
+        self.iterations: list[int] = []                  # per (sub)step
+        self.halvings = 0                                # steps split because Newton failed
         self.dirichlet_heat: list[float] = []            # per step: heat in through the Dirichlet nodes
         self.source_heat: list[float] = []               # per step: sources and fluxes
         self.records: dict = {"time_s": [], "melted_volume": {r: [] for r in self.regions},
@@ -140,12 +144,23 @@ class StefanRun:
         self.solver.set_initial(T)
         self.initial_heat = self.forms.heat_content(self.solver.e)
 
-    def step(self, a: float, b: float, where: str, extra_load: np.ndarray | None = None):
-        """One step from a to b (s); ``extra_load``: a nodal source vector (e.g. deformation heating)."""
+    def step(self, a: float, b: float, where: str, extra_load: np.ndarray | None = None, _depth: int = 0):
+        """One step from a to b (s); ``extra_load``: a nodal source vector (e.g. deformation heating, W: the same
+        power over the step). A Newton failure splits the step in two halves, recursively up to MAX_HALVINGS
+        times (the front crossing too many element layers in one step is the usual cause; the output times stay);
+        the halvings taken are counted in ``halvings``."""
+        mark = self.mark() if _depth < MAX_HALVINGS else None
         try:
             info = self.solver.step(a, b) if extra_load is None else self.solver.step(a, b, extra_load)
         except SolverError as exc:
-            raise SolverError(f"{where}: {exc}") from exc
+            if mark is None:
+                raise SolverError(f"{where}: {exc} (after {MAX_HALVINGS} halvings of the step, dt = "
+                                  f"{b - a:.4g} s)") from exc
+            self.rewind(mark)
+            self.halvings += 1
+            mid = 0.5 * (a + b)
+            self.step(a, mid, where, extra_load, _depth + 1)
+            return self.step(mid, b, where, extra_load, _depth + 1)
         self.iterations.append(int(info.iterations))
         self.dirichlet_heat.append(float(info.boundary_heat))
         self.source_heat.append(float(info.source_heat))
@@ -220,6 +235,7 @@ class StefanRun:
                        "imbalance_rel_max": max(imbalance) if imbalance else 0.0},
             "newton_iterations": {"mean": float(np.mean(its)) if its else 0.0, "max": int(max(its, default=0)),
                                   "steps": len(its)},
+            "step_halvings": self.halvings,
         }
 
     # -- checkpoints --------------------------------------------------------------------------------------
