@@ -81,6 +81,11 @@ time; this run while the other core was busy with tests):
          0.003125 16276   720 1.10/3 .069  8.66  9.9   7.23   2.16  3.35  0.12  8.29e-5  1.20e-3  2.7e-4 1e-13 10.1
          0.0015625 65634  1440 1.09/3 .076 17.21 20.0  54.34  22.52  2.41  0.06  4.62e-5  5.86e-4  1.5e-4 9e-14 128
 
+After SuperLU's minimum-degree ordering on A + A^T and the residual-watched linear reference step (one run,
+level 1, the other core running a test suite): two-phase ratios 2.75 2.19 3.39 2.88 2.90 (h = 0.05 ... 0.003125;
+step 37.6 ms against 12.96 ms at 42k nodes), one-phase 2.05 2.05 2.59 2.17 2.38; Newton and errors unchanged.
+Level 2 (170k nodes) not re-run after the ordering change.
+
 Orders (two-phase, fitted over the levels of level 1): front from the melted volume 1.09, L2 1.04; the front
 from the T crossing moves from node to node (no clean order). Energy imbalance at round-off at every level
 (<= 5e-13).
