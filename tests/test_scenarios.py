@@ -27,10 +27,12 @@ THETA_R = 1000.0                # degC, solidus of the melting zone
 ZONE_TOP, ZONE_BOTTOM = 90.0e3, 140.0e3   # m, depth range of the melting zone
 
 
+COARSE = ["mesh.maxh=30e3", "blocks.melt_zone.maxh=10e3", "time.dt=25000 year", "output.every=1"]
+
+
 @pytest.fixture(scope="module")
 def plate_collision():
-    overrides = ["mesh.maxh=30e3", "blocks.melt_zone.maxh=10e3", "time.dt=25000 year", "output.every=1"]
-    return api.run("plate_collision", None, overrides=overrides, progress=False)
+    return api.run("plate_collision", None, overrides=COARSE, progress=False)
 
 
 def _vertex_values(result, cf):
@@ -97,3 +99,21 @@ def test_plate_collision_melting_zone_melts_as_far_as_the_geotherm_says(plate_co
     T = _vertex_values(plate_collision, plate_collision.stefan.fields["temperature"])
     print(f"temperature {T.min():.2f} .. {T.max():.2f} C")
     assert T.min() > -1.0 and T.max() < T_BASE + 10.0                          # the geotherm's range
+
+
+def test_viscous_plate_collision_against_the_quasi_static_run():
+    """Issue 9: the scenario with Kelvin-Voigt viscosity in the mantle wedge and the melting zone
+    (physics.mechanics = "viscous") runs to the end; the viscous stress (C tau_v e_t, ~1e-3 x C here) changes the
+    stresses and contact forces by a few percent, and its dissipation joins the deformation heating."""
+    from ngs_geomech.verification.viscous_plate import viscous_vs_quasistatic
+
+    r = viscous_vs_quasistatic(COARSE)
+    s, v, d = r["static"], r["viscous"], r["difference"]
+    print(f"\nquasi-static: sigma_3 min {s['sigma_3_min_Pa']:.4e} Pa, slab_wedge force "
+          f"{s['contacts']['slab_wedge']['normal_force']:.4e} N/m, deformation heat {s['deformation_heat_J']:.4e} J/m"
+          f"\nviscous:      sigma_3 min {v['sigma_3_min_Pa']:.4e} Pa, slab_wedge force "
+          f"{v['contacts']['slab_wedge']['normal_force']:.4e} N/m, deformation heat {v['deformation_heat_J']:.4e} J/m "
+          f"(viscous dissipation {v['viscous_dissipation_J']:.4e})\ndifferences: {d}")
+    assert v["viscous_dissipation_J"] > 0 and d["deformation_heat_J"] > 0
+    assert 1e-4 < abs(d["sigma_3_min_Pa"]) / abs(s["sigma_3_min_Pa"]) < 0.2
+    assert 1e-4 < abs(d["contacts_normal_force_rel"]["slab_wedge"]) < 0.2
