@@ -576,10 +576,10 @@ class StefanForms:
         self._dir_tmp.Set(cf, ngs.BND, definedon=self.mesh.Boundaries(regions_regex(self.setup.dirichlet)))
         return self._dir_tmp.vec.FV().NumPy()[self.dirichlet_dofs].copy()
 
-    def store(self, e: np.ndarray) -> None:
+    def store(self, e: np.ndarray, state: NodalState | None = None) -> None:
         """Copy a nodal enthalpy and what follows from it into the GridFunctions ``gf_enthalpy`` (J/m^3),
         ``gf_temperature`` (K) and ``gf_liquid_fraction`` (latent-heat weighted, 0..1)."""
-        st = self.nodal_state(e)
+        st = state if state is not None else self.nodal_state(e)
         self.gf_enthalpy.vec.FV().NumPy()[:] = e
         self.gf_temperature.vec.FV().NumPy()[:] = st.T
         frac = self.liquid_fractions(e, st)

@@ -530,7 +530,7 @@ class StefanSolver:
         self._last_change = (e - e_old) / dt
         self.e = e
         self._state = (e.copy(), st)
-        f.store(e)
+        f.store(e, st)                               # st is the nodal state of the final e
         self.iterations.append(max(it, 1))
         return StefanStepInfo(iterations=max(it, 1), residual=res, boundary_heat=boundary_heat,
                               source_heat=float(dt * np.sum(F)),
