@@ -8,14 +8,28 @@ Estimators (``kind = "estimator"``) bound the discretization error in the energy
 (w = r in axisymmetric models, else 1), element by element: eta = sqrt(sum_T eta_T^2).
 
 * ``zz`` (Zienkiewicz-Zhu flux/stress recovery): the flux q_h = kappa f(T_h) grad T_h (W/m^2), or the reduced
-  Voigt stress s_h (Pa), is recovered region by region into a continuous H1 field q* of the solution's order,
-  by NGSolve's local averaging interpolation (``recovery="average"``, the classical nodal averaging) or by a
-  global L2 projection (``recovery="l2"``), and
+  Voigt stress s_h (Pa), is recovered region by region into a continuous field q*, and
 
       eta_T^2 = int_T w (q* - q_h) . (kappa f)^{-1} (q* - q_h) dx,   eta_T^2 = int_T w (s* - s_h) . D^{-1} (s* - s_h) dx
 
   (the complementary energy of the difference; D the region's reduced stiffness, its linear part for the
   lambda law). Recovery per region keeps the normal-flux / traction kinks of material interfaces out of q*.
+  Recoveries (``recovery``; default "average" for P1, "spr" for P2 and higher):
+
+  - ``"average"``: NGSolve's local averaging interpolation into H1 of order p (P1) or p + 1 (``recovery_order``),
+    the classical nodal averaging. Exact enough for P1 (effectivity ~1.0); for P2 it underestimates and drifts
+    (0.63, 0.50, 0.43 heat at h = 0.2, 0.1, 0.05): the averaged field of a discontinuous P1 flux is
+    essentially the continuous P1 one, whose error is of the same order h^2 as q_h's.
+  - ``"l2"``: the global L2 projection into that space (worse for P2: 0.25-0.37).
+  - ``"spr"`` (superconvergent patch recovery, Zienkiewicz-Zhu 1992, with partition-of-unity blending): per
+    vertex a of the region a polynomial P_a of degree p (``recovery_order``) fitted to q_h by weighted least
+    squares over the quadrature points (order 2p + 2) of the vertex patch (the local L2 projection onto P_p;
+    on vertices of the region's boundary the patch is widened by the elements of the neighbouring vertices),
+    and q* = sum_a lambda_a P_a with the element's barycentric coordinates lambda_a: continuous, of degree
+    p + 1 per element, exact for fluxes of degree p; integrated with the same quadrature points (the true
+    Jacobian, curved elements included). Effectivity 1.01-1.04 (P2) and 1.02-1.34 (P3) on the manufactured
+    heat and thermo-elastic problems, not drifting with h. Simplicial meshes only (others fall back to
+    averaging). Cost ~0.5 s at 24k P2 elements (the residual estimator's: 0.8 s).
 * ``residual`` (explicit residual estimator, Verfuerth's standard weights):
 
       eta_T^2 = h_T^2 / k_T ||R_T||_T^2 + sum_{E in dT} c_E h_E / k_T ||J_E||_E^2,
@@ -265,12 +279,132 @@ def _recover(mesh, cf, ncomp: int, order: int, region, recovery: str):
     return g
 
 
+def _recovery_kind(order: int, wanted: str | None) -> str:
+    if wanted is None:
+        return "average" if order == 1 else "spr"
+    if wanted not in ("average", "l2", "spr"):
+        raise ValueError(f"recovery must be 'average', 'l2' or 'spr', got {wanted!r}")
+    return wanted
+
+
+def _spr_degree(order: int, wanted: int | None) -> int:
+    return wanted if wanted is not None else order
+
+
 def _recovery_order(order: int, wanted: int | None) -> int:
     return wanted if wanted is not None else (order if order == 1 else order + 1)
 
 
 def _cf_matrix(a: np.ndarray):
     return ngs.CoefficientFunction(tuple(float(v) for v in np.asarray(a).flatten()), dims=np.asarray(a).shape)
+
+
+# ------------------------------------------------------------------------------------------------------------
+# superconvergent patch recovery (SPR)
+# ------------------------------------------------------------------------------------------------------------
+
+_SIMPLEX = {2: ngs.TRIG, 3: ngs.TET}
+_CHUNK = 2_000_000
+"""Entries (points x monomials) per block of the vectorized SPR steps: bounds the work arrays (~16 MB each)."""
+
+
+def _exponents(dim: int, degree: int) -> np.ndarray:
+    """The exponents of the monomials of total degree <= ``degree`` in ``dim`` variables (n x dim)."""
+    out = [e for e in np.ndindex(*(degree + 1,) * dim) if sum(e) <= degree]
+    return np.array(sorted(out, key=lambda e: (sum(e), tuple(-k for k in e))), dtype=np.int64)
+
+
+def _monomials(z: np.ndarray, exps: np.ndarray) -> np.ndarray:
+    """The monomials ``exps`` at the (scaled) points z (..., dim) -> (..., n)."""
+    out = None
+    for c in range(z.shape[-1]):
+        powers = np.ones(z.shape[:-1] + (int(exps[:, c].max()) + 1,))
+        for k in range(1, powers.shape[-1]):
+            powers[..., k] = powers[..., k - 1] * z[..., c]
+        factor = powers[..., exps[:, c]]
+        out = factor if out is None else out * factor
+    return out
+
+
+def _region_elements(mesh, region) -> np.ndarray:
+    inside = np.asarray(ngs.Integrate(ngs.CoefficientFunction(1.0) * ngs.dx(definedon=region), mesh,
+                                      element_wise=True), dtype=float)
+    return np.flatnonzero(inside > 0)
+
+
+def _spr_eta2(mesh, cf, region, degree: int, scale_cf, metric: np.ndarray) -> np.ndarray | None:
+    """Per element int_T scale (q* - q_h) . metric (q* - q_h) dx on ``region`` (0 elsewhere) with q* the
+    superconvergent patch recovery of the field ``cf`` (module docstring): per vertex a least-squares fit P_a of
+    degree ``degree`` to cf over the vertex patch (quadrature points, weighted: the local L2 projection; the
+    patch of the region's boundary vertices widened by one ring of elements), blended by the barycentric
+    coordinates, q* = sum_a lambda_a P_a (continuous, of degree ``degree`` + 1). None when the mesh is not
+    simplicial."""
+    dim = mesh.dim
+    try:
+        ev = element_vertices(mesh)
+    except ValueError:                                  # mixed element types
+        return None
+    if ev.ndim != 2 or ev.shape[1] != dim + 1 or dim not in _SIMPLEX:
+        return None
+    elems = _region_elements(mesh, region)
+    eta2 = np.zeros(mesh.ne)
+    if elems.size == 0:
+        return eta2
+    ir = ngs.IntegrationRule(_SIMPLEX[dim], 2 * degree + 2)
+    ref = np.array([tuple(p) for p in ir.points], dtype=float)[:, :dim]
+    lam = np.column_stack([ref, 1.0 - ref.sum(axis=1)])                  # barycentric, in element vertex order
+    nip = len(ref)
+    pts = mesh.MapToAllElements(ir, ngs.VOL)
+    ncomp = cf.dim
+    q = np.asarray(cf(pts), dtype=float).reshape(mesh.ne, nip, ncomp)[elems]
+    xyz = np.column_stack([c(pts) for c in (ngs.x, ngs.y, ngs.z)[:dim]]).reshape(mesh.ne, nip, dim)[elems]
+    jac = np.asarray(ngs.specialcf.JacobianMatrix(dim)(pts), dtype=float).reshape(mesh.ne, nip, dim, dim)[elems]
+    wq = np.abs(np.linalg.det(jac)) * np.asarray(ir.weights, dtype=float)
+    s = np.asarray(ngs.CoefficientFunction(scale_cf)(pts), dtype=float).reshape(mesh.ne, nip)[elems]
+    used, ev = np.unique(ev[elems], return_inverse=True)                 # the region's vertices, local numbers
+    ev = ev.reshape(len(elems), dim + 1)
+    ne, nv = len(elems), len(used)
+    # patches: vertex -> elements (sparse), widened on the region's boundary vertices
+    inc = sp.csr_matrix((np.ones(ev.size), (np.repeat(np.arange(ne), dim + 1), ev.ravel())), shape=(ne, nv))
+    facets = np.sort(np.concatenate([np.delete(ev, k, axis=1) for k in range(dim + 1)]), axis=1)
+    uniq, count = np.unique(facets, axis=0, return_counts=True)
+    boundary = np.zeros(nv, dtype=bool)
+    boundary[uniq[count == 1].ravel()] = True
+    ring1 = inc.T.tocsr()                                                 # vertex -> its elements
+    ring2 = (ring1 @ inc) @ inc.T                                         # -> the elements of its neighbours
+    patch = (sp.diags((~boundary).astype(float)) @ ring1 + sp.diags(boundary.astype(float)) @ ring2).tocsr()
+    patch.eliminate_zeros()
+    patch = patch.tocoo()
+    xv = _vertex_coords(mesh)[used]
+    hT = element_sizes(mesh)[elems]
+    hv = np.zeros(nv)
+    np.maximum.at(hv, ev.ravel(), np.repeat(hT, dim + 1))
+    hv[hv == 0] = 1.0
+    exps = _exponents(dim, degree)
+    nm = len(exps)
+    A = np.zeros((nv, nm, nm))
+    b = np.zeros((nv, nm, ncomp))
+    va, te = patch.row, patch.col                                         # (vertex, element) pairs
+    chunk = max(256, _CHUNK // (nip * nm))
+    for lo in range(0, len(va), chunk):
+        a, t = va[lo:lo + chunk], te[lo:lo + chunk]
+        m = _monomials((xyz[t] - xv[a][:, None, :]) / hv[a][:, None, None], exps)     # pairs x nip x nm
+        mw = m * wq[t][..., None]
+        mwt = mw.transpose(0, 2, 1)
+        np.add.at(A, a, mwt @ m)
+        np.add.at(b, a, mwt @ q[t])
+    coef = np.linalg.pinv(A, rcond=1e-10, hermitian=True) @ b
+    metric = np.asarray(metric, dtype=float)
+    chunk = max(256, _CHUNK // (nip * nm * (dim + 1)))
+    for lo in range(0, ne, chunk):
+        sl = slice(lo, lo + chunk)
+        e = ev[sl]                                                          # n x (dim+1)
+        z = (xyz[sl][:, None, :, :] - xv[e][:, :, None, :]) / hv[e][:, :, None, None]
+        vals = np.einsum("nkim,nkmc->nkic", _monomials(z, exps), coef[e])  # n x verts x nip x ncomp
+        qs = np.einsum("ik,nkic->nic", lam, vals)
+        d = qs - q[sl]
+        eta2[elems[sl]] = np.einsum("ni,nic->n", wq[sl] * s[sl], (d @ metric) * d)
+    return eta2
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -297,17 +431,24 @@ def heat_energy_error(forms: HeatForms, gradient_exact: dict, order: int | None 
     return math.sqrt(max(tot, 0.0))
 
 
-def zz_heat(forms: HeatForms, *, recovery: str = "average", recovery_order: int | None = None) -> Estimate:
+def zz_heat(forms: HeatForms, *, recovery: str | None = None, recovery_order: int | None = None) -> Estimate:
     """Zienkiewicz-Zhu estimator of the heat forms' current temperature (module docstring)."""
     mesh, s = forms.mesh, forms.setup
     T, f, q = _heat_parts(forms)
     eta2 = np.zeros(mesh.ne)
+    recovery = _recovery_kind(s.order, recovery)
     for name, p in s.props.items():
         region = mesh.Materials(name)
-        qs = _recover(mesh, q, mesh.dim, _recovery_order(s.order, recovery_order), region, recovery)
+        kinv = np.linalg.inv(np.asarray(p.kappa, dtype=float))
+        if recovery == "spr":
+            part = _spr_eta2(mesh, q, region, _spr_degree(s.order, recovery_order), forms.weight / f, kinv)
+            if part is not None:
+                eta2 += part
+                continue
+        qs = _recover(mesh, q, mesh.dim, _recovery_order(s.order, recovery_order), region,
+                      "average" if recovery == "spr" else recovery)
         d = qs - q
-        kinv = _cf_matrix(np.linalg.inv(np.asarray(p.kappa, dtype=float)))
-        eta2 += _element_integral(mesh, forms.weight / f * ngs.InnerProduct(kinv * d, d), region)
+        eta2 += _element_integral(mesh, forms.weight / f * ngs.InnerProduct(_cf_matrix(kinv) * d, d), region)
     return Estimate("zz", "estimator", np.sqrt(np.maximum(eta2, 0.0)))
 
 
@@ -374,16 +515,23 @@ def elastic_energy_error(forms: ElasticForms, strain_exact: dict, order: int | N
     return math.sqrt(max(tot, 0.0))
 
 
-def zz_elastic(forms: ElasticForms, *, recovery: str = "average", recovery_order: int | None = None) -> Estimate:
+def zz_elastic(forms: ElasticForms, *, recovery: str | None = None, recovery_order: int | None = None) -> Estimate:
     """Zienkiewicz-Zhu stress recovery estimator of the elastic forms' current displacement (module docstring)."""
     mesh, s = forms.mesh, forms.setup
     u = forms.displacement()
     eta2 = np.zeros(mesh.ne)
+    recovery = _recovery_kind(s.order, recovery)
     for name in s.props:
         region = mesh.Materials(name)
         sh = forms.stress_vector(name, u)
         D = forms.D[name]
-        ss = _recover(mesh, sh, D.shape[0], _recovery_order(s.order, recovery_order), region, recovery)
+        if recovery == "spr":
+            part = _spr_eta2(mesh, sh, region, _spr_degree(s.order, recovery_order), forms.weight, np.linalg.inv(D))
+            if part is not None:
+                eta2 += part
+                continue
+        ss = _recover(mesh, sh, D.shape[0], _recovery_order(s.order, recovery_order), region,
+                      "average" if recovery == "spr" else recovery)
         d = ss - sh
         eta2 += _element_integral(mesh, forms.weight * ngs.InnerProduct(_cf_matrix(np.linalg.inv(D)) * d, d), region)
     return Estimate("zz", "estimator", np.sqrt(np.maximum(eta2, 0.0)))
@@ -469,7 +617,7 @@ def residual_elastic(forms: ElasticForms, *, c_volume: float = C_VOLUME, c_jump:
 # ------------------------------------------------------------------------------------------------------------
 
 @register("zz", "estimator", "forms")
-def zz_estimator(forms, *, recovery: str = "average", recovery_order: int | None = None) -> Estimate:
+def zz_estimator(forms, *, recovery: str | None = None, recovery_order: int | None = None) -> Estimate:
     """Zienkiewicz-Zhu flux (heat) or stress (elasticity) recovery estimator."""
     if isinstance(forms, HeatForms):
         return zz_heat(forms, recovery=recovery, recovery_order=recovery_order)

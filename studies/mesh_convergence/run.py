@@ -37,9 +37,13 @@ Command: ``python studies/mesh_convergence/run.py --level 0 --out out/mesh_conve
 Measured (2 shared cores, one NGSolve thread; level 0 16-24 s alone, 42 s beside other jobs; level 1 about 2 min):
 
     effectivity (h = 0.2, 0.1, 0.05)   P1 zz            P1 residual      P2 zz            P2 residual
-    heat (two regions, anisotropic)    1.00 1.02 1.01   1.91 1.88 1.92   0.63 0.50 0.43   1.69 1.64 1.65
-    thermo-elastic (two regions)       0.98 1.00 1.00   1.45 1.50 1.46   0.70 0.63 0.56   1.70 1.73 1.65
-    (level 1 adds h = 0.025: P1 1.00 / 1.91 heat, 1.00 / 1.47 elastic; P2 zz 0.41 heat, 0.52 elastic)
+    heat (two regions, anisotropic)    1.00 1.02 1.01   1.91 1.88 1.92   1.02 1.01 1.03   1.69 1.64 1.65
+    thermo-elastic (two regions)       0.98 1.00 1.00   1.45 1.50 1.46   1.02 1.01 1.02   1.70 1.73 1.65
+    effectivity_min 0.977, effectivity_max 1.917 (level 0; target [0.5, 3] met, effectivity_target_met 1)
+    (level 1 adds h = 0.025: P1 1.00 / 1.91 heat, 1.00 / 1.47 elastic; P2 zz 1.03 heat, 1.03 elastic; at
+    h = 0.0125, outside the study: 1.04 / 1.03. P2 zz is the superconvergent patch recovery, the default for
+    p >= 2; the averaging recovery it replaced gave 0.63 0.50 0.43 heat, 0.70 0.63 0.56 elastic, falling with h.
+    P3, not part of the study: zz 1.34 1.21 1.05 heat, 1.06 1.08 1.02 elastic; residual 1.73-1.96)
 
     corner, P1 energy error     uniform            adaptive zz                  adaptive residual
     level 0                     0.34 (to 2945)     0.51 (to 11.6k dofs)         0.51 (to 10.4k)
@@ -76,12 +80,13 @@ Measured (2 shared cores, one NGSolve thread; level 0 16-24 s alone, 42 s beside
     0.6 s instead of 2.8 s at 51k dofs). The uniform series is warm-started too, so its solve time, the
     denominator of the time ratio, is the favourable one.
 
-What falls short: the averaging ZZ recovery underestimates for P2 (effectivity 0.43-0.70, falling with h: the
-recovered flux/stress is not superconvergent for P2 on these unstructured meshes; L2-projection recovery was worse,
-0.25-0.37), so ``effectivity_min`` (over P1 and P2) misses the [0.5, 3] target while the P1 values and the residual
-estimator's meet it. On small Hertz meshes the fixed costs of each adaptive solve (forms, contact operator built
-in Python) weigh more: the time ratio was 0.5 when the finest uniform mesh had 8k dofs (the test's size), 0.2 at
-31k and 0.09 at 123k. The half-width error is a node-position quantity and jumps between steps (0.2 % ... 8 %):
+The P2 ZZ figures come from the superconvergent patch recovery (``recovery="spr"``, the default for p >= 2):
+the averaging recovery underestimates for P2 (0.43-0.70, falling with h: the averaged field is not superconvergent
+on these unstructured meshes; L2-projection recovery was worse, 0.25-0.37); both stay available by name.
+
+What falls short: on small Hertz meshes the fixed costs of each adaptive solve (forms, contact operator built in
+Python) weigh more: the time ratio was 0.5 when the finest uniform mesh had 8k dofs (the test's size), 0.2 at 31k
+and 0.09 at 123k. The half-width error is a node-position quantity and jumps between steps (0.2 % ... 8 %):
 its ratio metrics (``hertz_half_width_*``) are reported, the headline ratios use p0. The ZZ/residual effectivities
 on the Hertz problem itself are not measured (no exact solution).
 """
