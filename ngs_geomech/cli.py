@@ -1,4 +1,4 @@
-"""Command line: ``ngs-geomech run|validate|list``. It only parses arguments and calls the package."""
+"""Command line: ``ngs-geomech run|validate|list|uncertain``. It only parses arguments and calls the package."""
 
 from __future__ import annotations
 
@@ -28,6 +28,26 @@ def main(argv: list[str] | None = None) -> int:
     p_val.add_argument("scene")
     p_val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     sub.add_parser("list", help="list the built-in scenes")
+    p_unc = sub.add_parser("uncertain", help="worst-scenario or Monte Carlo study over the scene's [uncertainty] "
+                                             "table: results.json, table.md/.csv, figures, samples.jsonl")
+    p_unc.add_argument("scene", help="scene file or built-in scene name (with an [uncertainty] table)")
+    p_unc.add_argument("--out", required=True, help="output directory (its samples.jsonl keeps every finished "
+                                                    "sample)")
+    p_unc.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                       help="override a scene value for every sample, e.g. --set mesh.maxh=50 or "
+                            "--set uncertainty.mode=monte_carlo")
+    p_unc.add_argument("--executor", choices=("serial", "process", "mpi"), default="process",
+                       help="where samples run: 'process' (default: a pool of --workers processes on this "
+                            "machine), 'serial', or 'mpi' (the ranks of 'mpiexec -n N python -m mpi4py.futures "
+                            "-m ngs_geomech.cli uncertain ...', one machine or a cluster)")
+    p_unc.add_argument("--workers", type=int, default=None,
+                       help="worker processes (default: the number of cores); one NGSolve thread each")
+    p_unc.add_argument("--threads", type=int, default=None,
+                       help="NGSolve threads of a serial study (default: NGSolve's); pools use one per worker")
+    p_unc.add_argument("--resume", action="store_true",
+                       help="continue the killed study in --out from its samples.jsonl (same scene and --set)")
+    p_unc.add_argument("--quiet", action="store_true", help="no progress display")
+    p_unc.add_argument("--no-figures", action="store_true", help="write no PNG figures")
     args = parser.parse_args(argv)
     if args.command == "run":
         if isinstance(args.resume, str):
@@ -47,6 +67,13 @@ def main(argv: list[str] | None = None) -> int:
             summary = validate_scene(args.scene, args.overrides)
             print(summary)
             return 0
+        if args.command == "uncertain":
+            from .uncertainty.study import run_uncertainty
+            res = run_uncertainty(args.scene, args.out, overrides=args.overrides, executor=args.executor,
+                                  workers=args.workers, threads=args.threads, resume=args.resume,
+                                  progress=not args.quiet, figures=not args.no_figures)
+            print(_uncertainty_report(res, args.out))
+            return 0
         result = run(args.scene, args.out, overrides=args.overrides, progress=not args.quiet,
                      threads=args.threads, resume=bool(args.resume))
         resumed = result.summary.get("resumed")
@@ -59,6 +86,26 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as exc:
         print(f"ngs-geomech: interrupted; {exc or 'no output written'}", file=sys.stderr)
         return 130
+
+
+def _uncertainty_report(res: dict, out: str) -> str:
+    body = res[res["mode"]]
+    lines = []
+    for name, e in body["criteria"].items():
+        unit = f" {e['unit']}" if e.get("unit") else ""
+        if res["mode"] == "worst_scenario":
+            lines.append(f"  {name}: nominal {e['nominal']:.6g}, range [{e['range'][0]:.6g}, {e['range'][1]:.6g}]"
+                         f"{unit}" + (f", margin to the limit {e['margin_to_limit']:.4g}{unit}"
+                                      if "margin_to_limit" in e else ""))
+        elif e.get("n"):
+            ci = e["mean_ci"]
+            lines.append(f"  {name}: mean {e['mean']:.6g}{unit} ({ci[0]:.6g} .. {ci[1]:.6g}), "
+                         f"5-95 % {e['quantiles']['q05']:.6g} .. {e['quantiles']['q95']:.6g}"
+                         + (f", P(> {e['limit']:g}) = {e['p_exceed']:.3g}" if "p_exceed" in e else ""))
+    s = res["samples"]
+    warn = f"; {s['failed']} samples FAILED (see results.json failed_samples)" if s["failed"] else ""
+    return "\n".join([f"wrote {out} ({res['mode']}, {s['total']} samples, {res['wall_time_s']:.1f} s{warn})"]
+                     + lines)
 
 
 if __name__ == "__main__":

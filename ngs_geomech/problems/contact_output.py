@@ -86,6 +86,7 @@ class ContactOutput:
                     "max_pressure_Pa": float(np.max(lam_n, initial=0.0)),
                     "max_penetration_m": float(np.max(-res["gap"][keep], initial=0.0)),
                     "max_slip_m": float(np.max(np.abs(res["slip"][lam_n > 0]), initial=0.0)),
+                    "max_tangential_displacement_m": float(np.max(np.abs(res["slip"][keep]), initial=0.0)),
                     "initial_gap_m": _range(op.g0[keep] / op.weight[keep]) if np.any(keep) else None,
                     "search_distance_m": op.search_distance,
                     "nodes": {s: int(np.sum(status == i)) for i, s in enumerate(_STATUS)}}
@@ -117,12 +118,24 @@ class ContactOutput:
         return np.array([float(t[dofs] @ bt[dofs]) for t in self.translations])
 
     def summary(self) -> dict:
+        """The last solve's interface figures (with the largest slip over all solves added: closed nodes, and
+        all covered nodes including open ones, m), the force balance, and per solve a short history."""
         last = self.history[-1] if self.history else {}
-        return {"contact": {"interfaces": last.get("interfaces", {}), "force_balance": last.get("force_balance", {}),
+        interfaces = {}
+        for name, item in last.get("interfaces", {}).items():
+            over = [h["interfaces"][name] for h in self.history if name in h["interfaces"]]
+            interfaces[name] = {**item,
+                                "max_slip_over_time_m": max(v["max_slip_m"] for v in over),
+                                "max_tangential_displacement_over_time_m":
+                                    max(v["max_tangential_displacement_m"] for v in over)}
+        return {"contact": {"interfaces": interfaces, "force_balance": last.get("force_balance", {}),
                             "iterations_per_solve": [sum(h["contact_iterations"]) for h in self.history],
                             "history": [{"time_s": h["time_s"], "imbalance_rel": h["force_balance"]["imbalance_rel"],
                                          **{name: {"normal_force": v["normal_force"],
                                                    "tangential_force": v["tangential_force"],
+                                                   "max_slip_m": v["max_slip_m"],
+                                                   "max_tangential_displacement_m":
+                                                       v["max_tangential_displacement_m"],
                                                    "nodes": v["nodes"]}
                                             for name, v in h["interfaces"].items()}} for h in self.history]}}
 

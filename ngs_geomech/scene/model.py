@@ -470,6 +470,80 @@ class Adaptivity:
     max_refinements: int = field(integer, 6, doc="stop after this many refinements")
 
 
+DISTRIBUTIONS = ("uniform", "normal", "lognormal", "triangular")
+UNCERTAINTY_MODES = ("worst_scenario", "monte_carlo", "quasi_monte_carlo")
+
+
+@dataclass(frozen=True, kw_only=True)
+class UncertainParameter:
+    """``[[uncertainty.parameters]]``: one uncertain input, known only in an interval (the admissible set of the
+    worst-scenario method) and, for the stochastic modes, with a distribution on it."""
+
+    name: str = field(string, doc="parameter name (in tables and results)")
+    keys: list = field(list_of(string), doc="scene items the parameter sets, as --set paths (e.g. "
+                                            "'materials.granite.conductivity', 'sources.0.power'); one value "
+                                            "drives all of them")
+    interval: list = field(list_of(number, 2), doc="[lower, upper] in the items' units ('value') or as a "
+                                                   "factor on each item's own value ('factor')")
+    scale: str = field(one_of("value", "factor"), "value",
+                       doc="'value': the items take the parameter's value; 'factor': each item is its scene "
+                           "value times the parameter")
+    nominal: float | None = field(optional(number), None,
+                                  doc="the nominal value (default: the scene's value of the first item for "
+                                      "'value', 1 for 'factor', or the interval's midpoint)")
+    distribution: str = field(one_of(*DISTRIBUTIONS), "uniform",
+                              doc="stochastic modes: 'uniform' on the interval, 'normal' (mean, std) or "
+                                  "'lognormal' (median, sigma of ln) truncated to the interval, 'triangular' "
+                                  "(mode) on the interval")
+    mean: float | None = field(optional(number), None, doc="normal: mean (default: the midpoint)")
+    std: float | None = field(optional(number), None, doc="normal: standard deviation")
+    median: float | None = field(optional(number), None, doc="lognormal: median (default: geometric midpoint)")
+    sigma: float | None = field(optional(number), None, doc="lognormal: standard deviation of ln(value)")
+    mode: float | None = field(optional(number), None, doc="triangular: the most likely value")
+    unit: str = field(string, "", doc="unit shown in tables")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Criterion:
+    """``[[uncertainty.criteria]]``: a figure of a run's ``summary.json`` to watch over the admissible set."""
+
+    name: str = field(string, doc="criterion name")
+    summary: str = field(string, doc="dotted path into summary.json, e.g. 'probes.canister_buffer_max_3.max' or "
+                                     "'mechanics.contact.interfaces.fault.max_slip_over_time_m'")
+    sense: str = field(one_of("both", "max", "min"), "both",
+                       doc="worst scenario: search the maximum, the minimum or both")
+    unit: str = field(string, "", doc="unit shown in tables")
+    limit: float | None = field(optional(number), None,
+                                doc="a design limit: the worst-scenario margin, the probability of exceeding it "
+                                    "(stochastic modes)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Uncertainty:
+    """``[uncertainty]``: uncertain data and the criteria to watch (:mod:`ngs_geomech.uncertainty`); used by
+    ``ngs-geomech uncertain``, ignored by ``ngs-geomech run`` (which runs the scene's own values)."""
+
+    mode: str = field(one_of(*UNCERTAINTY_MODES), "worst_scenario",
+                      doc="'worst_scenario' (design + local search for the max/min of each criterion), "
+                          "'monte_carlo' or 'quasi_monte_carlo' (randomized Sobol) with confidence intervals")
+    parameters: list = field(list_of(nested(UncertainParameter)), doc="the uncertain inputs")
+    criteria: list = field(list_of(nested(Criterion)), doc="the figures to watch")
+    samples: int = field(integer, 16, doc="worst scenario: design points (Latin hypercube); stochastic: samples")
+    vertices: str = field(one_of("auto", "yes", "no"), "auto",
+                          doc="worst scenario: add the 2^d corners of the box ('auto': when 2^d <= samples)")
+    local_search: bool = field(boolean, True,
+                               doc="worst scenario: improve the best design point by projected-gradient steps "
+                                   "with finite-difference derivatives")
+    max_local_iterations: int = field(integer, 4, doc="gradient steps per criterion and sense")
+    fd_step: float = field(number, 0.02, doc="finite-difference step, relative to each interval's width")
+    derivative_check: bool = field(boolean, False,
+                                   doc="measure the finite-difference gradient at the nominal point with steps "
+                                       "0.1, 0.01, 0.001 (forward) and central (costs 4 d runs)")
+    replicates: int = field(integer, 8, doc="quasi_monte_carlo: independently scrambled Sobol replicates")
+    confidence: float = field(number, 0.95, doc="level of the confidence intervals")
+    seed: int = field(integer, 1, doc="random seed of the design / samples")
+
+
 @dataclass(frozen=True, kw_only=True)
 class Scene:
     """A whole scene: geometry, materials, conditions, physics, time and output settings."""
@@ -490,3 +564,5 @@ class Scene:
     output: Output = field(nested(Output), Output(), doc="output settings")
     adaptivity: Adaptivity | None = field(optional(nested(Adaptivity)), None,
                                           doc="adaptive refinement (stationary scenes)")
+    uncertainty: Uncertainty | None = field(optional(nested(Uncertainty)), None,
+                                            doc="uncertain data and criteria (ngs-geomech uncertain)")
