@@ -258,3 +258,16 @@ def test_scene_without_uncertainty_table_and_resume_without_log(tmp_path):
         run_uncertainty("heated_rock", tmp_path / "x", executor="serial", progress=False)
     with pytest.raises(ResumeError, match="no sample log"):
         run_uncertainty(SLAB, tmp_path / "y", executor="serial", progress=False, resume=True)
+
+
+def test_factor_scales_numbers_and_expressions(tmp_path):
+    """scale = 'factor': a number item becomes value x factor, an expression item (e)*factor."""
+    over = ['sources.0.density="100.0 + 0*x"', "uncertainty.parameters.source.scale=factor",
+            "uncertainty.parameters.source.interval=[0.8, 1.2]",
+            "uncertainty.parameters.conductivity.scale=factor",
+            "uncertainty.parameters.conductivity.interval=[0.75, 1.5]", "uncertainty.local_search=false"]
+    res = run_uncertainty(SLAB, tmp_path / "f", overrides=over, executor="serial", progress=False, figures=False)
+    e = _criterion(res)
+    assert e["nominal"] == pytest.approx(peak(100.0, 2.0), rel=1e-10)
+    assert e["range"] == pytest.approx([peak(Q[0], K[1]), peak(Q[1], K[0])], rel=1e-10)
+    assert res["parameters"]["source"]["nominal"] == 1.0

@@ -4,11 +4,12 @@ A point of the unit cube ``z`` in [0, 1]^d is the common coordinate of every met
 works on the box itself (value = lower + z (upper - lower)); the stochastic modes read ``z`` as the uniform
 variates of the inverse-CDF transform of each parameter's distribution (truncated to its interval). A parameter
 sets one or more scene items (``--set`` paths); with ``scale = "factor"`` each item becomes its own scene value
-times the parameter.
+times the parameter (an expression item ``e`` becomes ``(e)*factor``).
 """
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 
@@ -26,7 +27,7 @@ class Parameter:
     support is the interval)."""
 
     spec: UncertainParameter
-    item_values: tuple[float, ...]        # the scene's values of spec.keys (factor scale), else ()
+    item_values: tuple                    # the scene's values of spec.keys (factor scale: numbers or expressions)
     nominal: float
     law: object                           # frozen scipy.stats distribution on [lower, upper]
 
@@ -55,7 +56,8 @@ class Parameter:
     def overrides(self, value: float) -> list[str]:
         """``--set`` strings that put the value into the scene."""
         if self.spec.scale == "factor":
-            return [f"{k}={float(v * value)!r}" for k, v in zip(self.spec.keys, self.item_values)]
+            return [f"{k}={json.dumps(f'({v})*{float(value)!r}')}" if isinstance(v, str)
+                    else f"{k}={float(v * value)!r}" for k, v in zip(self.spec.keys, self.item_values)]
         return [f"{k}={float(value)!r}" for k in self.spec.keys]
 
 
@@ -135,11 +137,11 @@ def _resolve(spec: UncertainParameter, raw: dict, where: str, problems: list[Pro
         if spec.scale == "factor":
             if not found:
                 problems.append(Problem(f"{where}.keys", f"{k!r} is not in the scene (a factor needs its value)"))
-            elif isinstance(v, bool) or not isinstance(v, (int, float)):
-                problems.append(Problem(f"{where}.keys", f"{k!r} is {v!r}, not a number (a factor multiplies "
-                                                         "a number)"))
+            elif isinstance(v, bool) or not isinstance(v, (int, float, str)):
+                problems.append(Problem(f"{where}.keys", f"{k!r} is {v!r}, not a number or an expression (a "
+                                                         "factor multiplies one)"))
             else:
-                values.append(float(v))
+                values.append(v if isinstance(v, str) else float(v))
         elif found and (isinstance(v, bool) or not isinstance(v, (int, float, str))):
             problems.append(Problem(f"{where}.keys", f"{k!r} holds {v!r}, not a number"))
         elif found:

@@ -39,10 +39,13 @@ LOG_NAME = "samples.jsonl"
 class Study:
     """A checked study, ready to run: scene data, parameter space, criteria and the sample log."""
 
-    def __init__(self, scene: str | Path, out: str | Path, overrides: list[str] | None = None,
+    def __init__(self, scene: str | Path | dict, out: str | Path, overrides: list[str] | None = None,
                  resume: bool = False):
-        path = resolve(str(scene))
-        raw = read_toml(path)
+        if isinstance(scene, dict):          # the scene's data, as read from TOML (studies edit it first)
+            path, raw = "scene", scene
+        else:
+            path = resolve(str(scene))
+            raw = read_toml(path)
         if overrides:
             raw = apply_overrides(raw, overrides)
         sc = scene_from_dict(raw, source=str(path))
@@ -271,7 +274,7 @@ class Study:
                                     criterion=c.name, unit=c.unit, mean_ci=e["mean_ci"], limit=c.limit)
 
 
-def run_uncertainty(scene: str | Path, out: str | Path, *, overrides: list[str] | None = None,
+def run_uncertainty(scene: str | Path | dict, out: str | Path, *, overrides: list[str] | None = None,
                     executor: str = "serial", workers: int | None = None, threads: int | None = None,
                     resume: bool = False, progress: bool = True, figures: bool = True) -> dict:
     """Check, run and write an uncertainty study (see the module docstring); returns ``results.json``'s data.
