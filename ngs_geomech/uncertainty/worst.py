@@ -4,7 +4,8 @@ The admissible set is the box of the parameters' intervals (unit cube ``z``). Fo
 (maximum, minimum): the best point of a space-filling design (Latin hypercube, plus the box's corners when there
 are few) starts a projected-gradient ascent with finite-difference derivatives (forward, step ``fd_step`` of the
 interval, backward at the upper bound; the ``d`` runs of a gradient go in parallel), and a step tried at 1, 1/2
-and 1/4 of the largest move to the box's boundary (in parallel too). It stops at a point where the projected
+and 1/4 of the largest move to the box's boundary (in parallel too); a gradient point that is itself better
+(a non-smooth criterion) is taken instead of a step. It stops at a point where the projected
 gradient vanishes (a KKT point of the box: often a corner, where every derivative points out of the box), when
 no step improves the criterion, or after ``max_local_iterations``. The criterion is only as smooth as the
 discretization makes it (active contact sets and phase fronts jump between nodes): the result is the best
@@ -109,21 +110,30 @@ def local_search(sampler: Sampler, criterion: str, sense: str, start: Sample, *,
         return Search(criterion, sense, start, best, 0, stop, [float("nan")] * len(start.z), path)
     stop = "max_iterations"
     for it in range(1, max_iterations + 1):
-        grads, _ = fd_gradient(sampler, best.z, best.values, h, f"{criterion}:{sense}:fd")
+        grads, fd_res = fd_gradient(sampler, best.z, best.values, h, f"{criterion}:{sense}:fd")
         grad = grads[criterion]
         if not np.all(np.isfinite(grad)):
             stop = "failed_gradient"
             break
+        fd_ok = [s for s in fd_res if s.ok and criterion in s.values]
         g = sign * grad
         out = ((best.z >= 1 - 1e-12) & (g > 0)) | ((best.z <= 1e-12) & (g < 0))
         pg = np.where(out, 0.0, g)
         if np.max(np.abs(pg)) * h <= tol:     # what a finite-difference step could still gain: nothing
-            stop = "kkt"
-            it -= 1
-            break
+            better = [s for s in fd_ok if sign * (s.values[criterion] - best.values[criterion]) > tol]
+            if not better:
+                stop = "kkt"
+                it -= 1
+                break
+            # a non-smooth criterion: a gradient point is better although the projected gradient vanishes
+            best = max(better, key=lambda s: sign * s.values[criterion])
+            path.append(best.values[criterion])
+            continue
         direction = pg / np.max(np.abs(pg))
         cands = [np.clip(best.z + a * direction, 0.0, 1.0) for a in STEPS]
-        res = [s for s in sampler.batch(cands, f"{criterion}:{sense}:step") if s.ok]
+        # the trial steps, and the gradient's own points (with a non-smooth criterion one may be the best)
+        res = [s for s in sampler.batch(cands, f"{criterion}:{sense}:step") if s.ok and criterion in s.values]
+        res += fd_ok
         if not res:
             stop = "no_improvement"
             break

@@ -12,7 +12,8 @@ the box's corners, then projected-gradient steps with finite differences per cri
 
 Levels (coarse meshes: the scene's quick level takes 86 s a run): level 0 (the contract test) runs to 30 years
 on the test mesh with two parameters (canister power, conductivity) at two Latin hypercube points (3 runs);
-level 1 runs to 1000 years with all three parameters (8 Latin hypercube points, 8 corners, the local searches);
+level 1 runs to 1000 years with all three parameters (8 Latin hypercube points, 8 corners, the local searches,
+the finite-difference check at the nominal point);
 level 2 is level 1 on the scene's own mesh (about 40 runs of 86 s).
 
 Command: ``python studies/worst_scenario/run.py --level 1 --out out/worst_scenario`` (writes ``results.json`` and
@@ -40,7 +41,7 @@ COARSE = ["mesh.maxh=150", "mesh.boundary_maxh.fault__rock_west=40", "mesh.bound
 LEVELS = {
     0: COARSE + ["time.end=30 year", "time.dt_max=10 year", "output.every=4", "uncertainty.samples=2",
                  "uncertainty.vertices=no", "uncertainty.local_search=false"],
-    1: COARSE + ["time.dt_max=50 year", "output.every=4"],
+    1: COARSE + ["time.dt_max=50 year", "output.every=4", "uncertainty.derivative_check=true"],
     2: ["output.vtk=false", "output.figures=false"],
 }
 
