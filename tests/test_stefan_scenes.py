@@ -155,8 +155,6 @@ BAD = [
     ({"materials.pcm.phase_change_temperature": None, "output.probes": []}, "materials.pcm.latent_heat_volumetric",
      "set phase_change_temperature"),     # and the same for rho_c_liquid and conductivity_liquid
     ({"materials.pcm.conductivity": [[1.5, 0.0], [0.0, 3.0]]}, "materials.pcm.conductivity", "anisotropic"),
-    ({"materials.pcm.conductivity_temperature_coefficient": 0.01},
-     "materials.pcm.conductivity_temperature_coefficient", "constant conductivity per phase"),
     ({"physics.thermal": "steady", "time": None}, "physics.thermal", "time-dependent"),
     ({"physics.thermal": None, "physics.mechanics": None, "boundary_conditions": None},
      "materials.pcm.phase_change_temperature", "physics.thermal is off"),

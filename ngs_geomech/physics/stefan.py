@@ -10,14 +10,23 @@ the jump of the normal heat flux equal to L times the normal speed of the bounda
 
 with the enthalpy graph H = dPhi of (2.48) (e = C_s (T - Theta_R) for T < Theta_R, e in [0, L] at
 T = Theta_R, e = L + C_l (T - Theta_R) for T > Theta_R, J/m^3) and the Kirchhoff variable
-theta(T) = int_{Theta_R}^T k(s) ds (W/m), which is k_s (T - Theta_R) below and k_l (T - Theta_R) above
-Theta_R: piecewise linear with a kink, so the conductivity may differ between the phases (constant in each
-phase). A plain material (no phase change) has e = C T and theta = k T. W is a volumetric source (W/m^3).
+theta(T) = int_{Theta_R}^T k(s) ds (W/m). The conductivity of each phase follows the product's linear law
+k_s(T) = k_s f(T), k_l(T) = k_l f(T), f(T) = 1 + b (T - T_ref) (b = ``conductivity_temperature_coefficient``,
+1/K; T_ref = ``reference_temperature``, K; k_s, k_l the values at T_ref), so that
+
+    theta(T) = k_phase (T - Theta_R) (1 + b/2 (T + Theta_R - 2 T_ref))     (k_phase = k_s below, k_l above Theta_R):
+
+piecewise quadratic in T with a kink at Theta_R (piecewise linear when b = 0: constant k per phase). It is
+monotone only where f > 0 (T > T_ref - 1/b for b > 0): the solver keeps its iterates there and stops with
+:class:`ConductivityRangeError` (naming the regions and the law) when a temperature reached leaves that range.
+A plain material (no phase change) has e = C T and theta = k T (k (T - T_ref)(1 + b/2 (T - T_ref)) with b != 0,
+the same up to a constant). W is a volumetric source (W/m^3).
 Without deformation heating, the term rho beta Theta_0 e(u_t) of (2.49) is not included here.
 
 Unknown. The enthalpy graph is multivalued in T, but its inverse T = beta(e) is a Lipschitz, piecewise
 linear function (slope 1/C_s, 0 on the mushy interval [0, L], 1/C_l). The unknown is therefore the nodal
-enthalpy e, and the step equation is single valued and piecewise linear in e. The seed's B z - d + dPhi(z) = 0
+enthalpy e, and the step equation is single valued and piecewise linear in e (b = 0), or piecewise quadratic
+(b != 0: d theta/de = k(T)/C on a sensible branch, no longer constant per branch). The seed's B z - d + dPhi(z) = 0
 (z = Theta, dPhi = M H) is the same equation written in the multivalued direction.
 
 Discretization. P1 elements; the storage term and the loads are integrated with the vertex rule (the nodes of
@@ -43,7 +52,7 @@ with mu_i the P1 hat functions of the master side (segment-based mortar integral
 :mod:`ngs_geomech.physics.mortar`), i.e. gamma_c times the squared jump averaged around each master node: an
 interface conductance gamma_c (W/(m^2 K)). Its columns sum to zero (the heat leaving one side enters the
 other: the energy balance stays exact) and it is symmetric positive semi-definite (the step stays monotone).
-gamma_c = penalty * k_max / h (k_max the larger conductivity of the two sides, h the mean length of the master
+gamma_c = penalty * k_max / h (k_max the larger conductivity of the two sides at T_ref, h the mean length of the master
 segments; ``penalty`` dimensionless, default 1e3): the jump is then about 1/penalty of the temperature drop over
 one element (measured in tests/test_stefan_interfaces.py). It enters the Newton matrix as one more "group"
 with a linear Kirchhoff map (theta = T). It is not an M-matrix (neighbouring minion nodes get positive
@@ -64,6 +73,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
+from ..errors import SolverError
 from .coefficients import Steady, expression_function, regions_regex
 
 
@@ -98,6 +108,8 @@ class PhaseChangeMaterial:
     rho_c_liquid: float
     conductivity_solid: float
     conductivity_liquid: float
+    conductivity_temperature_coefficient: float = 0.0
+    reference_temperature: float = 0.0
 
     def __post_init__(self):
         object.__setattr__(self, "melting_temperature",
@@ -105,6 +117,17 @@ class PhaseChangeMaterial:
         object.__setattr__(self, "latent_heat", _check_number("latent_heat", self.latent_heat, nonnegative=True))
         for name in ("rho_c_solid", "rho_c_liquid", "conductivity_solid", "conductivity_liquid"):
             object.__setattr__(self, name, _check_number(name, getattr(self, name), positive=True))
+        _check_law(self)
+
+    @property
+    def temperature_dependent(self) -> bool:
+        """Whether k depends on T (b != 0)."""
+        return self.conductivity_temperature_coefficient != 0.0
+
+    def conductivity_factor(self, T):
+        """f(T) = 1 + b (T - T_ref) (dimensionless, numpy): k_s(T) = k_s f(T), k_l(T) = k_l f(T)."""
+        return 1.0 + self.conductivity_temperature_coefficient * (np.asarray(T, dtype=float)
+                                                                  - self.reference_temperature)
 
     @property
     def diffusivity_solid(self) -> float:
@@ -125,9 +148,21 @@ class PhaseChangeMaterial:
                                  self.latent_heat * np.asarray(liquid_fraction, dtype=float)))
 
     def kirchhoff(self, T):
-        """theta(T) = int_{Theta_R}^T k(s) ds, W/m (numpy)."""
+        """theta(T) = int_{Theta_R}^T k(s) ds, W/m (numpy): k_phase (T - Theta_R) (1 + b/2 (T + Theta_R - 2 T_ref))
+        on each side of Theta_R (k_phase (T - Theta_R) when b = 0)."""
         d = np.asarray(T, dtype=float) - self.melting_temperature
+        if self.temperature_dependent:
+            b, tr = self.conductivity_temperature_coefficient, self.reference_temperature
+            u = d * (1.0 + 0.5 * b * (np.asarray(T, dtype=float) + self.melting_temperature - 2.0 * tr))
+            return np.where(d < 0, self.conductivity_solid * u, self.conductivity_liquid * u)
         return np.where(d < 0, self.conductivity_solid * d, self.conductivity_liquid * d)
+
+    def temperature_of_kirchhoff(self, theta):
+        """The inverse of :meth:`kirchhoff` (K, numpy), on the branch where k stays positive."""
+        theta = np.asarray(theta, dtype=float)
+        k = np.where(theta < 0, self.conductivity_solid, self.conductivity_liquid)
+        f0 = self.conductivity_factor(self.melting_temperature)
+        return self.melting_temperature + _inverse_quadratic(theta / k, f0, self.conductivity_temperature_coefficient)
 
 
 @dataclass(frozen=True)
@@ -137,19 +172,61 @@ class PlainThermalMaterial:
 
     rho_c: float
     conductivity: float
+    conductivity_temperature_coefficient: float = 0.0
+    reference_temperature: float = 0.0
 
     def __post_init__(self):
         object.__setattr__(self, "rho_c", _check_number("rho_c", self.rho_c, positive=True))
         object.__setattr__(self, "conductivity", _check_number("conductivity", self.conductivity, positive=True))
+        _check_law(self)
+
+    @property
+    def temperature_dependent(self) -> bool:
+        return self.conductivity_temperature_coefficient != 0.0
+
+    def conductivity_factor(self, T):
+        """f(T) = 1 + b (T - T_ref) (dimensionless, numpy)."""
+        return 1.0 + self.conductivity_temperature_coefficient * (np.asarray(T, dtype=float)
+                                                                  - self.reference_temperature)
 
     def enthalpy(self, T, liquid_fraction=0.0):
         return self.rho_c * np.asarray(T, dtype=float)
 
     def kirchhoff(self, T):
+        """K T (b = 0), k (T - T_ref) (1 + b/2 (T - T_ref)) otherwise (W/m; the same up to a constant)."""
+        if self.temperature_dependent:
+            d = np.asarray(T, dtype=float) - self.reference_temperature
+            return self.conductivity * d * (1.0 + 0.5 * self.conductivity_temperature_coefficient * d)
         return self.conductivity * np.asarray(T, dtype=float)
 
 
 StefanMaterial = PhaseChangeMaterial | PlainThermalMaterial
+
+
+def _check_law(mat) -> None:
+    """B and T_ref finite (their fields normalized to floats)."""
+    for name in ("conductivity_temperature_coefficient", "reference_temperature"):
+        object.__setattr__(mat, name, _check_number(name, getattr(mat, name)))
+
+
+def _inverse_quadratic(y, f0, b):
+    """The d with d (f0 + b d / 2) = y on the branch through d = 0 (f0 > 0; numpy): the inverse of the
+    Kirchhoff map measured from a point where the factor is f0, computed without cancellation."""
+    y = np.asarray(y, dtype=float)
+    if b == 0.0:
+        return y / f0
+    disc = f0 * f0 + 2.0 * b * y
+    with np.errstate(invalid="ignore"):
+        return np.where(disc >= 0, 2.0 * y / (f0 + np.sqrt(np.maximum(disc, 0.0))), np.nan)
+
+
+class ConductivityRangeError(SolverError):
+    """A temperature-dependent conductivity k (1 + b (T - T_ref)) is not positive at a temperature reached:
+    ``regions`` are the regions of the material at fault."""
+
+    def __init__(self, message: str, regions: list[str]):
+        super().__init__(message)
+        self.regions = list(regions)
 
 
 def _time_function(value) -> Callable:
@@ -434,9 +511,17 @@ class StefanForms:
         self.capacity = self.weights @ cap
         if self.setup.interfaces:                   # the interface "group": theta = T (its matrix is last)
             cond = np.vstack([cond, np.ones((1, K + 1))])
-        self.group_conductivity = cond              # G (+ 1 with interfaces) x (K + 1), W/(m K)
-        self.symmetric = bool(np.all(cond == cond[:, :1]))
-        """Whether the Jacobian is symmetric: no PCM has k_s != k_l (each region's Kirchhoff map is linear)."""
+        self.group_conductivity = cond              # G (+ 1 with interfaces) x (K + 1), W/(m K), at T_ref
+        coef = np.array([m.conductivity_temperature_coefficient for m in self.groups]
+                        + [0.0] * (cond.shape[0] - G))
+        self.group_law = (coef, np.array([m.reference_temperature for m in self.groups] + [0.0] * (cond.shape[0] - G)))
+        """b (1/K) and T_ref (K) of k(T) = k (1 + b (T - T_ref)) per group (the interface group: 0, 0)."""
+        self.temperature_dependent = bool(np.any(coef != 0.0))
+        """Whether some conductivity depends on T: theta is then piecewise quadratic, and the Newton matrix
+        changes with T at every node (see :mod:`ngs_geomech.solvers.stefan`)."""
+        self.symmetric = bool(np.all(cond == cond[:, :1])) and not self.temperature_dependent
+        """Whether the Jacobian is symmetric: no PCM has k_s != k_l and no k depends on T (each region's
+        Kirchhoff map is linear)."""
 
     def _build_loads(self):
         s = self.setup
@@ -504,8 +589,49 @@ class StefanForms:
 
     def kirchhoff_derivatives(self, state: NodalState) -> np.ndarray:
         """D theta_g / dT per node and group (n x G, W/(m K)): the conductivity of the node's interval (the
-        interval below the breakpoint for mushy nodes, where it multiplies dT = 0)."""
-        return self.group_conductivity[:, state.segment].T
+        interval below the breakpoint for mushy nodes, where it multiplies dT = 0), times
+        f_g(T) = 1 + b_g (T - T_ref,g) at the node's temperature when k_g depends on T."""
+        return self.kirchhoff_slopes(state.T, state.segment)
+
+    def kirchhoff_slopes(self, T: np.ndarray, segment: np.ndarray) -> np.ndarray:
+        """k_g(T) of the interval ``segment`` per node and group (n x G, W/(m K)), see
+        :meth:`kirchhoff_derivatives`."""
+        k = self.group_conductivity[:, segment].T
+        if not self.temperature_dependent:
+            return k
+        b, tref = self.group_law
+        return k * (1.0 + b[None, :] * (np.asarray(T, dtype=float)[:, None] - tref[None, :]))
+
+    def conductivity_factors(self, T: np.ndarray) -> np.ndarray:
+        """f_g(T) = 1 + b_g (T - T_ref,g) per node and temperature-dependent group (n x G_b; +inf where the node
+        does not touch the group): the factor that must stay positive."""
+        cols = [np.where(self.weights[:, g] > 0, m.conductivity_factor(T), np.inf)
+                for g, m in enumerate(self.groups) if m.temperature_dependent]
+        return np.column_stack(cols) if cols else np.full((self.n, 0), np.inf)
+
+    def check_conductivity(self, T: np.ndarray, where: str = "") -> None:
+        """ConductivityRangeError naming the regions, the temperature and the law when a temperature-dependent
+        conductivity k (1 + b (T - T_ref)) is not positive at a node of its regions (``where``: added to the
+        message, e.g. the time)."""
+        if not self.temperature_dependent:
+            return
+        for g, m in enumerate(self.groups):
+            if not m.temperature_dependent:
+                continue
+            on = self.weights[:, g] > 0
+            f = m.conductivity_factor(T[on])
+            bad = np.nonzero(~(f > 0))[0]
+            if len(bad):
+                i = bad[np.argmin(f[bad])]
+                b, tr = m.conductivity_temperature_coefficient, m.reference_temperature
+                limit = tr - 1.0 / b
+                names = self.group_regions[g]
+                raise ConductivityRangeError(
+                    f"conductivity of region(s) {names}{where}: the factor 1 + b (T - T_ref) = {f[i]:.3g} of "
+                    f"k(T) = k (1 + b (T - T_ref)) is not positive at T = {T[on][i]:.6g} "
+                    f"(conductivity_temperature_coefficient b = {b:g} 1/K, reference_temperature T_ref = {tr:g}: "
+                    f"k > 0 only for T {'>' if b > 0 else '<'} {limit:.6g}): the linear temperature law has left "
+                    "its range; change conductivity_temperature_coefficient or reference_temperature", names)
 
     def conduction(self, T: np.ndarray) -> np.ndarray:
         """A(T) = sum_g K_g theta_g(T), W per metre of depth (2D) or W (3D)."""

@@ -6,8 +6,11 @@ A scene is solved as a Stefan problem when a material has ``phase_change_tempera
 'transient' (:func:`ngs_geomech.scene.validate.stefan_scene`): then :class:`StefanSolver` (nodal enthalpy,
 lumped P1, backward Euler, semi-smooth Newton) replaces the heat solver. Boundary data: temperature and flux
 conditions, sources; unnamed boundaries are insulated; contact interfaces between touching blocks pass heat by a
-penalty on the temperature jump (``thermal_penalty``; :mod:`ngs_geomech.physics.stefan`). Validation refuses
-Robin conditions, anisotropic or temperature-dependent conductivities, axisymmetric scenes and P2.
+penalty on the temperature jump (``thermal_penalty``; :mod:`ngs_geomech.physics.stefan`). A material's
+``conductivity_temperature_coefficient`` b and ``reference_temperature`` give k(T) = k (1 + b (T - T_ref)) in
+both phases (``conductivity`` and ``conductivity_liquid`` are the values at T_ref); a run stops with an error
+naming that key when k is not positive at a temperature reached. Validation refuses Robin conditions,
+anisotropic conductivities, axisymmetric scenes and P2.
 
 Volumes are m^2 per metre of depth in plane scenes (m^3 in 3D), heats J per metre of depth (J in 3D).
 """
@@ -25,6 +28,7 @@ from ..materials import has_phase_change, isotropic_conductivity, phase_change_p
 from ..physics.coefficients import Steady, expression_function
 from ..physics.stefan import (
     DEFAULT_INTERFACE_PENALTY,
+    ConductivityRangeError,
     PhaseChangeMaterial,
     PlainThermalMaterial,
     StefanForms,
@@ -48,14 +52,16 @@ def stefan_materials(scene: Scene) -> dict:
     out = {}
     for name, m in scene.materials.items():
         pc = phase_change_properties(m, dim)
+        law = {"conductivity_temperature_coefficient": m.conductivity_temperature_coefficient,
+               "reference_temperature": m.reference_temperature}
         if pc is not None:
             out[name] = PhaseChangeMaterial(melting_temperature=pc.temperature, latent_heat=pc.latent_heat,
                                             rho_c_solid=pc.rho_c_solid, rho_c_liquid=pc.rho_c_liquid,
                                             conductivity_solid=pc.conductivity_solid,
-                                            conductivity_liquid=pc.conductivity_liquid)
+                                            conductivity_liquid=pc.conductivity_liquid, **law)
         else:
             out[name] = PlainThermalMaterial(rho_c=volumetric_heat_capacity(m),
-                                             conductivity=isotropic_conductivity(m, dim))
+                                             conductivity=isotropic_conductivity(m, dim), **law)
     return out
 
 
@@ -117,6 +123,8 @@ class StefanRun:
         T = f.gf_temperature
         k = mesh.MaterialCF({n: (ngs.IfPos(T - m.melting_temperature, m.conductivity_liquid, m.conductivity_solid)
                                  if isinstance(m, PhaseChangeMaterial) else m.conductivity)
+                             * (1 + m.conductivity_temperature_coefficient * (T - m.reference_temperature)
+                                if m.temperature_dependent else 1)
                              for n, m in f.setup.materials.items()}, default=0.0)
         self.fields = {"temperature": T, "enthalpy": f.gf_enthalpy, "liquid_fraction": f.gf_liquid_fraction,
                        "heat_flux": -k * ngs.grad(T)}
@@ -141,7 +149,11 @@ class StefanRun:
         boundary nodes already at T_L at t0 (their latent heat then appears from nowhere); the later states are
         the same."""
         T = _nodal(self.mesh, initial_temperature(self.scene, self.mesh, ngs.Parameter(t0)))
-        self.solver.set_initial(T)
+        try:
+            self.solver.set_initial(T)
+        except ConductivityRangeError as exc:
+            raise SolverError("; ".join(f"materials.{r}.conductivity_temperature_coefficient" for r in exc.regions)
+                              + f": {exc}") from None
         self.initial_heat = self.forms.heat_content(self.solver.e)
 
     def step(self, a: float, b: float, where: str, extra_load: np.ndarray | None = None, _depth: int = 0):
@@ -152,6 +164,9 @@ class StefanRun:
         mark = self.mark() if _depth < MAX_HALVINGS else None
         try:
             info = self.solver.step(a, b) if extra_load is None else self.solver.step(a, b, extra_load)
+        except ConductivityRangeError as exc:       # the temperatures reached: a shorter step does not help
+            raise SolverError(f"{where}: " + "; ".join(f"materials.{r}.conductivity_temperature_coefficient"
+                                                       for r in exc.regions) + f": {exc}") from None
         except SolverError as exc:
             if mark is None:
                 raise SolverError(f"{where}: {exc} (after {MAX_HALVINGS} halvings of the step, dt = "

@@ -429,7 +429,8 @@ def stefan_scene(scene: Scene) -> bool:
 
 def _check_phase_change(scene: Scene, problems: list[Problem]) -> None:
     """Phase-change keys of each material, and what the Stefan solver supports (seed (2.46)-(2.51), (2.55): P1,
-    lumped, backward Euler, isotropic constant conductivity per phase, no Robin condition, plane or 3D)."""
+    lumped, backward Euler, isotropic conductivity per phase (constant or k (1 + b (T - T_ref))), no Robin
+    condition, plane or 3D)."""
     pcm = [n for n, m in scene.materials.items() if has_phase_change(m)]
     for name, mat in scene.materials.items():
         for key, msg in phase_change_problems(mat):
@@ -462,9 +463,8 @@ def _check_phase_change(scene: Scene, problems: list[Problem]) -> None:
                                     "take a heat transfer (Robin) condition; give a temperature or a flux"))
     dim = scene_dim(scene)
     for name, mat in scene.materials.items():
-        if mat.conductivity_temperature_coefficient != 0:
-            problems.append(Problem(f"materials.{name}.conductivity_temperature_coefficient", f"{why} takes a "
-                                    "constant conductivity per phase (conductivity, conductivity_liquid); set it to 0"))
+        # conductivity_temperature_coefficient: k(T) = k (1 + b (T - T_ref)) in both phases (the Kirchhoff
+        # variable is then piecewise quadratic); that k stays positive is checked at the temperatures reached
         try:
             conductivity_tensor(mat, dim)
         except ValueError:
