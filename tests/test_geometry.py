@@ -375,3 +375,15 @@ def test_clockwise_polygon_is_taken_counterclockwise_with_its_edge_names():
         pts = {name: sorted({tuple(np.round(m[v].point, 9)) for el in m.Boundaries(name).Elements()
                              for v in el.vertices}) for name in ("bottom", "right")}
         assert all(p[1] == 0.0 for p in pts["bottom"]) and all(p[0] == 1.0 for p in pts["right"])
+
+
+def test_tanh_expression_is_finite_for_large_arguments():
+    """tanh in scene expressions: finite and +-1 far out (was (exp(2v) - 1)/(exp(2v) + 1): NaN for v > ~355)."""
+    from ngs_geomech.physics.coefficients import expression_function
+
+    mesh = ngs.Mesh(ngs.unit_square.GenerateMesh(maxh=0.5))
+    f = expression_function("tanh(1000*(x - 0.5))")(0.0)
+    for xv, expected in ((0.0, -1.0), (1.0, 1.0), (0.5, 0.0), (0.5 + 1e-4, math.tanh(0.1))):
+        val = f(mesh(xv, 0.5))
+        assert math.isfinite(val) and abs(val - expected) < 1e-12, (xv, val)
+    assert abs(ngs.Integrate(f, mesh)) < 1e-2

@@ -46,8 +46,10 @@ class Separable:
         return self.spatial * self.scale_cf(t)
 
 
+# tanh as 1 - 2/(exp(2v) + 1): finite for every v (exp overflows to inf, 2/inf = 0); the quotient
+# (exp(2v) - 1)/(exp(2v) + 1) was inf/inf = NaN for v > ~355
 _NS_FUNCS = {"exp": ngs.exp, "log": ngs.log, "sqrt": ngs.sqrt, "sin": ngs.sin, "cos": ngs.cos,
-             "tan": ngs.tan, "atan": ngs.atan, "tanh": lambda v: (ngs.exp(2 * v) - 1) / (ngs.exp(2 * v) + 1),
+             "tan": ngs.tan, "atan": ngs.atan, "tanh": lambda v: 1 - 2 / (ngs.exp(2 * v) + 1),
              "sinh": lambda v: (ngs.exp(v) - ngs.exp(-v)) / 2, "cosh": lambda v: (ngs.exp(v) + ngs.exp(-v)) / 2,
              "abs": lambda v: ngs.IfPos(v, v, -v), "erf": ngs.erf if hasattr(ngs, "erf") else None}
 
