@@ -678,9 +678,11 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
         unit, label = (YEAR, "t (years)") if span >= 2 * YEAR else (1.0, "t (s)")
         fname = "probes.png" if quantity == "temperature" else f"probes_{quantity}.png"
         curves = {n: np.array([np.nan if v is None else v for v in probes.series[n]], dtype=float) for n in names}
+        limits = {f"{p.name}: limit {p.limit:g}": p.limit for p in scene.output.probes
+                  if p.name in names and p.limit is not None}
         figures.time_curves(times, curves, directory / fname,
                             title=f"{scene.scene.name}: probes", ylabel=f"{quantity} ({units[quantity]})",
-                            time_unit=unit, time_label=label)
+                            time_unit=unit, time_label=label, hlines=limits)
 
 
 def _stefan_figures(scene: Scene, arrays, T, stefan: StefanRun, directory: Path, labels, t_end: float,

@@ -423,6 +423,9 @@ class Probe:
     boundary: str | None = field(optional(string), None, doc="a boundary (max/min/mean over it)")
     statistic: str = field(one_of("value", "max", "min", "mean"), "value",
                            doc="'value' at a point, or max/min/mean over a region or boundary")
+    limit: float | None = field(optional(number), None,
+                                doc="a reference value (e.g. a design limit, in the probe's units) drawn as a "
+                                    "dashed line in the probe figure")
 
 
 @dataclass(frozen=True, kw_only=True)
