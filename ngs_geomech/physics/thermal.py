@@ -53,6 +53,7 @@ class HeatSetup:
     axisymmetric: bool = False
     steady: bool = False
     theta: float = 1.0
+    startup_until: float | None = None      # s: steps ending at or before it use theta = 1 (start-up)
     dirichlet: dict[str, TimeFunction] = field(default_factory=dict)
     flux: dict[str, TimeFunction] = field(default_factory=dict)
     robin: dict[str, tuple[float, TimeFunction]] = field(default_factory=dict)

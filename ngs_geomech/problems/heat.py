@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from itertools import islice
 
 import ngsolve as ngs
 
@@ -11,6 +12,7 @@ from ..materials import thermal_properties
 from ..physics.coefficients import Separable, expression_function, region_cf
 from ..physics.thermal import HeatSetup
 from ..scene.model import Scene, Source
+from ..solvers.timesteps import schedule
 
 THETA = {"backward_euler": 1.0, "crank_nicolson": 0.5}
 
@@ -42,6 +44,15 @@ def source_function(src: Source, volume: float):
     return Separable(ngs.CoefficientFunction(src.power / volume), scale, scale_cf)
 
 
+def _startup_until(scene: Scene) -> float | None:
+    """The end time (s) of the scene's first ``time.startup_steps`` steps (None without a start-up)."""
+    ts = scene.time
+    if ts is None or ts.scheme != "crank_nicolson" or ts.startup_steps <= 0:
+        return None
+    steps = list(islice(schedule(ts.start, ts.end, ts.dt, ts.dt_growth, ts.dt_max), ts.startup_steps))
+    return steps[-1][1] if steps else None
+
+
 def heat_setup(scene: Scene, geo: GeometryModel, mesh) -> HeatSetup:
     """The HeatSetup of a validated scene on its mesh."""
     axi = scene.scene.dimension == "axisymmetric"
@@ -49,7 +60,8 @@ def heat_setup(scene: Scene, geo: GeometryModel, mesh) -> HeatSetup:
     props = {name: thermal_properties(m, dim) for name, m in scene.materials.items()}
     setup = HeatSetup(props=props, order=scene.mesh.order, axisymmetric=axi,
                       steady=scene.physics.thermal == "steady",
-                      theta=THETA[scene.time.scheme] if scene.time else 1.0)
+                      theta=THETA[scene.time.scheme] if scene.time else 1.0,
+                      startup_until=_startup_until(scene))
     for name, bc in scene.boundary_conditions.items():
         if bc.temperature is not None:
             setup.dirichlet[name] = expression_function(bc.temperature)

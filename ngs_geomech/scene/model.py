@@ -402,6 +402,10 @@ class TimeSettings:
     dt_max: float | None = field(optional(time), None, doc="largest time step, s")
     scheme: str = field(one_of("backward_euler", "crank_nicolson"), "backward_euler",
                         doc="theta scheme: backward Euler (theta=1) or Crank-Nicolson (theta=1/2)")
+    startup_steps: int = field(integer, 0,
+                               doc="crank_nicolson: take the first N steps with backward Euler (Rannacher's "
+                                   "start-up: damps the stiff modes that a source or boundary value switched on "
+                                   "at the start excites and Crank-Nicolson never damps; 2-4 typical)")
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -92,13 +92,20 @@ class HeatSolver:
         return mat, inv, True
 
     def solve(self, where: str) -> StepInfo:
-        """Solve for the new state (t_new, inv_dt already set, old state in gf_old)."""
+        """Solve for the new state (t_new, inv_dt already set, old state in gf_old). Steps ending by
+        ``setup.startup_until`` take theta = 1 (the start-up of Crank-Nicolson)."""
+        s = self.f.setup
+        if s.startup_until is not None and not s.steady:
+            t1 = self.f.t_new.Get()
+            theta = 1.0 if t1 <= s.startup_until * (1 + 1e-12) + 1e-300 else s.theta
+            if theta != self.f.theta.Get():
+                self.f.theta.Set(theta)
         self.set_dirichlet()
         rhs = self.f.right_hand_side()
         if self.solver == "iterative":
             return self._solve_iterative(where, rhs)
         if not self.f.setup.nonlinear:
-            mat, inv, fresh = self._system(f"{self.f.inv_dt.Get():.14g}:{self.f.version}")
+            mat, inv, fresh = self._system(f"{self.f.inv_dt.Get():.14g}:{self.f.theta.Get():g}:{self.f.version}")
             if self._free_mask is None:
                 self._free_mask = np.array(list(self.f.freedofs), dtype=bool)
             solve_watched(mat, inv, rhs, self.f.gf.vec, self._free_mask, f"heat solve at {where}",
@@ -111,7 +118,7 @@ class HeatSolver:
         """Preconditioned CG on the step matrix (the form's own matrix: its preconditioner is rebuilt with each
         assembly, so one dt is kept, not two)."""
         f = self.f
-        key = f"{f.inv_dt.Get():.14g}:{f.version}"
+        key = f"{f.inv_dt.Get():.14g}:{f.theta.Get():g}:{f.version}"
         fresh = key != getattr(self, "_iter_key", None)
         if self._pre is None:
             self._pre = Preconditioned(f.lhs, f.V, f.setup.order, vector=False)

@@ -143,7 +143,7 @@ def interface_jumps(solution: TwoRegionSolution, t: float = 0.0) -> dict:
 
 # -- scenes -------------------------------------------------------------------------------------------------
 def two_region_scene(solution: TwoRegionSolution, maxh: float, order: int, interface: str, ratio: float,
-                     scheme: str | None = None, dt: float = 0.1, t_end: float = 1.0):
+                     scheme: str | None = None, dt: float = 0.1, t_end: float = 1.0, startup_steps: int = 0):
     """The scene dict of the split unit square: blocks ``left`` and ``right`` (the latter meshed with
     ``maxh * ratio``), interface ``mid`` of the given type, exact Dirichlet data on the outer boundary.
     ``scheme`` None: steady; else transient with that theta scheme, step ``dt`` up to ``t_end`` (s)."""
@@ -165,7 +165,7 @@ def two_region_scene(solution: TwoRegionSolution, maxh: float, order: int, inter
         "output": {"vtk": False, "figures": False},
     }
     if scheme is not None:
-        data["time"] = {"start": 0.0, "end": t_end, "dt": dt, "scheme": scheme}
+        data["time"] = {"start": 0.0, "end": t_end, "dt": dt, "scheme": scheme, "startup_steps": startup_steps}
     return scene_from_dict(data, source="heat_mms")
 
 
@@ -234,19 +234,21 @@ def patch_test(order: int, interface: str = "glued", maxh: float = 0.25, ratio: 
 
 
 def transient_convergence(scheme: str, dts, t_end: float = 1.0, order: int = 2, maxh: float = 0.25,
-                          interface: str = "glued", ratio: float = 0.7) -> dict:
+                          interface: str = "glued", ratio: float = 0.7, startup_steps: int = 0) -> dict:
     """Transient two-region manufactured solution (2.43) with time-dependent Dirichlet data, integrated with
     the theta ``scheme`` ('backward_euler' or 'crank_nicolson') at constant steps ``dts`` (s) to ``t_end``.
 
     The solution is in the P2 space at every time (see :func:`transient_solution`), so with ``order >= 2``
-    the L2 error at ``t_end`` (K m) is the time error alone. Returns ``dt``, ``steps``, ``ndofs``,
-    ``l2`` and the fitted ``order`` (slope of log error against log dt).
+    the L2 error at ``t_end`` (K m) is the time error alone. ``startup_steps``: backward Euler steps first
+    (Crank-Nicolson's start-up; they keep the second order: two O(dt^2) local errors). Returns ``dt``,
+    ``steps``, ``ndofs``, ``l2`` and the fitted ``order`` (slope of log error against log dt).
     """
     solution = transient_solution()
     out = {"scheme": scheme, "order_space": order, "maxh": maxh, "interface": interface, "t_end": t_end,
            "dt": [], "steps": [], "ndofs": [], "l2": []}
     for dt in dts:
-        scene = two_region_scene(solution, maxh, order, interface, ratio, scheme=scheme, dt=dt, t_end=t_end)
+        scene = two_region_scene(solution, maxh, order, interface, ratio, scheme=scheme, dt=dt, t_end=t_end,
+                                 startup_steps=startup_steps)
         mesh, forms, solver = _prepare(scene, solution)
         ts = scene.time
         T = forms.temperature()
