@@ -52,6 +52,7 @@ from .problems.dynamic_run import DynamicsRun
 from .problems.heat import heat_setup, initial_temperature
 from .problems.mechanics import elastic_setup, mechanics_warnings
 from .problems.stefan import StefanRun
+from .problems.stefan_adaptive import FrontFollowing
 from .scene.model import Scene
 from .scene.schema import to_dict
 from .scene.validate import stefan_scene, validate
@@ -121,6 +122,9 @@ def _checkpoint_to_resume(scene: Scene, out) -> Checkpoint:
     if not transient:
         raise ResumeError(f"scene {scene.scene.name!r} is not time-dependent: only time-dependent runs write "
                           "checkpoints; run without --resume")
+    if scene.adaptivity is not None:
+        raise ResumeError(f"scene {scene.scene.name!r} runs on front-following meshes ([adaptivity]): such runs "
+                          "write no checkpoints and cannot be resumed; run again without --resume")
     found = find_resumable(Path(out))
     d = to_dict(scene)
     cp = next((c for c in found if c.meta.get("scene_hash") == scene_hash(d)), found[0])   # else: say why not
@@ -145,8 +149,13 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     name = scene.scene.name
     tic = _time.perf_counter()
     phys = _Physics(scene, geo, mesh)
-    adaptive = None
-    if scene.adaptivity is not None:          # validated: a stationary scene
+    adaptive = front = None
+    if scene.adaptivity is not None and scene.time is not None:    # validated: a plane Stefan scene
+        front = FrontFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m), show)
+        phys = front.start(scene.time.start)
+        mesh = phys.mesh
+        timings["adaptivity_s"] = _time.perf_counter() - tic
+    elif scene.adaptivity is not None:        # validated: a stationary scene
         adaptive = _SceneAdaptive(scene, geo, phys, show)
         run_ = adaptive_solve(adaptive, **adaptive.settings())
         adaptive.result = run_
@@ -251,7 +260,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         else:
             wall = math.inf
         last_saved = _time.perf_counter()
-        snap = state.capture(plan.k0, t_done, solve_s) if staging is not None else None
+        snap = state.capture(plan.k0, t_done, solve_s) if staging is not None and front is None else None
         bar = Progress(ts.end - ts.start, f"{name}", enabled=show)
         try:
             for j, (a, b) in enumerate(plan.steps):
@@ -268,14 +277,25 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                         info = solver.solve(where)
                         history["newton_iterations"].append(info.iterations)
                         _interface_flows(heat, history, axi)
-                    if stefan is not None:
+                    if front is not None:
+                        info = front.step(a, b, where)
+                        history["newton_iterations"].append(info.iterations)
+                        if front.phys is not phys:         # remeshed: the run goes on on the new mesh
+                            phys, mesh, stefan, T = front.phys, front.mesh, front.stefan, front.phys.T
+                            thermal_fields = {"temperature": T, "liquid_fraction": stefan.fields["liquid_fraction"],
+                                              "front": stefan.fields["liquid_fraction"]}
+                            probes = _moved_probes(probes, scene, mesh, axi)
+                            if vtk:
+                                vtk.mesh, vtk.coefs = mesh, [phys.fields[n] for n in vtk.names]
+                    elif stefan is not None:
                         info = stefan.step(a, b, where)
                         history["newton_iterations"].append(info.iterations)
                     if every_step:
                         mech.solve(b, where, record=False)
                 output(b, k, k == nsteps - 1, where)
                 solve_s += _time.perf_counter() - tic
-                if staging is not None:          # (a run writing nothing has no checkpoints)
+                if staging is not None and front is None:    # (a run writing nothing has no checkpoints,
+                    # nor one on front-following meshes)
                     snap = state.capture(k + 1, b, solve_s)
                     if every and k + 1 < nsteps and \
                             ((k + 1) % every == 0 or _time.perf_counter() - last_saved >= wall):
@@ -287,7 +307,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
             _stop(exc, staging, state, snap, plan, nsteps)
             raise
         bar.close()
-    state_factorizations = state.factorizations()
+    state_factorizations = state.factorizations() if front is None else front.factorizations
     timings["solve_s"] = solve_s
     dofs = (heat.X.ndof if heat else 0) + (stefan.forms.n if stefan else 0) + (mech.forms.X.ndof if mech else 0)
     thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity in THERMAL), [])
@@ -316,12 +336,21 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         summary["coupling"] = _coupling_summary(scene, history["coupling"])
     if adaptive is not None:
         summary["adaptivity"] = adaptive.summary()
+    if front is not None:
+        summary["adaptivity"] = front.summary()
     if staging is not None:
         tic = _time.perf_counter()
         _figures(scene, mesh, T, probes, staging.path / "figures", mech, stefan, coupling, adaptive)
         timings["output_s"] = _time.perf_counter() - tic
     return RunResult(mesh=mesh, forms=heat, summary=summary, out=None, timings=timings, mechanics=mech,
                      stefan=stefan)
+
+
+def _moved_probes(probes: ProbeSet, scene: Scene, mesh, axi: bool) -> ProbeSet:
+    """The probes on a new mesh (front-following), their series so far kept."""
+    new = ProbeSet(mesh, scene.output.probes, axi)
+    new.times, new.series = probes.times, probes.series
+    return new
 
 
 def _heat_step(heat: HeatForms, solver: HeatSolver, a: float, b: float) -> None:

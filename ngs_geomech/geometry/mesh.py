@@ -15,11 +15,22 @@ netgen reports a failed face ("NOT ALL FACES HAVE BEEN MESHED") on stdout only a
 an order-1 mesh of a curved block (a circle of 8 segments: 90 %)."""
 
 
-def make_mesh(geo: GeometryModel, settings: MeshSettings):
+def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=()):
     """Mesh the geometry (sizes from blocks, boundaries and ``settings``); curve it to the field order.
+    ``restrictions``: points (x, y, z, h) where the local size is at most h (m; netgen's RestrictH, graded
+    from there by ``settings.grading``): front-following meshes (:mod:`ngs_geomech.problems.stefan_adaptive`).
+    Region and boundary names are the geometry's whatever the restrictions.
 
     Raises SceneError naming the region (and ``mesh.maxh``) when netgen left a region (largely) unmeshed."""
-    ngmesh = geo.occ_geometry().GenerateMesh(maxh=settings.maxh, grading=settings.grading)
+    if restrictions:
+        from netgen.meshing import MeshingParameters
+
+        mp = MeshingParameters(maxh=settings.maxh, grading=settings.grading)
+        for x, y, z, h in restrictions:
+            mp.RestrictH(x=x, y=y, z=z, h=h)
+        ngmesh = geo.occ_geometry().GenerateMesh(mp=mp)
+    else:
+        ngmesh = geo.occ_geometry().GenerateMesh(maxh=settings.maxh, grading=settings.grading)
     mesh = ngs.Mesh(ngmesh)
     _check_meshed(geo, mesh, settings)
     if settings.order > 1:

@@ -153,8 +153,12 @@ def _check_adaptivity(scene: Scene, problems: list[Problem]) -> None:
         return
     ph = scene.physics
     if ph.thermal == "transient" or (ph.thermal is None and scene.time is not None):
-        problems.append(Problem("adaptivity", "adaptive refinement is available for stationary scenes (steady heat "
-                                "and/or static mechanics without [time]); time-dependent scenes are not adapted yet"))
+        _check_front_following(scene, problems)
+        return
+    if "phase_front" in a.indicators:
+        problems.append(Problem("adaptivity.indicators", "'phase_front' (front-following meshes) needs a transient "
+                                "scene with a phase change (physics.thermal = 'transient', a material with "
+                                "phase_change_temperature)"))
     target = a.target or ("mechanics" if ph.mechanics else "heat")
     if target == "mechanics" and ph.mechanics is None:
         problems.append(Problem("adaptivity.target", "'mechanics' needs physics.mechanics = 'static'"))
@@ -181,6 +185,46 @@ def _check_adaptivity(scene: Scene, problems: list[Problem]) -> None:
         problems.append(Problem("adaptivity.max_dofs", f"must be >= 1, got {a.max_dofs}"))
     if a.max_refinements < 0:
         problems.append(Problem("adaptivity.max_refinements", f"must be >= 0, got {a.max_refinements}"))
+
+
+def _check_front_following(scene: Scene, problems: list[Problem]) -> None:
+    """``[adaptivity]`` of a time-dependent scene: front-following meshes for the Stefan problem, plane scenes
+    without mechanics or contact interfaces (what :mod:`ngs_geomech.problems.stefan_adaptive` supports)."""
+    a = scene.adaptivity
+    ph = scene.physics
+    if not stefan_scene(scene):
+        problems.append(Problem("adaptivity", "estimator-driven refinement is available for stationary scenes "
+                                "(no [time]); time-dependent scenes are adapted only with a phase change (meshes "
+                                "that follow the phase boundary: physics.thermal = 'transient' and a material with "
+                                "phase_change_temperature); without one, remove [adaptivity]"))
+    if "phase_front" not in a.indicators:
+        problems.append(Problem("adaptivity.indicators", "a time-dependent scene needs indicators = "
+                                "['phase_front'] (front-following meshes, the only adaptivity over time)"))
+    if "contact_zone" in a.indicators:
+        problems.append(Problem("adaptivity.indicators", "'contact_zone' is for stationary scenes: contact zones "
+                                "are not followed over time"))
+    if ph.mechanics is not None:
+        problems.append(Problem("physics.mechanics", "front-following meshes ([adaptivity] with 'phase_front') "
+                                "are not available with mechanics: remove [adaptivity] or the mechanics"))
+    if scene.scene.dimension != "plane":
+        problems.append(Problem("scene.dimension", f"front-following meshes ([adaptivity] with 'phase_front') are "
+                                f"available for plane scenes only, not {scene.scene.dimension!r}"))
+    for itf in scene.interfaces:
+        if itf.type == "contact":
+            problems.append(Problem(f"interfaces.{itf.name}", "front-following meshes ([adaptivity] with "
+                                    "'phase_front') need conforming meshes: contact interfaces are not "
+                                    "supported (use type = 'glued', or remove [adaptivity])"))
+    for key in ("target", "tolerance", "max_dofs"):
+        if getattr(a, key) is not None:
+            problems.append(Problem(f"adaptivity.{key}", "not used by front-following meshes (time-dependent "
+                                    "scenes): remove it"))
+    if not 1 <= a.levels <= 8:
+        problems.append(Problem("adaptivity.levels", f"must be between 1 and 8, got {a.levels}"))
+    if not 0 <= a.layers <= 20:
+        problems.append(Problem("adaptivity.layers", f"must be between 0 and 20, got {a.layers}"))
+    if a.remesh_every < 0:
+        problems.append(Problem("adaptivity.remesh_every", f"must be >= 0 (0: when the front leaves the refined "
+                                f"band), got {a.remesh_every}"))
 
 
 def _check_settings(scene: Scene, problems: list[Problem]) -> None:
