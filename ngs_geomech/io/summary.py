@@ -32,6 +32,18 @@ def probe_statistics(times: list[float], values: list[float | None]) -> dict[str
             "min": values[i_min], "time_of_min": times[i_min]}
 
 
+def json_safe(x):
+    """A JSON-safe copy where a non-finite float becomes None (studies: an undefined figure is written as null;
+    summaries refuse it, see :func:`finite`)."""
+    if isinstance(x, dict):
+        return {k: json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [json_safe(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
 def finite(x):
     """JSON-safe copy: raises on NaN/Inf so no non-finite number is ever written as a result."""
     if isinstance(x, dict):

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 import time
 from pathlib import Path
 
@@ -25,6 +24,7 @@ import numpy as np
 from ..errors import Problem, ResumeError, SceneError, SolverError
 from ..io.atomic import write_json_atomic, write_text_atomic
 from ..io.sample_log import SampleLog, differing_items, fingerprint, flatten
+from ..io.summary import json_safe
 from ..io.uncertainty_figures import distribution_figure, ranges_figure, scatter_figure
 from ..scene.parse import apply_overrides, read_toml, resolve, scene_from_dict
 from ..scene.validate import validate
@@ -238,7 +238,7 @@ class Study:
                                                                "seed")}}
 
     def _write(self, results: dict, sampler: Sampler, figures: bool) -> None:
-        write_json_atomic(self.out / "results.json", _finite(results))
+        write_json_atomic(self.out / "results.json", json_safe(results))
         md, rows = _table(results)
         write_text_atomic(self.out / "table.md", md)
         buf = io.StringIO()
@@ -370,17 +370,6 @@ def _params(p: dict) -> str:
 
 def _fmt(v) -> str:
     return f"{v:.6g}" if isinstance(v, float) else str(v)
-
-
-def _finite(data):
-    """JSON cannot hold NaN: write a non-finite number as null (a failed sample's gradient, an undefined CI)."""
-    if isinstance(data, dict):
-        return {k: _finite(v) for k, v in data.items()}
-    if isinstance(data, (list, tuple)):
-        return [_finite(v) for v in data]
-    if isinstance(data, float) and not math.isfinite(data):
-        return None
-    return data
 
 
 __all__ = ["Study", "run_uncertainty"]

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.atomic import write_json_atomic
+from ..io.summary import json_safe
 
 
 @contextmanager
@@ -38,17 +39,6 @@ def observed_order(hs, errors) -> float:
     if len(hs) < 2:
         return math.nan
     return float(np.polyfit(np.log(np.asarray(hs, float)), np.log(np.asarray(errors, float)), 1)[0])
-
-
-def json_safe(x):
-    """A JSON-safe copy: non-finite floats become None."""
-    if isinstance(x, dict):
-        return {k: json_safe(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [json_safe(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
 
 
 def convergence_entry(quantity: str, hs, dofs, errors, expected, **extra) -> dict:
