@@ -22,7 +22,7 @@ from scipy.special import erfinv
 
 from ngs_geomech import api
 from ngs_geomech.io.stress_figures import principal_2d
-from ngs_geomech.verification.point_source import decaying_point_source_temperature
+from ngs_geomech.verification.point_source import canister_array_peak_rise
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -69,14 +69,8 @@ def permafrost():
 def _point_source_array_bound() -> float:
     """Largest temperature rise (K) at a canister wall over 1000 years: verification.md section 5's decaying point
     source summed over the panel's canisters (6 m x 40 m, +-200 m along the tunnels, 2 km across), k of granite."""
-    xs = np.arange(-round(PANEL_HALF_LENGTH / HOLE_SPACING), round(PANEL_HALF_LENGTH / HOLE_SPACING) + 1)
-    zs = np.arange(-50, 51)
-    X, Z = np.meshgrid(xs * HOLE_SPACING, zs * TUNNEL_SPACING)
-    r = np.hypot(X, Z).ravel()
-    r[r == 0.0] = CANISTER_RADIUS
-    times = np.geomspace(0.5, 1000.0, 60) * YEAR
-    return max(sum(float(np.sum(decaying_point_source_temperature(r, t, P0 * a, 1.0 / tau, K_ROCK, KAPPA)))
-                   for a, tau in DECAY) for t in times)
+    return canister_array_peak_rise(P0, DECAY, HOLE_SPACING, TUNNEL_SPACING, PANEL_HALF_LENGTH, 50, CANISTER_RADIUS,
+                                    K_ROCK, KAPPA)
 
 
 def _plane_source_peak() -> float:

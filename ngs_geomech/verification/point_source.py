@@ -98,6 +98,23 @@ def decaying_point_source_temperature(r, t, q0: float, decay_rate: float, k: flo
     return float(out) if out.ndim == 0 else out
 
 
+def canister_array_peak_rise(power: float, decay, hole_spacing: float, tunnel_spacing: float, half_length: float,
+                             tunnels: int, radius: float, k: float, kappa: float, years: float = 1000.0) -> float:
+    """Largest temperature rise (K) at a canister wall over ``years``: the decaying point sources (verification.md
+    section 5) of a panel of canisters ``hole_spacing`` x ``tunnel_spacing`` apart (m; +-``half_length`` along the
+    tunnels, +-``tunnels`` tunnels) summed at the wall (``radius``, m) of the middle one; ``decay`` the terms
+    (fraction, time constant in s) of the power ``power`` (W); conductivity k (W/(m K)), diffusivity kappa (m^2/s);
+    no buffer. An upper bound of a repository's canister-wall temperature rise (the buffer aside)."""
+    xs = np.arange(-round(half_length / hole_spacing), round(half_length / hole_spacing) + 1)
+    zs = np.arange(-tunnels, tunnels + 1)
+    X, Z = np.meshgrid(xs * hole_spacing, zs * tunnel_spacing)
+    r = np.hypot(X, Z).ravel()
+    r[r == 0.0] = radius
+    times = np.geomspace(0.5, years, 60) * YEAR
+    return max(sum(float(np.sum(decaying_point_source_temperature(r, t, power * a, 1.0 / tau, k, kappa)))
+                   for a, tau in decay) for t in times)
+
+
 def ball_source_temperature(r, t, radius: float, q0: float, decay_rate: float, k: float, kappa: float,
                             n: int = 24):
     """Temperature rise in K at distance ``r`` (m, > ``radius``) from the centre of a ball of radius ``radius``
