@@ -92,8 +92,23 @@ def _check_number(name: str, value, *, positive: bool = False, nonnegative: bool
     return v
 
 
+class _LinearConductivityLaw:
+    """k(T) = k f(T), f(T) = 1 + b (T - T_ref) (b = ``conductivity_temperature_coefficient``, 1/K;
+    T_ref = ``reference_temperature``), shared by the phase-change and the plain materials."""
+
+    @property
+    def temperature_dependent(self) -> bool:
+        """Whether k depends on T (b != 0)."""
+        return self.conductivity_temperature_coefficient != 0.0
+
+    def conductivity_factor(self, T):
+        """f(T) = 1 + b (T - T_ref) (dimensionless, numpy): k(T) = k f(T) in each phase."""
+        return 1.0 + self.conductivity_temperature_coefficient * (np.asarray(T, dtype=float)
+                                                                  - self.reference_temperature)
+
+
 @dataclass(frozen=True)
-class PhaseChangeMaterial:
+class PhaseChangeMaterial(_LinearConductivityLaw):
     """A material with a phase change at ``melting_temperature`` Theta_R (K or degC; the seed's Theta_R^m).
 
     ``latent_heat`` L is volumetric (J/m^3, rho L of (2.46), (2.48); >= 0), ``rho_c_solid`` and
@@ -118,16 +133,6 @@ class PhaseChangeMaterial:
         for name in ("rho_c_solid", "rho_c_liquid", "conductivity_solid", "conductivity_liquid"):
             object.__setattr__(self, name, _check_number(name, getattr(self, name), positive=True))
         _check_law(self)
-
-    @property
-    def temperature_dependent(self) -> bool:
-        """Whether k depends on T (b != 0)."""
-        return self.conductivity_temperature_coefficient != 0.0
-
-    def conductivity_factor(self, T):
-        """f(T) = 1 + b (T - T_ref) (dimensionless, numpy): k_s(T) = k_s f(T), k_l(T) = k_l f(T)."""
-        return 1.0 + self.conductivity_temperature_coefficient * (np.asarray(T, dtype=float)
-                                                                  - self.reference_temperature)
 
     @property
     def diffusivity_solid(self) -> float:
@@ -166,7 +171,7 @@ class PhaseChangeMaterial:
 
 
 @dataclass(frozen=True)
-class PlainThermalMaterial:
+class PlainThermalMaterial(_LinearConductivityLaw):
     """A material without phase change: ``rho_c`` C (J/(m^3 K), > 0), ``conductivity`` k (W/(m K), > 0,
     isotropic); e = C T (J/m^3), theta = k T (W/m)."""
 
@@ -179,15 +184,6 @@ class PlainThermalMaterial:
         object.__setattr__(self, "rho_c", _check_number("rho_c", self.rho_c, positive=True))
         object.__setattr__(self, "conductivity", _check_number("conductivity", self.conductivity, positive=True))
         _check_law(self)
-
-    @property
-    def temperature_dependent(self) -> bool:
-        return self.conductivity_temperature_coefficient != 0.0
-
-    def conductivity_factor(self, T):
-        """f(T) = 1 + b (T - T_ref) (dimensionless, numpy)."""
-        return 1.0 + self.conductivity_temperature_coefficient * (np.asarray(T, dtype=float)
-                                                                  - self.reference_temperature)
 
     def enthalpy(self, T, liquid_fraction=0.0):
         return self.rho_c * np.asarray(T, dtype=float)
