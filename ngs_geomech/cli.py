@@ -84,7 +84,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"ngs-geomech: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
-        print(f"ngs-geomech: interrupted; {exc or 'no output written'}", file=sys.stderr)
+        what = str(exc) or "no output written"
+        if args.command == "uncertain":
+            what = (f"the finished samples are in {os.path.join(args.out, 'samples.jsonl')}; continue with the "
+                    "same command and --resume")
+        print(f"ngs-geomech: interrupted; {what}", file=sys.stderr)
         return 130
 
 
