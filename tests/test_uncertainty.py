@@ -271,3 +271,13 @@ def test_factor_scales_numbers_and_expressions(tmp_path):
     assert e["nominal"] == pytest.approx(peak(100.0, 2.0), rel=1e-10)
     assert e["range"] == pytest.approx([peak(Q[0], K[1]), peak(Q[1], K[0])], rel=1e-10)
     assert res["parameters"]["source"]["nominal"] == 1.0
+
+
+def test_a_dying_worker_stops_the_study_with_a_clear_error():
+    """A worker process that dies (out of memory, a crash in a library) ends the batch with a SolverError that
+    says the finished samples are kept and how to resume, not with a bare BrokenProcessPool."""
+    from ngs_geomech.errors import SolverError
+    from ngs_geomech.uncertainty.executors import Runner
+
+    with Runner("process", 1) as runner, pytest.raises(SolverError, match="--resume"):
+        list(runner.as_completed(os._exit, [3]))

@@ -7,6 +7,9 @@ from __future__ import annotations
 import multiprocessing
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+
+from ..errors import SolverError
 
 EXECUTORS = ("serial", "process", "mpi")
 
@@ -53,7 +56,13 @@ class Runner:
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for f in done:
-                    yield f.result()
+                    try:
+                        result = f.result()
+                    except BrokenProcessPool as exc:
+                        raise SolverError(f"a worker process of the {self.kind} pool died ({exc}); the samples "
+                                          "finished so far are kept in samples.jsonl: rerun with --resume (with "
+                                          "fewer --workers if memory ran out)") from exc
+                    yield result
         finally:
             for f in pending:
                 f.cancel()
