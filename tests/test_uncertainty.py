@@ -196,6 +196,9 @@ def test_killed_study_resumes_without_rerunning_finished_samples(tmp_path):
     bad = subprocess.run(cmd + ["--resume", "--set", "materials.slab.conductivity=2.5"], capture_output=True,
                          text=True, env=env)
     assert bad.returncode == 2 and "materials.slab.conductivity" in bad.stderr
+    bad = subprocess.run(cmd + ["--resume", "--set", "uncertainty.criteria.peak_temperature.summary=probes.peak.min"],
+                         capture_output=True, text=True, env=env)
+    assert bad.returncode == 2 and "criteria.peak_temperature" in bad.stderr
 
 
 def test_failed_samples_are_reported_not_dropped(tmp_path, monkeypatch):

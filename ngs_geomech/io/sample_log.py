@@ -2,7 +2,8 @@
 soon as the sample ends, so a killed study keeps every finished sample and resumes from them.
 
 Line 1 is a header (``{"kind": "header", "fingerprint": ..., "items": {...}}``): what the samples depend on
-(the scene without its ``[uncertainty]`` table, and the parameters' keys, intervals and scales), flattened to
+(the scene without its ``[uncertainty]`` table, the parameters' keys, intervals and scales, and the criteria's
+summary paths), flattened to
 dotted items so that a resume with other data can name what differs. Each further line is
 ``{"kind": "sample", "key": ..., ...}``. A last line cut by a kill is ignored when the log is read.
 """

@@ -61,4 +61,5 @@ def evaluate(task: dict) -> dict:
            "wall_s": time.perf_counter() - t0}
     if messages:
         out["message"] = "; ".join(messages)
+        out["criteria_problems"] = messages
     return out

@@ -31,6 +31,7 @@ class Sample:
     wall_s: float
     tag: str
     message: str = ""
+    criteria_problems: list = field(default_factory=list)   # criteria missing from (or not finite in) the summary
 
     @property
     def ok(self) -> bool:
@@ -90,7 +91,7 @@ class Sampler:
             t0 = time.perf_counter()
             for i, res in enumerate(self.runner.as_completed(evaluate, tasks), 1):
                 s = Sample(res["key"], np.array(res["z"]), res["params"], res["status"], res["values"],
-                           res["wall_s"], res["tag"], res.get("message", ""))
+                           res["wall_s"], res["tag"], res.get("message", ""), res.get("criteria_problems", []))
                 self.done[s.key] = s
                 self._mine.add(s.key)
                 self.log.append(s.as_record())

@@ -64,7 +64,8 @@ class Study:
         self.out = Path(out)
         self.log = SampleLog(self.out / LOG_NAME)
         self.header = {"scene": sc.scene.name,
-                       "items": flatten({"scene": self.raw, "parameters": self.space.describe()})}
+                       "items": flatten({"scene": self.raw, "parameters": self.space.describe(),
+                                         "criteria": self.criteria})}
         self.header["fingerprint"] = fingerprint(self.header["items"])
         self.previous: list[dict] = []
         if resume:
@@ -117,8 +118,8 @@ class Study:
               else self.space.nominal_probabilities())
         s = sampler.batch([z0], "nominal")[0]
         if not s.ok:
-            if "criterion" in s.message and "summary" in s.message:
-                raise SceneError([Problem("uncertainty.criteria", m) for m in s.message.split("; ")],
+            if s.criteria_problems:
+                raise SceneError([Problem("uncertainty.criteria", m) for m in s.criteria_problems],
                                  source="uncertainty")
             raise SolverError(f"the nominal scene failed, so no sample can be trusted: {s.message}")
         return s
