@@ -38,6 +38,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ..adapt.estimators import _vertex_coords, element_sizes, element_vertices, phase_front
+from ..adapt.stefan import RemeshRecord
 from ..geometry.assemble import GeometryModel
 from ..geometry.mesh import make_mesh
 from ..scene.model import Scene
@@ -54,23 +55,14 @@ front appearing in, or running into, coarse elements; a band of ``layers`` rings
 
 
 @dataclass
-class Remesh:
-    """One remeshing: at time ``t`` (s), unknowns and elements before/after, the heat content before/after the
-    transfer (J per m of depth) and its relative change, whether the step was repeated, wall time (s)."""
+class Remesh(RemeshRecord):
+    """One remeshing of a scene run: :class:`~ngs_geomech.adapt.stefan.RemeshRecord` (time, unknowns, heat content
+    before/after the transfer, wall time) plus the elements after it, whether the step was repeated, and the number
+    of meshings."""
 
-    t: float
-    ndof_before: int
-    ndof_after: int
-    elements_after: int
-    heat_before: float
-    heat_after: float
-    repeated_step: bool
-    passes: int
-    wall_s: float
-
-    @property
-    def transfer_error(self) -> float:
-        return abs(self.heat_after - self.heat_before) / max(abs(self.heat_before), 1e-300)
+    elements_after: int = 0
+    repeated_step: bool = False
+    passes: int = 1
 
     def as_dict(self) -> dict:
         return {"t_s": self.t, "ndof_before": self.ndof_before, "ndof_after": self.ndof_after,
@@ -227,8 +219,8 @@ class FrontFollowing:
         self.phys = phys
         if not repeated:
             self._band_h = self._front_size()
-        rec = Remesh(t, old.forms.n, new.forms.n, mesh.ne, heat_before, heat_after, repeated, passes,
-                     time.perf_counter() - tic)
+        rec = Remesh(t, old.forms.n, new.forms.n, heat_before, heat_after, time.perf_counter() - tic,
+                     elements_after=mesh.ne, repeated_step=repeated, passes=passes)
         self.remeshes.append(rec)
         if self.show:
             print(f"front-following: remesh at t = {t:.6g} s: {rec.ndof_before} -> {rec.ndof_after} dofs, heat "
