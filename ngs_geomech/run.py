@@ -46,6 +46,7 @@ from .physics.stefan import vertex_rules
 from .physics.thermal import HeatForms
 from .probes import THERMAL, ProbeSet
 from .problems.contact import check_supported, contact_specs, contact_warnings
+from .problems.contact_following import ContactFollowing
 from .problems.contact_output import ContactOutput
 from .problems.coupled import KELVIN, DeformationHeating, relative_change
 from .problems.dynamic_run import DynamicsRun
@@ -123,7 +124,8 @@ def _checkpoint_to_resume(scene: Scene, out) -> Checkpoint:
         raise ResumeError(f"scene {scene.scene.name!r} is not time-dependent: only time-dependent runs write "
                           "checkpoints; run without --resume")
     if scene.adaptivity is not None:
-        raise ResumeError(f"scene {scene.scene.name!r} runs on front-following meshes ([adaptivity]): such runs "
+        raise ResumeError(f"scene {scene.scene.name!r} runs on meshes that follow its phase boundary or contact "
+                          "zones ([adaptivity]): such runs "
                           "write no checkpoints and cannot be resumed; run again without --resume")
     found = find_resumable(Path(out))
     d = to_dict(scene)
@@ -149,8 +151,11 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     name = scene.scene.name
     tic = _time.perf_counter()
     phys = _Physics(scene, geo, mesh)
-    adaptive = front = None
-    if scene.adaptivity is not None and scene.time is not None:    # validated: a plane Stefan scene
+    adaptive = front = zone = None
+    if scene.adaptivity is not None and scene.time is not None and "contact_zone" in scene.adaptivity.indicators:
+        # validated: static mechanics with contact, plane or axisymmetric (the mesh changes at mechanics solves)
+        zone = ContactFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m), show)
+    elif scene.adaptivity is not None and scene.time is not None:    # validated: a plane Stefan scene
         front = FrontFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m), show)
         phys = front.start(scene.time.start)
         mesh = phys.mesh
@@ -187,6 +192,20 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                             "conductivity_factor": []}}
     solve_s = 0.0
 
+    def follow(t: float, where: str) -> None:
+        """Contact-zone following: the mechanics solve at t, the run's objects switched to the new mesh when it
+        remeshed."""
+        nonlocal phys, mesh, heat, solver, T, mech, thermal_fields, probes
+        new = zone.solve(t, where)
+        if new is phys:
+            return
+        phys, mesh, heat, solver, T, mech = new, new.mesh, new.heat, new.solver, new.T, new.mech
+        if T is not None:
+            thermal_fields = {"temperature": T}
+        probes = _moved_probes(probes, scene, mesh, axi)
+        if vtk:
+            vtk.mesh, vtk.coefs = mesh, [phys.fields[n] for n in vtk.names]
+
     def output(t: float, k: int | None, last: bool, where: str) -> None:
         """Mechanics (when on) and VTK at the output steps; thermal probes at every step."""
         if T is not None:
@@ -196,7 +215,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         if stefan is not None:
             stefan.record(t)
         if mech is not None:
-            if adaptive is not None:                 # solved on the final mesh by the adaptive loop
+            if adaptive is not None or zone is not None:   # solved by the adaptive loop / the zone follower
                 mech.record(t)
             elif k is None or (coupling is None and not every_step):
                 mech.solve(t, where)
@@ -242,6 +261,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
             tic0 = _time.perf_counter()
             if stefan is not None:
                 stefan.set_initial(ts.start)
+            if zone is not None:
+                follow(ts.start, f"t = {format_time(ts.start)}")
             output(ts.start, None, True, f"t = {format_time(ts.start)}")
             if coupling is not None:
                 _update_pressure(heat, stefan, mech, f"t = {format_time(ts.start)}")
@@ -262,7 +283,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         else:
             wall = math.inf
         last_saved = _time.perf_counter()
-        snap = state.capture(plan.k0, t_done, solve_s) if staging is not None and front is None else None
+        snapshots = staging is not None and front is None and zone is None   # none on following meshes
+        snap = state.capture(plan.k0, t_done, solve_s) if snapshots else None
         bar = Progress(ts.end - ts.start, f"{name}", enabled=show)
         try:
             for j, (a, b) in enumerate(plan.steps):
@@ -294,10 +316,12 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                         history["newton_iterations"].append(info.iterations)
                     if every_step:
                         mech.solve(b, where, record=False)
+                if zone is not None and ((k + 1) % scene.output.every == 0 or k == nsteps - 1):
+                    follow(b, where)
                 output(b, k, k == nsteps - 1, where)
                 solve_s += _time.perf_counter() - tic
-                if staging is not None and front is None:    # (a run writing nothing has no checkpoints,
-                    # nor one on front-following meshes)
+                if staging is not None and front is None and zone is None:    # (a run writing nothing has no
+                    # checkpoints, nor one on front- or contact-zone-following meshes)
                     snap = state.capture(k + 1, b, solve_s)
                     if every and k + 1 < nsteps and \
                             ((k + 1) % every == 0 or _time.perf_counter() - last_saved >= wall):
@@ -309,7 +333,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
             _stop(exc, staging, state, snap, plan, nsteps)
             raise
         bar.close()
-    state_factorizations = state.factorizations() if front is None else front.factorizations
+    state_factorizations = (front.factorizations if front is not None else zone.factorizations if zone is not None
+                            else state.factorizations())
     timings["solve_s"] = solve_s
     dofs = (heat.X.ndof if heat else 0) + (stefan.forms.n if stefan else 0) + (mech.forms.X.ndof if mech else 0)
     thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity in THERMAL), [])
@@ -340,6 +365,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         summary["adaptivity"] = adaptive.summary()
     if front is not None:
         summary["adaptivity"] = front.summary()
+    if zone is not None:
+        summary["adaptivity"] = zone.summary()
     if staging is not None:
         tic = _time.perf_counter()
         _figures(scene, mesh, T, probes, staging.path / "figures", mech, stefan, coupling, adaptive)
@@ -632,6 +659,14 @@ class _Mechanics:
         self.solver.solve(where)
         if record:
             self.record(t)
+
+    def adopt(self, old: _Mechanics) -> None:
+        """Continue the histories of ``old`` (the same scene on the previous mesh: contact-zone following): the
+        times, the solves and the contact records (the factorizations are counted by the follower)."""
+        self.times = old.times
+        self.solver.history[:0] = old.solver.history
+        if self.contact_output is not None:
+            self.contact_output.history[:0] = old.contact_output.history
 
     def record(self, t: float) -> None:
         """Keep the solution of the last solve as the one at time t (s)."""

@@ -134,7 +134,7 @@ def test_front_following_output_is_complete_and_not_resumable(tmp_path):
     assert not list(tmp_path.glob(".OUT.partial*"))
     data = neumann_scene(**{"mesh.maxh": 0.05, "time.dt": DT})
     data["adaptivity"] = FRONT
-    with pytest.raises(ResumeError, match="front-following"):
+    with pytest.raises(ResumeError, match="phase boundary"):
         run_scene(scene_from_dict(data), out, progress=False, resume=True)
 
 
@@ -159,9 +159,9 @@ def test_unsupported_combinations_name_their_key():
     for key, data in cases.items():
         msg = _problems(data)
         assert key in msg, (key, msg)
-    # contact_zone over time
+    # both over time (contact-zone following: tests/test_adaptivity_contact_following.py)
     msg = _problems(dict(base, adaptivity={"indicators": ["phase_front", "contact_zone"]}))
-    assert "adaptivity.indicators" in msg and "contact zones are not followed" in msg
+    assert "adaptivity.indicators" in msg and "cannot be followed together" in msg
     # no phase change: a plain transient heat scene
     plain = neumann_scene()
     for k in ("phase_change_temperature", "latent_heat_volumetric", "rho_c_liquid", "conductivity_liquid"):

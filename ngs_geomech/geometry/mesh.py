@@ -27,8 +27,13 @@ def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=()):
         from pyngcore import SuspendTaskManager
 
         mp = MeshingParameters(maxh=settings.maxh, grading=settings.grading)
+        # every mesh-size layer: the bodies of a contact interface have their own (geometry.assemble), and a
+        # restriction acts on one layer only (netgen's default: layer 1, the first body's)
+        parts = geo.shape.solids if geo.dim == 3 else geo.shape.faces
+        layers = sorted({int(part.layer) for part in parts}) or [1]
         for x, y, z, h in restrictions:
-            mp.RestrictH(x=x, y=y, z=z, h=h)
+            for layer in layers:
+                mp.RestrictH(x=x, y=y, z=z, h=h, layer=layer)
         with SuspendTaskManager():      # remeshing inside a run's TaskManager: measured 3x faster suspended
             ngmesh = geo.occ_geometry().GenerateMesh(mp=mp)
     else:

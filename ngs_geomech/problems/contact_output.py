@@ -10,6 +10,10 @@ forces F = e . B^T lam of the foundations sum to zero: imbalance = |L + S + F| /
 Interfaces between bodies are internal: the forces on their two sides must be opposite (reported as
 ``action_reaction``: |F_side + F_opposite| / |F_side|).
 
+``closed_length_m``: the length of the closed part of the side, sum of int phi_j ds over the nodes in contact
+(stick or slip): for a contact zone ending between two nodes, the midpoint between the last closed and the first
+open node (error at most half the element size there; in 3D the area, m^2).
+
 ``initial_gap_m``: [min, max] of the nodal initial gaps g0 over the nodes whose rays meet the other side
 within ``search_distance_m`` (None if none does: the contact cannot close).
 
@@ -84,6 +88,7 @@ class ContactOutput:
                     **tangential,
                     "resultant_on_side": dict(zip(self.directions, on_side.tolist())),
                     "max_pressure_Pa": float(np.max(lam_n, initial=0.0)),
+                    "closed_length_m": float(np.sum(op.length[status > 0])),
                     "max_penetration_m": float(np.max(-res["gap"][keep], initial=0.0)),
                     "max_slip_m": float(np.max(np.abs(res["slip"][lam_n > 0]), initial=0.0)),
                     "max_tangential_displacement_m": float(np.max(np.abs(res["slip"][keep]), initial=0.0)),
@@ -134,6 +139,8 @@ class ContactOutput:
                                          **{name: {"normal_force": v["normal_force"],
                                                    "tangential_force": v["tangential_force"],
                                                    "max_slip_m": v["max_slip_m"],
+                                                   "closed_length_m": v["closed_length_m"],
+                                                   "max_pressure_Pa": v["max_pressure_Pa"],
                                                    "max_tangential_displacement_m":
                                                        v["max_tangential_displacement_m"],
                                                    "nodes": v["nodes"]}

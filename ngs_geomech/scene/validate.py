@@ -153,7 +153,10 @@ def _check_adaptivity(scene: Scene, problems: list[Problem]) -> None:
         return
     ph = scene.physics
     if ph.thermal == "transient" or (ph.thermal is None and scene.time is not None):
-        _check_front_following(scene, problems)
+        if "contact_zone" in a.indicators:
+            _check_zone_following(scene, problems)
+        else:
+            _check_front_following(scene, problems)
         return
     if "phase_front" in a.indicators:
         problems.append(Problem("adaptivity.indicators", "'phase_front' (front-following meshes) needs a transient "
@@ -199,10 +202,8 @@ def _check_front_following(scene: Scene, problems: list[Problem]) -> None:
                                 "phase_change_temperature); without one, remove [adaptivity]"))
     if "phase_front" not in a.indicators:
         problems.append(Problem("adaptivity.indicators", "a time-dependent scene needs indicators = "
-                                "['phase_front'] (front-following meshes, the only adaptivity over time)"))
-    if "contact_zone" in a.indicators:
-        problems.append(Problem("adaptivity.indicators", "'contact_zone' is for stationary scenes: contact zones "
-                                "are not followed over time"))
+                                "['phase_front'] (meshes that follow the phase boundary) or ['contact_zone'] "
+                                "(meshes that follow the contact zones of static mechanics)"))
     if ph.mechanics is not None:
         problems.append(Problem("physics.mechanics", "front-following meshes ([adaptivity] with 'phase_front') "
                                 "are not available with mechanics: remove [adaptivity] or the mechanics"))
@@ -224,6 +225,44 @@ def _check_front_following(scene: Scene, problems: list[Problem]) -> None:
         problems.append(Problem("adaptivity.layers", f"must be between 0 and 20, got {a.layers}"))
     if a.remesh_every < 0:
         problems.append(Problem("adaptivity.remesh_every", f"must be >= 0 (0: when the front leaves the refined "
+                                f"band), got {a.remesh_every}"))
+
+
+def _check_zone_following(scene: Scene, problems: list[Problem]) -> None:
+    """``[adaptivity]`` with ``'contact_zone'`` in a time-dependent scene: meshes that follow the contact zones
+    (what :mod:`ngs_geomech.problems.contact_following` supports: static mechanics with a contact, plane or
+    axisymmetric, no phase change, no deformation heating)."""
+    a = scene.adaptivity
+    ph = scene.physics
+    if "phase_front" in a.indicators:
+        problems.append(Problem("adaptivity.indicators", "'phase_front' and 'contact_zone' cannot be followed "
+                                "together over time: keep one"))
+    if ph.mechanics != "static":
+        problems.append(Problem("physics.mechanics", "meshes that follow the contact zones ([adaptivity] with "
+                                f"'contact_zone') need physics.mechanics = 'static', got {ph.mechanics!r}"))
+    elif not any(itf.type == "contact" for itf in scene.interfaces) and not any(
+            bc.foundation is not None for bc in scene.boundary_conditions.values()):
+        problems.append(Problem("adaptivity.indicators", "'contact_zone' needs mechanics with a contact interface or "
+                                "a foundation"))
+    if stefan_scene(scene):
+        problems.append(Problem("adaptivity.indicators", "'contact_zone' over time is not available with a phase "
+                                "change (the enthalpy is not carried to a new mesh here): remove [adaptivity]"))
+    if ph.coupling != "none":
+        problems.append(Problem("physics.coupling", "meshes that follow the contact zones need physics.coupling = "
+                                f"'none', got {ph.coupling!r}"))
+    if scene.scene.dimension == "3d":
+        problems.append(Problem("scene.dimension", "meshes that follow the contact zones are available for plane "
+                                "and axisymmetric scenes only, not '3d'"))
+    for key in ("target", "tolerance", "max_dofs"):
+        if getattr(a, key) is not None:
+            problems.append(Problem(f"adaptivity.{key}", "not used by meshes that follow the contact zones "
+                                    "(time-dependent scenes): remove it"))
+    if not 1 <= a.levels <= 8:
+        problems.append(Problem("adaptivity.levels", f"must be between 1 and 8, got {a.levels}"))
+    if not 0 <= a.layers <= 20:
+        problems.append(Problem("adaptivity.layers", f"must be between 0 and 20, got {a.layers}"))
+    if a.remesh_every < 0:
+        problems.append(Problem("adaptivity.remesh_every", f"must be >= 0 (0: when a transition leaves the refined "
                                 f"band), got {a.remesh_every}"))
 
 

@@ -50,6 +50,9 @@ class HeatSolver:
         self._dirichlet_ready = False
         self.factorizations = 0
         self._free_mask = None
+        self.backward_euler_steps = 0
+        """The next this many steps take theta = 1 whatever the scheme (a restart after the state was carried to
+        a new mesh without the old interface multipliers: :mod:`ngs_geomech.problems.contact_following`)."""
         forms.update_contact_pairs()
 
     @property
@@ -93,11 +96,14 @@ class HeatSolver:
 
     def solve(self, where: str) -> StepInfo:
         """Solve for the new state (t_new, inv_dt already set, old state in gf_old). Steps ending by
-        ``setup.startup_until`` take theta = 1 (the start-up of Crank-Nicolson)."""
+        ``setup.startup_until`` take theta = 1 (the start-up of Crank-Nicolson), and so do the next
+        ``backward_euler_steps``."""
         s = self.f.setup
-        if s.startup_until is not None and not s.steady:
+        if not s.steady:
             t1 = self.f.t_new.Get()
-            theta = 1.0 if t1 <= s.startup_until * (1 + 1e-12) + 1e-300 else s.theta
+            startup = s.startup_until is not None and t1 <= s.startup_until * (1 + 1e-12) + 1e-300
+            theta = 1.0 if startup or self.backward_euler_steps > 0 else s.theta
+            self.backward_euler_steps = max(0, self.backward_euler_steps - 1)
             if theta != self.f.theta.Get():
                 self.f.theta.Set(theta)
         self.set_dirichlet()

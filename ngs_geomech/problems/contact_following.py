@@ -1,0 +1,378 @@
+"""Meshes that follow the contact zones of a time-dependent scene (``[adaptivity]`` with
+``indicators = ['contact_zone']`` in a transient plane or axisymmetric scene with static mechanics and a contact
+interface or foundation; issue 6 section 2, time-dependent).
+
+What is followed: the boundary of the active set and the stick/slip transitions of every contact
+(:func:`transition_elements`) at each mechanics solve (the output steps). The mesh is the
+scene's geometry meshed anew by :func:`ngs_geomech.geometry.mesh.make_mesh` (regions and boundaries keep their
+names; the physics, contact pairs and mortar couplings are rebuilt on each mesh by the run's ``build`` callable)
+with the local size restricted to h_zone = h_base / 2^levels (h_base: the median longest edge of the scene's own
+mesh at the contact sides) at the vertices of the flagged elements and ``layers`` rings around them. Resolution is
+added where a transition goes and given back where it left by remeshing from the geometry with the flags
+recomputed (the seed's problem (P) is static at each time: the slip is the total slip, so nothing but the start of
+the solve depends on the previous mesh's mechanical state).
+
+When: ``remesh_every = 0`` (default): after a mechanics solve whose transitions lie in elements 1.25 times coarser
+than the band's own (the largest element flagged right after the last remesh; 1.5 h_zone before the first one):
+the mesh is refined at the transitions, the state carried over and the mechanics solved again at the same time, up
+to ``levels + 2`` meshings per time until the transitions lie in elements of at most 1.5 h_zone.
+``remesh_every = k > 0``: after every k-th mechanics solve as well. When no contact has a transition (all open,
+or all closed in one state) the mesh goes back to the scene's own mesh.
+
+Transfer (each measured and recorded in ``remeshes``):
+
+* temperature: interpolated (NGSolve's ``Set`` of the old field evaluated on the new mesh, per body); the change
+  of the heat content int rho c T dx (J per m of depth in plane scenes) and the relative L2 difference
+  ||T_new - T_old|| / ||T_old|| (old field integrated on the new mesh). The next heat step after a remesh is a
+  backward Euler step (a Crank-Nicolson step would need the old interface multipliers of the mortar coupling,
+  which are not carried over; as the start-up steps after t = 0, it damps the transfer's high frequencies).
+* displacement: interpolated the same way; the strain energy int W(u) dx before and after (relative change) and
+  the relative H1 difference between the transferred field and the solution re-solved on the new mesh (the
+  mesh's effect, not a transfer error).
+* multipliers (nodal contact pressure and tangential traction): interpolated along the contact sides
+  (piecewise linear on the old side's segments); the normal resultant sum_j w_j lam_n,j before and after
+  (relative change). They start the contact solve on the new mesh (``ContactSolver.warm_start`` with the nodal
+  sets of the transferred multipliers: open, stick, slip).
+
+No checkpoints: such a run is not resumable (``--resume`` is refused, as for front-following meshes).
+Units: m, s, K, Pa, J.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import ngsolve as ngs
+import numpy as np
+
+from ..adapt.estimators import (
+    _grow,
+    _incidence,
+    _side_edges,
+    _vertex_coords,
+    contact_status,
+    element_sizes,
+    element_vertices,
+)
+from ..geometry.assemble import GeometryModel
+from ..geometry.mesh import make_mesh
+from ..scene.model import Scene
+
+BAND_FACTOR = 1.25
+"""remesh_every = 0: remesh when a transition lies in elements this much larger than the band's."""
+
+RESOLVED = 1.5
+"""A transition is resolved when the elements it lies in are at most this many times h_zone."""
+
+
+@dataclass
+class ContactRemesh:
+    """One remeshing at a mechanics time (s): unknowns before/after, elements after, the meshings it took, and
+    the transfer figures of the module docstring (None where a scene has no such field)."""
+
+    t: float
+    ndof_before: int
+    ndof_after: int
+    elements_after: int
+    heat_content_change_rel: float | None
+    temperature_l2_change_rel: float | None
+    energy_before: float
+    energy_after_transfer: float
+    normal_force_before: float
+    normal_force_after_transfer: float
+    resolve_h1_difference_rel: float = float("nan")
+    wall_s: float = 0.0
+    reason: str = "transition"
+
+    @property
+    def energy_change_rel(self) -> float:
+        return abs(self.energy_after_transfer - self.energy_before) / max(abs(self.energy_before), 1e-300)
+
+    @property
+    def normal_force_change_rel(self) -> float:
+        return (abs(self.normal_force_after_transfer - self.normal_force_before)
+                / max(abs(self.normal_force_before), 1e-300))
+
+    def as_dict(self) -> dict:
+        return {"t_s": self.t, "reason": self.reason, "ndof_before": self.ndof_before, "ndof_after": self.ndof_after,
+                "elements_after": self.elements_after, "heat_content_change_rel": self.heat_content_change_rel,
+                "temperature_l2_change_rel": self.temperature_l2_change_rel,
+                "strain_energy_before_J": self.energy_before,
+                "strain_energy_after_transfer_J": self.energy_after_transfer,
+                "strain_energy_change_rel": self.energy_change_rel,
+                "normal_force_before": self.normal_force_before,
+                "normal_force_after_transfer": self.normal_force_after_transfer,
+                "normal_force_change_rel": self.normal_force_change_rel,
+                "resolve_h1_difference_rel": self.resolve_h1_difference_rel, "wall_s": self.wall_s}
+
+
+def interpolate_on_side(xy_old: np.ndarray, values: np.ndarray, segments: np.ndarray, xy_new: np.ndarray):
+    """Values at the points ``xy_new`` (k x 2) of the piecewise linear field given by nodal ``values`` (m, or
+    m x c) at ``xy_old`` (m x 2) on the polyline ``segments`` (s x 2 node indices): each point takes the
+    interpolant at its closest point on the closest segment."""
+    values = np.asarray(values, dtype=float)
+    if len(segments) == 0:
+        return np.zeros((len(xy_new),) + values.shape[1:])
+    p0, p1 = xy_old[segments[:, 0]], xy_old[segments[:, 1]]
+    d = p1 - p0
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    q = xy_new[:, None, :] - p0[None, :, :]                          # k x s x 2
+    s = np.clip(np.einsum("ksj,sj->ks", q, d) / dd[None, :], 0.0, 1.0)
+    dist = np.linalg.norm(q - s[:, :, None] * d[None, :, :], axis=2)
+    best = np.argmin(dist, axis=1)
+    sb = s[np.arange(len(xy_new)), best]
+    a, b = values[segments[best, 0]], values[segments[best, 1]]
+    if values.ndim == 1:
+        return (1 - sb) * a + sb * b
+    return (1 - sb)[:, None] * a + sb[:, None] * b
+
+
+def transition_elements(mesh, contacts: list, layers: int = 0) -> np.ndarray:
+    """Flags (per element) of the elements at the contact transitions: for every side segment whose nodes differ
+    in status (open / stick / slip; ``contacts``: [(ContactOperator, nodal status)]) the elements sharing one of
+    its vertices, and on the opposite side the elements sharing a vertex of a segment within one segment length
+    of it, plus ``layers`` rings. (As :func:`ngs_geomech.adapt.estimators.contact_zone`, but the opposite side is
+    searched within the local segment length, not twice the longest one of the interface: on a graded mesh that
+    reach took coarse elements far from the transition.)"""
+    xy = _vertex_coords(mesh)[:, :2]
+    inc = _incidence(mesh)
+    vmark = np.zeros(mesh.nv, dtype=bool)
+    for op, status in contacts:
+        status = np.asarray(status).astype(int)
+        index = {int(v): j for j, v in enumerate(op.nodes)}
+        points, lengths = [], []
+        for seg in _side_edges(mesh, op.side):
+            js = [index[v] for v in seg if v in index]
+            if len(js) >= 2 and len({int(status[j]) for j in js}) > 1:
+                vmark[list(seg)] = True
+                points.append(np.mean(xy[list(seg)], axis=0))
+                lengths.append(float(np.linalg.norm(xy[seg[0]] - xy[seg[1]])))
+        if op.opposite and points:
+            pts, reach = np.array(points), np.array(lengths)
+            for seg in _side_edges(mesh, op.opposite):
+                c = np.mean(xy[list(seg)], axis=0)
+                if np.any(np.linalg.norm(pts - c, axis=1) <= reach):
+                    vmark[list(seg)] = True
+    return _grow(inc @ vmark > 0, inc, layers)
+
+
+def _segments(mesh, op) -> np.ndarray:
+    """The side's boundary segments as pairs of multiplier-node indices (the end vertices of each segment)."""
+    index = {int(v): j for j, v in enumerate(op.nodes)}
+    out = [(index[e[0]], index[e[-1] if len(e) == 2 else e[1]]) for e in _side_edges(mesh, op.side)
+           if e[0] in index and e[1] in index]
+    return np.array(out, dtype=int).reshape(-1, 2)
+
+
+def _statuses(mech) -> list:
+    """[(ContactOperator, nodal status 0 open / 1 stick / 2 slip)] of the last mechanics solve."""
+    items = []
+    for spec, (lam_n, lam_t) in zip(mech.contacts, mech.solver.contact.multipliers):
+        law = spec.law
+        bound = law.slip_bound if law.kind == "tresca" else law.friction
+        items.append((spec.op, contact_status(law.kind, lam_n, lam_t, bound)))
+    return items
+
+
+def _energy(mech) -> float:
+    f = mech.forms
+    w = 2 * np.pi * ngs.x if f.setup.model == "axisymmetric" else 1.0
+    return float(ngs.Integrate(w * f.strain_energy_density(f.displacement()), f.mesh))
+
+
+def _normal_force(mech, lams=None) -> float:
+    lams = lams if lams is not None else [n for n, _ in mech.solver.contact.multipliers]
+    return float(sum(np.dot(spec.op.weight, lam_n) for spec, lam_n in zip(mech.contacts, lams)))
+
+
+class ContactFollowing:
+    """The mechanics of a time-dependent run on meshes that follow the contact zones (module docstring).
+    ``build(mesh)`` returns the run's physics on a mesh (an object with ``mesh``, ``mech`` (static mechanics with
+    contacts), ``heat``, ``solver`` (heat, or None) and ``T``); ``phys`` is the current one, replaced at each
+    remesh; :meth:`solve` is the mechanics solve of an output step."""
+
+    def __init__(self, scene: Scene, geo: GeometryModel, phys, build: Callable, show: bool = False):
+        a = scene.adaptivity
+        self.scene, self.geo, self.build, self.show = scene, geo, build, show
+        self.levels, self.layers, self.remesh_every = a.levels, a.layers, a.remesh_every
+        self.phys = phys
+        mesh = phys.mesh
+        near = np.zeros(mesh.ne, dtype=bool)
+        ev = element_vertices(mesh)
+        for spec in phys.mech.contacts:
+            for side in (spec.op.side, spec.op.opposite):
+                if side:
+                    verts = np.unique(np.array(_side_edges(mesh, side), dtype=int).ravel())
+                    near |= np.isin(ev, verts).any(axis=1)
+        sizes = element_sizes(mesh)
+        self.h_base = float(np.median(sizes[near] if near.any() else sizes))
+        self.h_zone = self.h_base * 0.5 ** self.levels
+        self.remeshes: list[ContactRemesh] = []
+        self.ndofs: list[int] = []                # unknowns of each mechanics solve's (final) mesh
+        self.solves = 0
+        self.factorizations_before = 0
+        self._on_base = True
+        self._band_h = 0.0
+
+    @property
+    def mesh(self):
+        return self.phys.mesh
+
+    # -- meshes ---------------------------------------------------------------------------------------------
+    def _flags(self, layers: int) -> np.ndarray:
+        return transition_elements(self.mesh, _statuses(self.phys.mech), layers)
+
+    def _zone_size(self) -> float:
+        """The largest element at a transition on the current mesh (0: no transition)."""
+        flags = self._flags(0)
+        return float(element_sizes(self.mesh)[flags].max()) if flags.any() else 0.0
+
+    def _restrictions(self) -> list:
+        flags = self._flags(self.layers)
+        xy = _vertex_coords(self.mesh)
+        verts = np.unique(element_vertices(self.mesh)[flags])
+        return [(float(xy[v, 0]), float(xy[v, 1]), 0.0, self.h_zone) for v in verts]
+
+    # -- the run --------------------------------------------------------------------------------------------
+    def solve(self, t: float, where: str):
+        """The mechanics solve at time t (s) on the current mesh, remeshing (and solving again) as the module
+        docstring says; returns the physics (``phys`` may be a new object). The solve is not recorded (the run's
+        output records it)."""
+        mech = self.phys.mech
+        mech.solve(t, where, record=False)
+        self.solves += 1
+        periodic = self.remesh_every > 0 and self.solves % self.remesh_every == 0
+        size = self._zone_size()
+        if size == 0.0:
+            if not self._on_base:                      # no transition left: back to the scene's own mesh
+                self._remesh(t, where, [], "no transition")
+        else:
+            ref = BAND_FACTOR * self._band_h if self._band_h > 0 else RESOLVED * self.h_zone
+            meshings = 0
+            reason = "periodic" if periodic and size <= ref else "transition"
+            while (size > ref or periodic) and meshings < self.levels + 2:
+                self._remesh(t, where, self._restrictions(), reason)
+                meshings += 1
+                periodic = False
+                size = self._zone_size()
+                ref = RESOLVED * self.h_zone
+                if size == 0.0:
+                    break
+            if meshings:
+                self._band_h = size
+        self.ndofs.append(self.phys.mech.forms.X.ndof)
+        return self.phys
+
+    def _remesh(self, t: float, where: str, restrictions: list, reason: str) -> None:
+        """A new mesh with the local size restricted at ``restrictions`` (none: the scene's own mesh), the state
+        carried over and the mechanics solved again at t."""
+        tic = time.perf_counter()
+        old = self.phys
+        mesh = make_mesh(self.geo, self.scene.mesh, restrictions)
+        self._on_base = not restrictions
+        self.factorizations_before += _factorizations(old)
+        new = self.build(mesh)
+        heat_change = l2_change = None
+        if old.heat is not None:
+            heat_change, l2_change = _transfer_temperature(old, new)
+        om, nm = old.mech, new.mech
+        energy_before = _energy(om)
+        force_before = _normal_force(om)
+        nm.forms.displacement().Set(om.forms.displacement())
+        energy_after = _energy(nm)
+        lams = _transfer_multipliers(om, nm)
+        force_after = _normal_force(nm, [n for n, _ in lams])
+        if hasattr(nm.solver.contact, "warm_start"):
+            sets = []
+            for spec, (lam_n, lam_t) in zip(nm.contacts, lams):
+                law = spec.law
+                status = contact_status(law.kind, lam_n, lam_t, law.slip_bound if law.kind == "tresca"
+                                        else law.friction)
+                sets.append((status > 0, status == 1, status == 2))
+            nm.solver.contact.warm_start(nm.forms.X.ndof, sets)
+        moved = ngs.GridFunction(nm.forms.displacement().space)
+        moved.vec.data = nm.forms.displacement().vec
+        nm.solve(t, f"{where} (on the remeshed mesh)", record=False)
+        nm.adopt(om)
+        u = nm.forms.displacement()
+        w = 2 * np.pi * ngs.x if nm.forms.setup.model == "axisymmetric" else 1.0
+
+        def h1(v, g) -> float:
+            return float(ngs.Integrate(w * (ngs.InnerProduct(v, v) + ngs.InnerProduct(g, g)), mesh)) ** 0.5
+
+        diff = h1(u - moved, ngs.Grad(u) - ngs.Grad(moved))
+        norm = h1(u, ngs.Grad(u))
+        self.phys = new
+        rec = ContactRemesh(t, old.mech.forms.X.ndof, nm.forms.X.ndof, mesh.ne, heat_change, l2_change,
+                            energy_before, energy_after, force_before, force_after,
+                            resolve_h1_difference_rel=diff / max(norm, 1e-300),
+                            wall_s=time.perf_counter() - tic, reason=reason)
+        self.remeshes.append(rec)
+        if self.show:
+            print(f"contact-zone following: remesh at t = {t:.6g} s ({reason}): {rec.ndof_before} -> "
+                  f"{rec.ndof_after} dofs; transfer: strain energy {rec.energy_change_rel:.1e}, normal force "
+                  f"{rec.normal_force_change_rel:.1e}"
+                  + (f", heat content {heat_change:.1e}" if heat_change is not None else ""), flush=True)
+
+    @property
+    def factorizations(self) -> int:
+        return self.factorizations_before + _factorizations(self.phys)
+
+    def summary(self) -> dict:
+        n = np.array(self.ndofs, dtype=float)
+        recs = self.remeshes
+
+        def largest(key):
+            vals = [getattr(r, key) for r in recs if getattr(r, key) is not None]
+            return max(vals, default=0.0)
+
+        return {"mode": "contact_zone_following", "indicators": ["contact_zone"], "levels": self.levels,
+                "layers": self.layers, "remesh_every": self.remesh_every, "h_base_m": self.h_base,
+                "h_zone_m": self.h_zone, "remesh_count": len(recs), "mechanics_solves": self.solves,
+                "transfer": {"strain_energy_change_rel_max": largest("energy_change_rel"),
+                             "normal_force_change_rel_max": largest("normal_force_change_rel"),
+                             "heat_content_change_rel_max": largest("heat_content_change_rel"),
+                             "temperature_l2_change_rel_max": largest("temperature_l2_change_rel")},
+                "dofs": {"mean": float(n.mean()) if len(n) else float(self.phys.mech.forms.X.ndof),
+                         "max": int(n.max()) if len(n) else self.phys.mech.forms.X.ndof,
+                         "min": int(n.min()) if len(n) else self.phys.mech.forms.X.ndof,
+                         "final": self.phys.mech.forms.X.ndof, "per_solve": [int(v) for v in self.ndofs]},
+                "remesh_wall_s": float(sum(r.wall_s for r in recs)),
+                "remeshes": [r.as_dict() for r in recs]}
+
+
+def _factorizations(phys) -> int:
+    n = phys.mech.solver.factorizations
+    if phys.solver is not None:
+        n += phys.solver.factorizations
+    return n
+
+
+def _transfer_temperature(old, new) -> tuple[float | None, float]:
+    """T (and the heat step's old state) carried to ``new``; the heat solver's next step is backward Euler.
+    Returns (relative heat content change or None without heat capacity, relative L2 difference)."""
+    T_old, T_new = old.T, new.T
+    T_new.Set(T_old)
+    new.heat.gf_old.vec.data = new.heat.gf.vec
+    new.solver.backward_euler_steps = 1
+    mesh = new.mesh
+    w = 2 * np.pi * ngs.x if new.heat.setup.axisymmetric else 1.0
+    before = float(ngs.Integrate(w * old.heat.rho_c * T_old, old.mesh))
+    after = float(ngs.Integrate(w * new.heat.rho_c * T_new, mesh))
+    change = abs(after - before) / abs(before) if before != 0.0 else None
+    l2 = float(ngs.Integrate(w * (T_new - T_old) ** 2, mesh, order=2 * new.heat.setup.order + 2)) ** 0.5
+    norm = float(ngs.Integrate(w * T_old ** 2, old.mesh)) ** 0.5
+    return change, l2 / max(norm, 1e-300)
+
+
+def _transfer_multipliers(old, new) -> list:
+    """The nodal multipliers (lam_n, lam_t) of each contact of ``old`` interpolated to the nodes of ``new``'s
+    (same contacts, same order)."""
+    out = []
+    for so, sn, (lam_n, lam_t) in zip(old.contacts, new.contacts, old.solver.contact.multipliers):
+        seg = _segments(old.forms.mesh, so.op)
+        xy_o, xy_n = so.op.coords[:, :2], sn.op.coords[:, :2]
+        out.append((interpolate_on_side(xy_o, lam_n, seg, xy_n), interpolate_on_side(xy_o, lam_t, seg, xy_n)))
+    return out
