@@ -184,3 +184,21 @@ def test_permafrost_front_deepens_while_cold_within_its_bounds(permafrost):
     assert np.isnan(depth[-1])
     e = s["stefan"]["energy"]
     assert e["imbalance_rel_max"] < 1e-8
+
+
+def test_repository_adaptive_level_follows_the_fault_and_agrees(repository):
+    """The adaptive level (meshes that follow the fault's contact zones) at the test level: the peak temperature,
+    the fault's forces and the force balance agree with the fixed mesh; the transfers are small."""
+    res = api.run("repository_section", None, progress=False,
+                  overrides=REPOSITORY_COARSE + ['adaptivity.indicators=["contact_zone"]', "adaptivity.levels=2"])
+    a = res.summary["adaptivity"]
+    peak, peak_fixed = (r.summary["probes"]["canister_buffer_max_3"]["max"] for r in (res, repository))
+    f, f_fixed = (r.summary["mechanics"]["contact"]["interfaces"]["fault"] for r in (res, repository))
+    print(f"\nadaptive: remeshes {a['remesh_count']}, dofs per solve {a['dofs']['per_solve']}, transfer "
+          f"{a['transfer']}; peak {peak:.3f} C (fixed mesh {peak_fixed:.3f}), fault normal force "
+          f"{f['normal_force']:.5e} ({f_fixed['normal_force']:.5e}), nodes {f['nodes']} ({f_fixed['nodes']})")
+    assert a["mode"] == "contact_zone_following" and a["mechanics_solves"] == len(res.summary["mechanics"]["times_s"])
+    assert abs(peak - peak_fixed) < 0.5
+    assert f["normal_force"] == pytest.approx(f_fixed["normal_force"], rel=1e-2)
+    assert a["transfer"]["heat_content_change_rel_max"] < 1e-3
+    assert max(h["imbalance_rel"] for h in res.summary["mechanics"]["contact"]["history"]) < 1e-8

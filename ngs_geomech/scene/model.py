@@ -460,8 +460,11 @@ class Adaptivity:
     (:mod:`ngs_geomech.adapt`) before the output is written on the final mesh; transient scenes with a phase
     change (plane) on meshes that follow the phase boundary (``indicators = ['phase_front']``: the scene's
     geometry remeshed with a fine size at the liquid-fraction 1/2 iso-line, the enthalpy carried over;
-    :mod:`ngs_geomech.problems.stefan_adaptive`). estimator, marker, theta and max_refinements are not used
-    then."""
+    :mod:`ngs_geomech.problems.stefan_adaptive`); time-dependent scenes with static mechanics and a contact
+    (plane, axisymmetric) on meshes that follow the contact zones (``indicators = ['contact_zone']``: remeshed
+    with a fine size at the active set's ends and the stick/slip transitions at each mechanics solve, temperature,
+    displacement and multipliers carried over; :mod:`ngs_geomech.problems.contact_following`). estimator, marker,
+    theta and max_refinements are not used then."""
 
     estimator: str = field(one_of(*ESTIMATORS), "zz",
                            doc="'zz' (flux / stress recovery, Zienkiewicz-Zhu) or 'residual' (element residual "
@@ -470,9 +473,9 @@ class Adaptivity:
                                doc="the problem whose error is estimated (default: mechanics when on, else heat)")
     indicators: list = field(list_of(one_of(*INDICATORS)), [],
                              doc="elements flagged in addition: 'contact_zone' (the active set's boundary and "
-                                 "stick/slip transitions of every mechanical contact); transient scenes with a "
-                                 "phase change: 'phase_front' (the elements the liquid fraction 1/2 crosses: "
-                                 "front-following meshes)")
+                                 "stick/slip transitions of every mechanical contact; in time-dependent scenes: "
+                                 "meshes that follow them); transient scenes with a phase change: 'phase_front' "
+                                 "(the elements the liquid fraction 1/2 crosses: front-following meshes)")
     marker: str = field(one_of(*MARKERS), "doerfler",
                         doc="'doerfler' (bulk: the fewest elements holding theta of the squared estimate), "
                             "'maximum' (eta_T >= theta max eta) or 'uniform'")
@@ -481,16 +484,19 @@ class Adaptivity:
                                     doc="stop when the estimate (energy norm, the estimator's units) is below it")
     max_dofs: int | None = field(optional(integer), None, doc="stop before a mesh would exceed this many dofs")
     max_refinements: int = field(integer, 6, doc="stop after this many refinements")
-    levels: int = field(integer, 2, doc="'phase_front': halvings of the element size at the phase boundary: "
-                                        "h_front = h_base / 2^levels, h_base the median longest edge (m) of the "
-                                        "scene's own mesh in the phase-change regions")
-    layers: int = field(integer, 2, doc="'phase_front': rings of elements around the ones the front crosses "
-                                        "that are kept at h_front (the band the front may move in)")
+    levels: int = field(integer, 2, doc="time-dependent scenes: halvings of the element size at the phase "
+                                        "boundary / the contact transitions: h = h_base / 2^levels, h_base the "
+                                        "median longest edge (m) of the scene's own mesh in the phase-change "
+                                        "regions / at the contact sides")
+    layers: int = field(integer, 2, doc="time-dependent scenes: rings of elements around the ones the front (the "
+                                        "transition) crosses that are kept fine (the band it may move in)")
     remesh_every: int = field(integer, 0, doc="'phase_front': remesh after every this many time steps at the "
                                               "front of the step's end; 0 (default): only when the front "
                                               "reaches elements coarser than the band's (1.25x), and then that "
                                               "step is repeated on the new mesh (refined at the front's "
-                                              "positions before and after it)")
+                                              "positions before and after it). 'contact_zone': the same per "
+                                              "mechanics solve (a solve whose transitions left the band is "
+                                              "solved again on the new mesh)")
 
 
 DISTRIBUTIONS = ("uniform", "normal", "lognormal", "triangular")
