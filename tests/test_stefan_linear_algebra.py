@@ -2,7 +2,8 @@
 factorization kept over many Newton matrices and Sherman-Morrison-Woodbury corrections for the changed columns
 agree with direct sparse solves to round-off, also with a partly factored set (mushy columns left out) and
 after the rows kept of the correction vectors are outrun; a Stefan run reusing factorizations gives the same
-iterations and states as one that factors at every change."""
+iterations and states as one that factors at every change. The same for the window mode (Schur complement on a
+window of nodes around the front, placed anew when the front leaves it), forced on the small mesh."""
 
 from __future__ import annotations
 
@@ -105,3 +106,65 @@ def test_reuse_gives_the_same_run_as_factoring_at_every_change(strip):
     assert np.max(np.abs(reuse.e - fresh.e)) < 1e-10
     assert reuse.factorizations < fresh.factorizations / 5
     assert sum(i.factorizations for i in ri) == reuse.factorizations
+
+
+def _windowed(jac, width=2):
+    """Window mode (the Schur complement on a window around the changing columns) on a small mesh, the window's
+    width fixed (not adapted to the measured costs)."""
+    jac.WINDOW_MIN = 0
+    jac.WINDOW = width
+    jac.WINDOW_RANGE = (width, width)
+    return jac
+
+
+def test_window_mode_matches_direct_solves(strip):
+    """Window mode: M0 factored outside a window of nodes around the last changes, the window's Schur complement
+    factored per changed matrix; a front sweeping the strip leaves the window, which is placed anew around it
+    (the refactor trigger), and with it the conductivity jump; mushy columns far from it are not factored."""
+    _, mesh, forms = strip
+    jac = _windowed(_ColumnJacobian(forms))
+    xs = np.array([v.point[0] for v in mesh.vertices])[jac.free]
+    nF = jac.nF
+    rng = np.random.default_rng(5)
+    mc = forms.mass[jac.free] * rng.choice([1.0, 3.0], nF)
+    wd = np.full((nF, 1), 1.0)
+    worst, windowed, sizes = 0.0, 0, []
+    for k in range(120):
+        front = 0.1 + 0.006 * k
+        sensible = xs < front
+        w = np.where(sensible, np.where(xs < front - 0.03, 1.0, 1.5), 0.0)[:, None]
+        b = rng.standard_normal(nF) * sensible
+        x = jac.solve(mc, wd, w, b, 0.005, "test")
+        ref = _direct(forms, jac, mc, wd, w, 0.005, b)
+        worst = max(worst, float(np.max(np.abs(x - ref)[sensible]) / np.max(np.abs(ref[sensible]))))
+        if jac._win is not None:
+            windowed += 1
+            sizes.append(jac._win["nC"])
+    print(f"\nwindow mode, front sweep: {jac.factorizations} factorizations (placements), "
+          f"{jac.window_factorizations} Schur complement factorizations, {jac.corrections} interface solves, "
+          f"window {min(sizes)} .. {max(sizes)} of {nF} nodes; worst relative difference {worst:.1e}")
+    assert windowed == 120
+    assert worst < 1e-11
+    assert 3 < jac.factorizations < 60
+    assert max(sizes) <= jac.WINDOW_FRACTION * nF
+
+
+def test_window_mode_gives_the_same_run_as_factoring_at_every_change(strip):
+    p, _, forms = strip
+    runs = []
+    for window in (True, False):
+        solver = StefanSolver(forms, max_changed=None if window else 0)
+        if window:
+            _windowed(solver.jac)
+        solver.set_initial_enthalpy(st.initial_enthalpy(forms, p, 0.05))
+        infos = [solver.step(a, b) for a, b in schedule(0.05, 0.2, 0.005)]
+        runs.append((solver, infos))
+    (win, wi), (fresh, fi) = runs
+    print(f"\nwindow mode: {win.factorizations} placements, {win.jac.window_factorizations} Schur complement "
+          f"factorizations, {sum(i.corrections for i in wi)} interface solves; factoring at every change: "
+          f"{fresh.factorizations}; max |de| {np.max(np.abs(win.e - fresh.e)):.1e}")
+    assert win.jac._win is not None
+    assert [i.iterations for i in wi] == [i.iterations for i in fi]
+    assert np.max(np.abs(win.e - fresh.e)) < 1e-10
+    assert 1 < win.factorizations < fresh.factorizations / 3
+    assert sum(i.factorizations for i in wi) == win.factorizations

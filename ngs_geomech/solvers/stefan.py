@@ -84,6 +84,7 @@ measures both methods on the same problem.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import ngsolve as ngs
@@ -101,7 +102,8 @@ class StefanStepInfo:
     J/m^3), ``boundary_heat`` (heat that entered through the Dirichlet nodes during the step, J per metre of
     depth in 2D, J in 3D), ``source_heat`` (sources and fluxes, same units), ``phase_changes`` (nodes whose
     branch, solid/mushy/liquid, changed in the step), ``factorizations`` (sparse LU factorizations in the step)
-    and ``corrections`` (new low-rank correction columns, one solve each, see :class:`_ColumnJacobian`)."""
+    and ``corrections`` (new low-rank correction columns, one solve each; in window mode the solves for the
+    window's interface; see :class:`_ColumnJacobian`)."""
 
     iterations: int
     residual: float
@@ -136,10 +138,32 @@ class _ColumnJacobian:
     changed column reaches rows that were not kept, when a node outside the factored set gets w_j != 0, when dt
     changes (every diagonal entry does), or when the small system is singular. (Keeping every row, the 128 MB
     bound forced a factorization every 5 steps at 170k unknowns: 830 instead of 390 ms per step.)
+
+    Window mode (factored sets of at least ``WINDOW_MIN`` unknowns, ``max_changed`` not given). The correction
+    above costs one solve per node that changed since the factorization, and those are the nodes a front sweeps:
+    about 1/h per step with dt ~ h, whatever the refactoring policy (after a factorization every node that changes
+    again needs its row). Instead M0 is factored on R = A - C only, C being a window of ``_width`` stiffness
+    neighbours around the nodes that changed in the last solve, and the columns of C may change freely: with I
+    the nodes of R next to C (two lines of nodes across a front) and Z = (M0_RR^-1)_II (|I| solves per placement),
+
+        z = M_RR^-1 b_R,   (M_CC - M_CI Z M_IC) x_C = b_C - M_CI z_I,   x_R = z - M_RR^-1 (M_RC x_C)
+
+    (block elimination, exact to round-off; M_RR and M_CI are fixed, M_CC and M_IC are read from the current
+    columns). The Schur complement S has the window's sparse pattern plus a dense block on the nodes of C next to
+    R; it is factored (SuperLU, its ordering computed once per placement, no relaxed supernodes) when the
+    window's columns changed. The window is placed again when a column outside it changes (the front has left
+    it), when a node outside A turns sensible, when dt changes, or as a plain factorization (empty window) when
+    there is no last change to centre it on; a singular S falls back to the correction above. The width is
+    adapted at each placement to the measured costs of the last cycle (:meth:`_adapt_width`). ``factorizations``
+    counts the factorizations of M0_RR, ``corrections`` the solves for Z, ``window_factorizations`` those of S.
     """
 
     HALO = 8
     BAND = 16
+    WINDOW = 16
+    WINDOW_RANGE = (4, 64)
+    WINDOW_MIN = 8000
+    WINDOW_FRACTION = 0.5
 
     def __init__(self, forms: StefanForms, max_changed: int | None = None):
         f = forms
@@ -182,6 +206,12 @@ class _ColumnJacobian:
         self._band = None                               # factored rows kept of v_i (factored numbering), None: all
         self._bmap = np.zeros(0, dtype=int)             # factored -> row of _store, -1: not kept
         self._limit = 0
+        self._win = None                                # the window (Schur complement) mode's data, None: Woodbury
+        self._last = None                               # (d, w) of the last solve in window mode
+        self.window_factorizations = 0
+        self._width = None                              # the window's width (stiffness neighbours), adapted
+        self._cycle = [0.0, 0.0]                        # seconds of the last placement, of Schur factorizations since
+        """Sparse LU factorizations of the window's Schur complement (window mode, one per changed matrix)."""
 
     def _load_stiffness(self) -> None:
         """The stiffness values in the free x free pattern (again after the forms' matrices changed)."""
@@ -192,7 +222,8 @@ class _ColumnJacobian:
         for kd in self._kdata:
             kd[self._diag] = 0.0                      # the off-diagonal part; the diagonal is d
 
-    def _factor(self, d: np.ndarray, w: np.ndarray, dt: float, where: str, recent: np.ndarray | None = None) -> None:
+    def _factor(self, d: np.ndarray, w: np.ndarray, dt: float, where: str, recent: np.ndarray | None = None,
+                window: bool = True) -> None:
         """Factor M0 = M(d, w); ``recent`` (free nodes, bool): the nodes whose columns changed in the last cycle,
         around which the next changes are expected (the rows of v_i kept, see the class docstring)."""
         offdiag = np.any(w != 0.0, axis=1)
@@ -206,6 +237,18 @@ class _ColumnJacobian:
         self._full = nA == self.nF
         self._amap[:] = -1
         self._amap[self._A] = np.arange(nA)
+        self._win = None
+        if window and self.max_changed is None and nA >= self.WINDOW_MIN:
+            inC = np.zeros(self.nF, dtype=bool)
+            if recent is not None:
+                self._adapt_width()
+                inC = recent & inA
+                for _ in range(self._width):
+                    inC |= (self._graph @ inC.astype(np.int32)) > 0
+                inC &= inA
+            if np.count_nonzero(inC) <= self.WINDOW_FRACTION * nA:
+                self._place(d, w, dt, where, inA, inC)
+                return
         data = np.zeros(len(self._rows))
         for g, kd in enumerate(self._kdata):
             data += kd * w[self._cols, g]
@@ -251,6 +294,191 @@ class _ColumnJacobian:
             self._limit = int(max(16, min((6.0 * self.lu.nnz) ** (1 / 3), 1.6e7 / rows)))
         if self._store.shape[0] != rows:
             self._store = np.zeros((rows, 0))
+
+    def _adapt_width(self) -> None:
+        """The window's width for the next placement, from the measured costs of the last cycle: a placement
+        (factorization and interface solves, T_p) against the Schur complement factorizations during the cycle
+        (T_s). The cycle lasts about as many steps as the front needs to cross the width w, and the Schur
+        complement grows like w, so the cost per step is about a/w + b w, least at w* = w sqrt(T_p / T_s)
+        (changed by at most a factor 2 per cycle, within WINDOW_RANGE)."""
+        if self._width is None:
+            self._width = int(self.WINDOW)
+        tp, ts = self._cycle
+        if tp > 0:
+            lo, hi = self.WINDOW_RANGE
+            ratio = 2.0 if ts <= 0 else min(2.0, max(0.5, math.sqrt(tp / ts)))
+            self._width = int(min(hi, max(lo, round(self._width * ratio))))
+        self._cycle = [0.0, 0.0]
+
+    def _place(self, d: np.ndarray, w: np.ndarray, dt: float, where: str, inA: np.ndarray, inC: np.ndarray) -> None:
+        """Window mode: factor M0 on R = A - C (SuperLU, M0_RR^T as in :meth:`_factor`) and prepare the Schur
+        complement on the window C (free nodes, bool ``inC``), whose columns may change until the next placement.
+        With I the nodes of R next to C and Z = (M0_RR^-1)_II (|I| solves), every M that differs from M0 only
+        in the columns of C is solved by block elimination (:meth:`_wsolve`):
+
+            z = M_RR^-1 b_R,   (M_CC - M_CI Z M_IC) x_C = b_C - M_CI z_I,   x_R = z - M_RR^-1 (M_RC x_C),
+
+        M_CI being constant (columns in R), M_CC and M_IC read from the current columns."""
+        start = time.perf_counter()
+        nF = self.nF
+        rows, cols = self._rows, self._cols
+        self.lu = None
+        self._slot[:] = -1
+        self._used = 0
+        self._band = None
+        self.dt0, self._d0, self._w0 = dt, d.copy(), w.copy()
+        inR = inA & ~inC
+        R, C = np.nonzero(inR)[0], np.nonzero(inC)[0]
+        nR, nC = len(R), len(C)
+        rpos = np.full(nF, -1)
+        rpos[R] = np.arange(nR)
+        cpos = np.full(nF, -1)
+        cpos[C] = np.arange(nC)
+        lu = None
+        if nR:
+            data = np.zeros(len(rows))
+            for g, kd in enumerate(self._kdata):
+                data += kd * w[cols, g]
+            data[self._diag] += d
+            data = data[self._transpose]              # M0^T in the same (symmetric) pattern
+            keep = inR[rows] & inR[cols]
+            c = rpos[cols[keep]]
+            indptr = np.concatenate([[0], np.cumsum(np.bincount(c, minlength=nR))])
+            mat = sp.csc_matrix((data[keep], rpos[rows[keep]], indptr), shape=(nR, nR))
+            try:
+                lu = spla.splu(mat, permc_spec="MMD_AT_PLUS_A")
+            except RuntimeError as exc:
+                raise SolverError(f"Stefan Newton step at {where}: the factorization failed ({exc}); check the "
+                                  "material data (capacities and conductivities must be > 0) and the time "
+                                  "step.") from None
+            self.factorizations += 1
+        cc = np.nonzero(inC[rows] & inC[cols])[0]     # M_CC entries (pattern positions)
+        ic = np.nonzero(inR[rows] & inC[cols])[0]     # M_RC entries: change with the columns of C
+        ci = np.nonzero(inC[rows] & inR[cols])[0]     # M_CR entries: constant
+        I_ = np.unique(rows[ic])
+        B_ = np.unique(cols[ic])                      # the nodes of C next to R
+        nI, nB = len(I_), len(B_)
+        ipos = np.full(nF, -1)
+        ipos[I_] = np.arange(nI)
+        bpos = np.full(nF, -1)
+        bpos[B_] = np.arange(nB)
+        Zt = np.zeros((nI, nI))
+        for k in range(0, nI, 32):                    # columns of M_RR^-T e_i, i in I, in chunks (memory)
+            chunk = np.arange(k, min(k + 32, nI))
+            E = np.zeros((nR, len(chunk)))
+            E[rpos[I_[chunk]], np.arange(len(chunk))] = 1.0
+            Zt[:, chunk] = lu.solve(E)[rpos[I_]]
+        self.corrections += nI
+        vci = np.zeros(len(ci))
+        for g, kd in enumerate(self._kdata):
+            vci += kd[ci] * w[cols[ci], g]
+        Mci = sp.csr_matrix((vci, (bpos[rows[ci]], ipos[cols[ci]])), shape=(nB, nI))
+        P = np.asarray(Mci @ Zt.T) if nI else np.zeros((nB, 0))   # M_CI Z on the rows of C next to R
+        # the pattern of S: M_CC's and the dense block on B x B, CSC order
+        lin = np.concatenate([cpos[cols[cc]] * nC + cpos[rows[cc]],
+                              np.tile(cpos[B_], nB) * nC + np.repeat(cpos[B_], nB)])
+        uniq, inv = np.unique(lin, return_inverse=True)
+        self._win = {
+            "R": R, "C": C, "nR": nR, "nC": nC, "lu": lu, "rpos": rpos, "cpos": cpos,
+            "cc": cc, "cc_rows": cpos[rows[cc]], "cc_diag": np.nonzero(rows[cc] == cols[cc])[0],
+            "ic": ic, "ic_rows": rpos[rows[ic]], "ic_cols": cpos[cols[ic]],
+            "ic_i": ipos[rows[ic]], "ic_b": bpos[cols[ic]],
+            "ci_rows": cpos[rows[ci]], "ci_cols": rpos[cols[ci]], "vci": vci, "P": P, "nI": nI, "nB": nB,
+            "S_inv": inv, "S_nnz": len(uniq), "S_indices": uniq % nC if nC else uniq,
+            "S_indptr_cols": uniq // max(nC, 1), "perm": None, "S_order": None,
+            "S_indptr": np.concatenate([[0], np.cumsum(np.bincount(uniq // max(nC, 1), minlength=nC))]),
+            "S": None, "S_key": None, "vic": None}
+        self._win["cc_diag_node"] = C[self._win["cc_rows"][self._win["cc_diag"]]]
+        self._last = (d.copy(), w.copy())
+        self._cycle = [time.perf_counter() - start, 0.0]
+
+    def _wsolve(self, b: np.ndarray, d: np.ndarray, w: np.ndarray, where: str) -> np.ndarray:
+        """M x = b in window mode (:meth:`_place`); None when the Schur complement is singular."""
+        W = self._win
+        R, C, nR, nC, lu = W["R"], W["C"], W["nR"], W["nC"], W["lu"]
+        x = np.zeros(self.nF)
+        if nC == 0:
+            x[R] = lu.solve(b[R], trans="T")
+            return x
+        dC, wC = d[C], w[C]
+        if W["S"] is None or not (np.array_equal(dC, W["S_key"][0]) and np.array_equal(wC, W["S_key"][1])):
+            start = time.perf_counter()
+            cols = self._cols
+            cc, ic = W["cc"], W["ic"]
+            vcc = np.zeros(len(cc))
+            vic = np.zeros(len(ic))
+            for g, kd in enumerate(self._kdata):
+                vcc += kd[cc] * w[cols[cc], g]
+                vic += kd[ic] * w[cols[ic], g]
+            vcc[W["cc_diag"]] += d[W["cc_diag_node"]]
+            Mic = np.zeros((W["nI"], W["nB"]))
+            Mic[W["ic_i"], W["ic_b"]] = vic
+            blk = W["P"] @ Mic
+            data = np.bincount(W["S_inv"], weights=np.concatenate([vcc, -blk.ravel()]), minlength=W["S_nnz"])
+            try:
+                if W["perm"] is None:
+                    # the fill-reducing ordering of S's pattern, once per placement: S is then factored already
+                    # permuted, without ordering, and without relaxed supernodes (1239 unknowns at 42k nodes:
+                    # 2.1 ms against 4.9 ms with SuperLU's ordering and default relaxation)
+                    S = sp.csc_matrix((data, W["S_indices"], W["S_indptr"]), shape=(nC, nC))
+                    perm = spla.splu(S, permc_spec="MMD_AT_PLUS_A", relax=1).perm_c
+                    lin = perm[W["S_indptr_cols"]] * nC + perm[W["S_indices"]]
+                    order = np.argsort(lin)
+                    W["perm"], W["S_order"] = perm, order
+                    W["S_indices"] = lin[order] % nC
+                    W["S_indptr"] = np.concatenate([[0], np.cumsum(np.bincount(lin[order] // nC, minlength=nC))])
+                S = sp.csc_matrix((data[W["S_order"]], W["S_indices"], W["S_indptr"]), shape=(nC, nC))
+                W["S"] = spla.splu(S, permc_spec="NATURAL", relax=1)
+            except RuntimeError:
+                W["S"] = None
+                return None
+            W["S_key"] = (dC.copy(), wC.copy())
+            W["vic"] = vic
+            self.window_factorizations += 1
+            self._cycle[1] += time.perf_counter() - start
+        if nR:
+            z = lu.solve(b[R], trans="T")
+            rhs = b[C] - np.bincount(W["ci_rows"], weights=W["vci"] * z[W["ci_cols"]], minlength=nC)
+        else:
+            z, rhs = np.zeros(0), b[C].copy()
+        rp = np.empty(nC)
+        rp[W["perm"]] = rhs
+        xC = W["S"].solve(rp)[W["perm"]]
+        if not np.all(np.isfinite(xC)):
+            return None
+        x[C] = xC
+        if nR:
+            x[R] = z - lu.solve(np.bincount(W["ic_rows"], weights=W["vic"] * xC[W["ic_cols"]], minlength=nR),
+                                trans="T")
+        return x
+
+    def _fresh(self, b: np.ndarray, d: np.ndarray, w: np.ndarray, where: str) -> np.ndarray:
+        """M x = b right after a factorization (either mode)."""
+        if self._win is None:
+            return self._solve0(b)
+        x = self._wsolve(b, d, w, where)
+        if x is None:                                 # the window's Schur complement is singular: no window
+            self._factor(d, w, self.dt0, where, window=False)
+            return self._solve0(b)
+        return x
+
+    def _solve_window(self, b: np.ndarray, d: np.ndarray, w: np.ndarray, dt: float, where: str,
+                      changed: np.ndarray) -> np.ndarray:
+        """solve() in window mode: placed anew (around the nodes that changed since the last solve) when a column
+        outside the window changed or a node outside the factored set turned sensible."""
+        W = self._win
+        since = (d != self._last[0]) | np.any(w != self._last[1], axis=1)
+        self._last = (d.copy(), w.copy())
+        outside = changed & (self._amap < 0)
+        if (np.any(changed & (W["rpos"] >= 0))
+                or (np.any(outside) and np.any(w[outside] != 0.0))):
+            self._factor(d, w, dt, where, since)
+            return self._fresh(b, d, w, where)
+        x = self._wsolve(b, d, w, where)
+        if x is None:
+            self._factor(d, w, dt, where, window=False)
+            return self._solve0(b)
+        return x
 
     def _solve0(self, b: np.ndarray) -> np.ndarray:
         """M0^-1 b (free numbering; 0 outside the factored set)."""
@@ -318,14 +546,16 @@ class _ColumnJacobian:
             d = d + kd * wd[:, g]
         if self._d0 is None or dt != self.dt0 or stale:
             self._factor(d, w, dt, where)
-            return self._solve0(b)
+            return self._fresh(b, d, w, where)
         changed = (d != self._d0) | np.any(w != self._w0, axis=1)
+        if self._win is not None:
+            return self._solve_window(b, d, w, dt, where, changed)
         recent = changed | (self._slot >= 0)
         if not self._full:
             outside = changed & (self._amap < 0)
             if np.any(outside) and np.any(w[outside] != 0.0):
                 self._factor(d, w, dt, where, recent)
-                return self._solve0(b)
+                return self._fresh(b, d, w, where)
             changed &= self._amap >= 0
         S = np.nonzero(changed)[0]
         if not len(S):
@@ -333,13 +563,13 @@ class _ColumnJacobian:
         new = S[self._slot[S] < 0]
         if self._used + len(new) > self._limit:
             self._factor(d, w, dt, where, recent)
-            return self._solve0(b)
+            return self._fresh(b, d, w, where)
         rows, vals, owner, first = self._columns(S, d, w)
         if self._band is not None:
             kept = self._bmap[rows]
             if np.any(kept < 0):                      # a change outside the rows kept: the front moved on
                 self._factor(d, w, dt, where, recent)
-                return self._solve0(b)
+                return self._fresh(b, d, w, where)
         else:
             kept = rows
         if len(new):
@@ -355,7 +585,7 @@ class _ColumnJacobian:
             t = None
         if t is None or not np.all(np.isfinite(t)):
             self._factor(d, w, dt, where, recent)
-            return self._solve0(b)
+            return self._fresh(b, d, w, where)
         xA = self.lu.solve(bA - np.bincount(rows, weights=vals * t[owner], minlength=len(self._A)), trans="T")
         if self._full:
             return xA
