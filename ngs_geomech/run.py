@@ -192,16 +192,25 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                             "conductivity_factor": []}}
     solve_s = 0.0
 
-    def follow(t: float, where: str) -> None:
-        """Contact-zone following: the mechanics solve at t, the run's objects switched to the new mesh when it
-        remeshed."""
-        nonlocal phys, mesh, heat, solver, T, mech, thermal_fields, probes
-        new = zone.solve(t, where)
+    def follow(t: float, where: str, dt: float | None = None) -> None:
+        """Contact-zone following: the mechanics solve at t (``dt`` given: it was solved by the coupled step of
+        length dt and recorded), the run's objects switched to the new mesh when it remeshed."""
+        nonlocal phys, mesh, heat, solver, T, stefan, mech, coupling, thermal_fields, probes
+        new = zone.solve(t, where) if dt is None else zone.check(t, where)
         if new is phys:
             return
-        phys, mesh, heat, solver, T, mech = new, new.mesh, new.heat, new.solver, new.T, new.mech
+        phys, mesh, heat, solver, T, stefan, mech, coupling = (new, new.mesh, new.heat, new.solver, new.T,
+                                                               new.stefan, new.mech, new.coupling)
+        if coupling is not None:
+            _update_pressure(heat, stefan, mech, where)
+            if dt is not None:                   # the step's rate and record from the solve on the new mesh
+                coupling.set_rate(dt)
+                mech.record(t, replace=True)
         if T is not None:
             thermal_fields = {"temperature": T}
+        if stefan is not None:
+            phi = stefan.fields["liquid_fraction"]
+            thermal_fields.update(liquid_fraction=phi, front=phi)
         probes = _moved_probes(probes, scene, mesh, axi)
         if vtk:
             vtk.mesh, vtk.coefs = mesh, [phys.fields[n] for n in vtk.names]
@@ -215,8 +224,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         if stefan is not None:
             stefan.record(t)
         if mech is not None:
-            if adaptive is not None or zone is not None:   # solved by the adaptive loop / the zone follower
-                mech.record(t)
+            if adaptive is not None or (zone is not None and (coupling is None or k is None)):
+                mech.record(t)                   # solved by the adaptive loop / the zone follower
             elif k is None or (coupling is None and not every_step):
                 mech.solve(t, where)
             elif coupling is None:                   # dynamics: advanced in every step, recorded here
@@ -295,6 +304,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                     _coupled_step(scene, a, b, where, heat, solver, stefan, mech, coupling, history)
                     if heat is not None:
                         _interface_flows(heat, history, axi)
+                    if zone is not None:         # mechanics solved in every coupled step
+                        follow(b, where, dt=b - a)
                 else:
                     if heat is not None:
                         _heat_step(heat, solver, a, b)
@@ -316,7 +327,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                         history["newton_iterations"].append(info.iterations)
                     if every_step:
                         mech.solve(b, where, record=False)
-                if zone is not None and ((k + 1) % scene.output.every == 0 or k == nsteps - 1):
+                if zone is not None and coupling is None and ((k + 1) % scene.output.every == 0 or k == nsteps - 1):
                     follow(b, where)
                 output(b, k, k == nsteps - 1, where)
                 solve_s += _time.perf_counter() - tic
@@ -668,8 +679,13 @@ class _Mechanics:
         if self.contact_output is not None:
             self.contact_output.history[:0] = old.contact_output.history
 
-    def record(self, t: float) -> None:
-        """Keep the solution of the last solve as the one at time t (s)."""
+    def record(self, t: float, replace: bool = False) -> None:
+        """Keep the solution of the last solve as the one at time t (s); ``replace``: instead of the last record
+        (the same time solved again on a new mesh)."""
+        if replace and self.times:
+            self.times.pop()
+            if self.contact_output is not None and self.contact_output.history:
+                self.contact_output.history.pop()
         self.times.append(t)
         if self.contact_output is not None:
             self.contact_output.record(t, self.solver)

@@ -50,7 +50,7 @@ def test_hertz_contact_zone_is_followed_as_the_load_grows():
     assert max(follow["a_error"]) <= 1.5 * a["h_zone_m"]           # the zone's end within about one node
     assert max(follow["dofs_per_solve"]) < fine["dofs"] / 3
     t = a["transfer"]
-    assert t["normal_force_change_rel_max"] < 0.05 and t["strain_energy_change_rel_max"] < 0.01
+    assert t["normal_force_change_rel_max"] < 0.05 and t["strain_norm_change_rel_max"] < 0.01
     # the re-solve's change on the new mesh (the mesh's effect, not the transfer's: 0.74 after the first remesh,
     # where the scene's own mesh had one element across the zone) shrinks once the zone is resolved
     diffs = [r["resolve_h1_difference_rel"] for r in a["remeshes"]]
@@ -87,11 +87,15 @@ def test_transient_fault_follows_its_stick_slip_transitions(tmp_path):
           f"tangential {fault['tangential_force']:.6e} vs {ffix['tangential_force']:.6e}; nodes {fault['nodes']}")
     assert a["remesh_count"] >= 1 and m["times_s"] == [0.0, 3.15e9, 6.3e9]
     assert all(r["heat_content_change_rel"] is not None for r in a["remeshes"])
-    # measured (P1, 80 m elements, a heated surface layer ~55 m thick): heat content changes 1e-3 - 5e-3, the
-    # temperature's L2 change 2 - 9 % (the initial field jumps at the heated boundary), the strain energy
-    # 0.3 - 9 % (the thermal strain with the interpolated temperature)
-    t = a["transfer"]
-    assert t["heat_content_change_rel_max"] < 1e-2 and t["strain_energy_change_rel_max"] < 0.15
+    # at t = 0 the scene's initial state is set on the new mesh (T = 0 inside, 10 C on the surface: its heat content
+    # is that of the boundary elements, and differs by up to 75 % between meshes); later transfers carry the
+    # temperature: measured (P1, 80 m elements, a heated surface layer ~55 m thick) heat content changes below
+    # 1e-3, temperature L2 changes 1-2 %, strain norm changes up to 11 %
+    later = [r for r in a["remeshes"] if r["t_s"] > 0]
+    keys = ("heat_content_change_rel", "temperature_l2_change_rel", "strain_norm_change_rel")
+    print(f"transfers after t = 0 ({', '.join(keys)}): {[[r[k] for k in keys] for r in later]}")
+    assert later and all(r["heat_content_change_rel"] < 1e-2 and r["temperature_l2_change_rel"] < 0.05
+                         and r["strain_norm_change_rel"] < 0.25 for r in later)
     vm, vm_fixed = (r.summary["probes"]["wedge_max_von_mises"]["final"] for r in (res, fixed))
     print(f"wedge max von Mises {vm:.4e} vs fixed mesh {vm_fixed:.4e}")
     assert vm == pytest.approx(vm_fixed, rel=0.25)
@@ -107,8 +111,6 @@ def test_transient_fault_follows_its_stick_slip_transitions(tmp_path):
 
 @pytest.mark.parametrize("change, item, text", [
     ({"physics": {"thermal": "transient", "mechanics": "dynamic"}}, "physics.mechanics", "'static'"),
-    ({"physics": {"thermal": "transient", "mechanics": "static", "coupling": "staggered"}}, "physics.coupling",
-     "'none'"),
     ({"adaptivity": {"indicators": ["contact_zone", "phase_front"]}}, "adaptivity.indicators", "together"),
     ({"adaptivity": {"indicators": ["contact_zone"], "levels": 0}}, "adaptivity.levels", "between 1 and 8"),
     ({"adaptivity": {"indicators": ["contact_zone"], "tolerance": 1.0}}, "adaptivity.tolerance", "not used"),

@@ -117,3 +117,25 @@ def test_viscous_plate_collision_against_the_quasi_static_run():
     assert v["viscous_dissipation_J"] > 0 and d["deformation_heat_J"] > 0
     assert 1e-4 < abs(d["sigma_3_min_Pa"]) / abs(s["sigma_3_min_Pa"]) < 0.2
     assert 1e-4 < abs(d["contacts_normal_force_rel"]["slab_wedge"]) < 0.2
+
+
+def test_plate_collision_adaptive_level_follows_the_contacts(plate_collision):
+    """Meshes that follow the contact zones with a phase change and deformation heating (coupled steps): the
+    balances hold, the melting zone is the fixed mesh's, the contacts stay closed where the plates converge."""
+    res = api.run("plate_collision", None, progress=False,
+                  overrides=COARSE + ['adaptivity.indicators=["contact_zone"]', "adaptivity.levels=2"])
+    s, f = res.summary, plate_collision.summary
+    a = s["adaptivity"]
+    c = s["mechanics"]["contact"]
+    print(f"\nremeshes {a['remesh_count']} at {[r['t_s'] for r in a['remeshes']]}, dofs {a['dofs']['per_solve']}, "
+          f"transfer {a['transfer']}; melted fraction {s['stefan']['melted_fraction']['melt_zone'][-1]:.4f} "
+          f"(fixed {f['stefan']['melted_fraction']['melt_zone'][-1]:.4f}); trench uy "
+          f"{s['probes']['trench_uy']['final']:.1f} m (fixed {f['probes']['trench_uy']['final']:.1f}); rejected "
+          f"remeshes {[r['t_s'] for r in a['rejected_remeshes']]}")
+    assert a["remesh_count"] >= 1 and s["mechanics"]["times_s"][-1] == pytest.approx(END, rel=1e-12)
+    assert s["stefan"]["energy"]["imbalance_rel_max"] < 1e-8
+    assert max(h["imbalance_rel"] for h in c["history"]) < 1e-8
+    assert s["stefan"]["melted_fraction"]["melt_zone"][-1] == pytest.approx(
+        f["stefan"]["melted_fraction"]["melt_zone"][-1], abs=0.02)
+    assert s["probes"]["trench_uy"]["final"] == pytest.approx(f["probes"]["trench_uy"]["final"], rel=0.2)
+    assert c["interfaces"]["slab_wedge"]["normal_force"] > 0.0 and c["interfaces"]["slab_base_2"]["normal_force"] > 0

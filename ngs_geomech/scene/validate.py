@@ -231,7 +231,7 @@ def _check_front_following(scene: Scene, problems: list[Problem]) -> None:
 def _check_zone_following(scene: Scene, problems: list[Problem]) -> None:
     """``[adaptivity]`` with ``'contact_zone'`` in a time-dependent scene: meshes that follow the contact zones
     (what :mod:`ngs_geomech.problems.contact_following` supports: static mechanics with a contact, plane or
-    axisymmetric, no phase change, no deformation heating)."""
+    axisymmetric)."""
     a = scene.adaptivity
     ph = scene.physics
     if "phase_front" in a.indicators:
@@ -244,12 +244,6 @@ def _check_zone_following(scene: Scene, problems: list[Problem]) -> None:
             bc.foundation is not None for bc in scene.boundary_conditions.values()):
         problems.append(Problem("adaptivity.indicators", "'contact_zone' needs mechanics with a contact interface or "
                                 "a foundation"))
-    if stefan_scene(scene):
-        problems.append(Problem("adaptivity.indicators", "'contact_zone' over time is not available with a phase "
-                                "change (the enthalpy is not carried to a new mesh here): remove [adaptivity]"))
-    if ph.coupling != "none":
-        problems.append(Problem("physics.coupling", "meshes that follow the contact zones need physics.coupling = "
-                                f"'none', got {ph.coupling!r}"))
     if scene.scene.dimension == "3d":
         problems.append(Problem("scene.dimension", "meshes that follow the contact zones are available for plane "
                                 "and axisymmetric scenes only, not '3d'"))

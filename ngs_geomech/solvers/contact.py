@@ -277,6 +277,11 @@ class ContactSolver:
             self._state = out
         return self._state
 
+    def cold_start(self) -> None:
+        """Forget the sets of the last solve (or of :meth:`warm_start`): the next solve begins with the penalty
+        phase, as the first one does."""
+        self._state, self._pattern, self._converged = None, None, False
+
     def warm_start(self, ndof: int, sets: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> None:
         """Start the next solve from given nodal sets, one (active, stick, slip) triple of bool arrays per
         interface (e.g. transferred from the solution on a coarser mesh): the solve then begins with the exact
