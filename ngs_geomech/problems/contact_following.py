@@ -21,7 +21,10 @@ to ``levels + 2`` meshings per time until the transitions lie in elements of at 
 or all closed in one state) the mesh goes back to the scene's own mesh.
 
 Transfer (each measured and recorded in ``remeshes``; a remesh at the start time sets the scene's initial state
-on the new mesh instead of carrying the old one):
+on the new mesh instead of carrying the old one). Fields are set by NGSolve's ``Set`` of the old field
+(element-wise projection from interior quadrature points, then averaging). ``Set(..., dual = True)`` (point values
+at vertices and on edges) was tried and is worse here: points on a contact side are located in the other body's
+element (the heat content change of the fault test went from 9e-4 to 2e-2, Hertz's strain norm from 1e-3 to 11).
 
 * temperature: interpolated (NGSolve's ``Set`` of the old field evaluated on the new mesh, per body); the change
   of the heat content int rho c T dx (J per m of depth in plane scenes) and the relative L2 difference
