@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ngs_geomech import api
 from ngs_geomech.errors import ResumeError, SceneError
 from ngs_geomech.problems.contact_following import interpolate_on_side
 from ngs_geomech.run import run_scene
@@ -111,7 +112,7 @@ def test_transient_fault_follows_its_stick_slip_transitions(tmp_path):
 
 @pytest.mark.parametrize("change, item, text", [
     ({"physics": {"thermal": "transient", "mechanics": "dynamic"}}, "physics.mechanics", "'static'"),
-    ({"adaptivity": {"indicators": ["contact_zone", "phase_front"]}}, "adaptivity.indicators", "together"),
+    ({"adaptivity": {"indicators": ["contact_zone", "phase_front"]}}, "adaptivity.indicators", "phase change"),
     ({"adaptivity": {"indicators": ["contact_zone"], "levels": 0}}, "adaptivity.levels", "between 1 and 8"),
     ({"adaptivity": {"indicators": ["contact_zone"], "tolerance": 1.0}}, "adaptivity.tolerance", "not used"),
 ])
@@ -123,3 +124,24 @@ def test_bad_contact_following_settings_are_named(change, item, text):
         validate(scene_from_dict(data))
     print(f"\n{info.value}")
     assert any(p.item == item and text in p.message for p in info.value.problems), info.value.problems
+
+
+def test_contact_melting_follows_front_and_contact_together():
+    """(P_c): the melting front and the bedding contact's stick/slip ends followed together (coupled steps, the
+    enthalpy carried by the lumped projection): the Stefan energy balance holds with the transfers counted, the
+    melted fraction is the fixed mesh's to the discretization error."""
+    over = ["time.end=0.5 year", "time.dt=10 day", "output.vtk=false", "output.figures=false"]
+    fixed = api.run("contact_melting", None, overrides=over, progress=False)
+    res = api.run("contact_melting", None, progress=False,
+                  overrides=over + ['adaptivity.indicators=["contact_zone", "phase_front"]', "adaptivity.levels=2"])
+    a, s, f = res.summary["adaptivity"], res.summary["stefan"], fixed.summary["stefan"]
+    changes = [r["heat_content_change_rel"] for r in a["remeshes"] if r["t_s"] > 0]
+    print(f"\nremeshes {a['remesh_count']} (h_zone {a['h_zone_m']:.4f} m, h_front {a['h_front_m']:.4f} m), dofs mean "
+          f"{a['dofs']['mean']:.0f} (fixed {fixed.summary['mesh']['dofs']}); heat content changes max "
+          f"{max(changes, default=0):.1e}; melted fraction {s['melted_fraction']['salt'][-1]:.4f} (fixed "
+          f"{f['melted_fraction']['salt'][-1]:.4f}); energy imbalance {s['energy']['imbalance_rel']:.1e}")
+    assert a["indicators"] == ["contact_zone", "phase_front"] and a["remesh_count"] >= 1
+    assert changes and max(changes) < 1e-3
+    assert s["energy"]["imbalance_rel_max"] < 1e-8
+    assert s["melted_fraction"]["salt"][-1] == pytest.approx(f["melted_fraction"]["salt"][-1], abs=0.02)
+    assert max(h["imbalance_rel"] for h in res.summary["mechanics"]["contact"]["history"]) < 1e-8

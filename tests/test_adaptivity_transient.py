@@ -159,9 +159,9 @@ def test_unsupported_combinations_name_their_key():
     for key, data in cases.items():
         msg = _problems(data)
         assert key in msg, (key, msg)
-    # both over time (contact-zone following: tests/test_adaptivity_contact_following.py)
+    # both over time need the contact's mechanics (tests/test_adaptivity_contact_following.py)
     msg = _problems(dict(base, adaptivity={"indicators": ["phase_front", "contact_zone"]}))
-    assert "adaptivity.indicators" in msg and "cannot be followed together" in msg
+    assert "physics.mechanics" in msg and "'static'" in msg
     # no phase change: a plain transient heat scene
     plain = neumann_scene()
     for k in ("phase_change_temperature", "latent_heat_volumetric", "rho_c_liquid", "conductivity_liquid"):

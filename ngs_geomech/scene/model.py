@@ -463,7 +463,8 @@ class Adaptivity:
     :mod:`ngs_geomech.problems.stefan_adaptive`); time-dependent scenes with static mechanics and a contact
     (plane, axisymmetric) on meshes that follow the contact zones (``indicators = ['contact_zone']``: remeshed
     with a fine size at the active set's ends and the stick/slip transitions at each mechanics solve, temperature,
-    displacement and multipliers carried over; :mod:`ngs_geomech.problems.contact_following`). estimator, marker,
+    displacement and multipliers carried over; with ``['contact_zone', 'phase_front']`` the phase boundary as well;
+    :mod:`ngs_geomech.problems.contact_following`). estimator, marker,
     theta and max_refinements are not used then."""
 
     estimator: str = field(one_of(*ESTIMATORS), "zz",

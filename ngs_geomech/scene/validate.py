@@ -234,9 +234,9 @@ def _check_zone_following(scene: Scene, problems: list[Problem]) -> None:
     axisymmetric)."""
     a = scene.adaptivity
     ph = scene.physics
-    if "phase_front" in a.indicators:
-        problems.append(Problem("adaptivity.indicators", "'phase_front' and 'contact_zone' cannot be followed "
-                                "together over time: keep one"))
+    if "phase_front" in a.indicators and not stefan_scene(scene):
+        problems.append(Problem("adaptivity.indicators", "'phase_front' needs a phase change (a material with "
+                                "phase_change_temperature)"))
     if ph.mechanics != "static":
         problems.append(Problem("physics.mechanics", "meshes that follow the contact zones ([adaptivity] with "
                                 f"'contact_zone') need physics.mechanics = 'static', got {ph.mechanics!r}"))
