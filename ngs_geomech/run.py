@@ -151,8 +151,17 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     name = scene.scene.name
     tic = _time.perf_counter()
     phys = _Physics(scene, geo, mesh)
-    adaptive = front = zone = None
-    if scene.adaptivity is not None and scene.time is not None and "contact_zone" in scene.adaptivity.indicators:
+    adaptive = front = zone = pre = None
+    a_set = set(scene.adaptivity.indicators) if scene.adaptivity is not None else set()
+    following = bool({"contact_zone", "phase_front"} & a_set)
+    if scene.adaptivity is not None and scene.time is not None and not following:
+        # validated: transient heat without a followed feature: the mesh adapted once to the steady heat problem
+        # with the data at the start time, the run on it
+        pre = _SceneAdaptive(scene, geo, phys, show, steady_at=scene.time.start)
+        pre.result = adaptive_solve(pre, **pre.settings())
+        phys, mesh = pre.phys, pre.mesh
+        timings["adaptivity_s"] = _time.perf_counter() - tic
+    elif scene.adaptivity is not None and scene.time is not None and "contact_zone" in scene.adaptivity.indicators:
         # validated: static mechanics with contact, plane or axisymmetric (the mesh changes at mechanics solves)
         zone = ContactFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m), show)
     elif scene.adaptivity is not None and scene.time is not None:    # validated: a plane Stefan scene
@@ -376,6 +385,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         summary["adaptivity"] = adaptive.summary()
     if front is not None:
         summary["adaptivity"] = front.summary()
+    if pre is not None:
+        summary["adaptivity"] = {"mode": "pre_adapted", "adapted_at_s": scene.time.start, **pre.summary()}
     if zone is not None:
         summary["adaptivity"] = zone.summary()
     if staging is not None:
@@ -560,10 +571,13 @@ class _SceneAdaptive:
     error; refining bisects the marked elements (curved again to the mesh order) and builds the physics anew on
     the refined mesh (contact pairs and mortar couplings included)."""
 
-    def __init__(self, scene: Scene, geo: GeometryModel, phys: _Physics, show: bool):
+    def __init__(self, scene: Scene, geo: GeometryModel, phys: _Physics, show: bool, steady_at: float | None = None):
         a = scene.adaptivity
         self.scene, self.geo, self.phys, self.mesh, self.show = scene, geo, phys, phys.mesh, show
-        self.target = a.target or ("mechanics" if scene.physics.mechanics else "heat")
+        self.steady_at = steady_at
+        """A transient scene's start time (s): each step solves the steady heat problem with the data at that time
+        (the step operator with 1/dt = 0 and theta = 1), the mechanics not at all (a pre-adapted mesh)."""
+        self.target = a.target or ("mechanics" if scene.physics.mechanics and steady_at is None else "heat")
         self.estimator = a.estimator
         self.heat_info = None
         self.result = None
@@ -582,10 +596,18 @@ class _SceneAdaptive:
     def solve(self) -> dict:
         p = self.phys
         where = f"adaptive step {self.refinements} (steady state)"
-        if p.heat is not None:
+        if self.steady_at is not None:
+            h = p.heat
+            h.t_new.Set(self.steady_at)
+            h.t_old.Set(self.steady_at)
+            h.inv_dt.Set(0.0)
+            h.theta.Set(1.0)
+            h.gf_old.vec[:] = 0.0
+            self.heat_info = p.solver.solve_steady(where)
+        elif p.heat is not None:
             p.heat.t_new.Set(0.0)
             self.heat_info = p.solver.solve(where)
-        if p.mech is not None:
+        if p.mech is not None and self.steady_at is None:
             p.mech.solve(0.0, where, record=False)
         if self.show:
             print(f"adaptivity: step {self.refinements}: {p.ndof} dofs, {self.mesh.ne} elements", flush=True)

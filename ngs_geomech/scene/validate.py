@@ -155,8 +155,10 @@ def _check_adaptivity(scene: Scene, problems: list[Problem]) -> None:
     if ph.thermal == "transient" or (ph.thermal is None and scene.time is not None):
         if "contact_zone" in a.indicators:
             _check_zone_following(scene, problems)
-        else:
+        elif "phase_front" in a.indicators or stefan_scene(scene):
             _check_front_following(scene, problems)
+        else:
+            _check_pre_adapted(scene, problems)
         return
     if "phase_front" in a.indicators:
         problems.append(Problem("adaptivity.indicators", "'phase_front' (front-following meshes) needs a transient "
@@ -226,6 +228,27 @@ def _check_front_following(scene: Scene, problems: list[Problem]) -> None:
     if a.remesh_every < 0:
         problems.append(Problem("adaptivity.remesh_every", f"must be >= 0 (0: when the front leaves the refined "
                                 f"band), got {a.remesh_every}"))
+
+
+def _check_pre_adapted(scene: Scene, problems: list[Problem]) -> None:
+    """``[adaptivity]`` without a followed feature in a time-dependent scene: the mesh adapted once to the steady
+    heat problem with the data at the start time (transient heat scenes)."""
+    a = scene.adaptivity
+    if scene.physics.thermal != "transient":
+        problems.append(Problem("adaptivity", "a time-dependent scene without physics.thermal = 'transient' has "
+                                "nothing to adapt the mesh to: use indicators = ['contact_zone'] (meshes that "
+                                "follow the contact zones) or remove [adaptivity]"))
+    if a.target == "mechanics":
+        problems.append(Problem("adaptivity.target", "a transient scene's mesh is adapted to the steady heat problem "
+                                "at the start time: target must be 'heat' (or indicators = ['contact_zone'])"))
+    if not (0 < a.theta <= 1):
+        problems.append(Problem("adaptivity.theta", f"must be in (0, 1], got {a.theta}"))
+    if a.tolerance is not None and not (a.tolerance > 0 and math.isfinite(a.tolerance)):
+        problems.append(Problem("adaptivity.tolerance", f"must be > 0, got {a.tolerance}"))
+    if a.max_dofs is not None and a.max_dofs < 1:
+        problems.append(Problem("adaptivity.max_dofs", f"must be >= 1, got {a.max_dofs}"))
+    if a.max_refinements < 0:
+        problems.append(Problem("adaptivity.max_refinements", f"must be >= 0, got {a.max_refinements}"))
 
 
 def _check_zone_following(scene: Scene, problems: list[Problem]) -> None:
