@@ -464,7 +464,8 @@ class Adaptivity:
     (plane, axisymmetric) on meshes that follow the contact zones (``indicators = ['contact_zone']``: remeshed
     with a fine size at the active set's ends and the stick/slip transitions at each mechanics solve, temperature,
     displacement and multipliers carried over; with ``['contact_zone', 'phase_front']`` the phase boundary as well;
-    :mod:`ngs_geomech.problems.contact_following`). estimator, marker,
+    :mod:`ngs_geomech.problems.contact_following`); transient heat scenes without such indicators on a mesh
+    adapted once to the steady heat problem with the start time's data (then the run on it). estimator, marker,
     theta and max_refinements are not used then."""
 
     estimator: str = field(one_of(*ESTIMATORS), "zz",
