@@ -143,3 +143,20 @@ def test_in_situ_stress_heated_hole_wall_and_uplift(repository):
     # of micrometres (their missing weight, ~0.9 MN, on the column's stiffness, ~2e10 N/m)
     assert 0.0 < uplift[0] < 1e-4
     assert uplift[-1] - uplift[0] == pytest.approx(confined, rel=0.02)
+
+
+def test_adaptive_level_on_a_pre_adapted_mesh(repository):
+    """The adaptive level at the test level: the 3D mesh adapted once to the steady heat problem at full power
+    (ZZ, Doerfler 0.3, one refinement), the run on it: finer where the estimate is, the peak within the bounds and
+    near the fixed mesh's."""
+    res = api.run("repository_3d", None, progress=False,
+                  overrides=COARSE + ["adaptivity.estimator=zz", "adaptivity.theta=0.3", "adaptivity.max_refinements=1"])
+    a = res.summary["adaptivity"]
+    peak, peak_fixed = (r.summary["probes"]["canister_buffer_max"]["max"] for r in (res, repository))
+    print(f"\npre-adapted 3D: {[(s['ndof'], round(s['estimate'], 3)) for s in a['steps']]}; peak {peak:.3f} C "
+          f"(fixed mesh {peak_fixed:.3f} C)")
+    assert a["mode"] == "pre_adapted" and len(a["steps"]) == 2
+    assert a["steps"][1]["estimate"] < a["steps"][0]["estimate"]
+    assert res.summary["mesh"]["dofs"] == a["steps"][-1]["ndof"] > a["steps"][0]["ndof"]
+    assert SECTION_PEAK < peak < T_REPOSITORY + point_source_array_bound()
+    assert abs(peak - peak_fixed) < 2.0
