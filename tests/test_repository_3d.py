@@ -150,7 +150,8 @@ def test_adaptive_level_on_a_pre_adapted_mesh(repository):
     (ZZ, Doerfler 0.3, one refinement), the run on it: finer where the estimate is, the peak within the bounds and
     near the fixed mesh's."""
     res = api.run("repository_3d", None, progress=False,
-                  overrides=COARSE + ["adaptivity.estimator=zz", "adaptivity.theta=0.3", "adaptivity.max_refinements=1"])
+                  overrides=COARSE + ["adaptivity.estimator=zz", "adaptivity.theta=0.3",
+                                      "adaptivity.max_refinements=1"])
     a = res.summary["adaptivity"]
     peak, peak_fixed = (r.summary["probes"]["canister_buffer_max"]["max"] for r in (res, repository))
     print(f"\npre-adapted 3D: {[(s['ndof'], round(s['estimate'], 3)) for s in a['steps']]}; peak {peak:.3f} C "
