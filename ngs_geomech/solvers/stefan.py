@@ -54,6 +54,19 @@ largest latent heat or C times the temperature range, whichever is larger). A st
 raises SolverError with the residual history and the nodes that still switch branch (never NaN).
 ``studies/stefan_performance`` measures iterations and the time per step against a linear heat step.
 
+Window mode (factored sets of at least 8000 unknowns, see :class:`_ColumnJacobian`). The correction columns are
+the nodes the front sweeps, one solve each, about 1/h per step with dt ~ h (5.3 per step at 42k nodes, 11.7 at
+170k): on fine meshes they were the largest part of a step (time ratio 4.1 - 4.6 at 170k nodes), and no
+refactoring policy removes them (after a factorization each node that changes needs its column again). The
+large meshes therefore factor M0 outside a window around the front and solve the window's Schur complement,
+factored per changed Newton matrix (sparse, of the window's size); a placement (the factorization and about two
+solves per node across the front, for the window's interface) lasts until the front leaves the window, about
+100 - 200 steps. Measured (``studies/stefan_performance`` level 2, one run on the busy shared machine): the same
+iterations, states within 1.2e-12 J/m^3 (42k nodes), 0.5 - 0.6 interface solves and 0.006 - 0.014
+factorizations per step (5.3 and 11.7 correction columns, 0.025 - 0.029 factorizations before), time ratio
+against a linear heat step 1.65, 2.18, 1.76 at 10.8k, 42k, 170k nodes (before 2.78, 3.46, 4.61); old and new
+in one process at 170k nodes (first 500 steps): 2.9 x faster per step, final states within 1.5e-13 J/m^3.
+
 Temperature-dependent conductivity (b != 0, :mod:`ngs_geomech.physics.stefan`). theta is then quadratic on each
 branch, and the Newton matrix's column j carries k_g(T_j) = k_g (1 + b_g (T_j - T_ref)), which changes at every
 node in every iteration: the same :class:`_ColumnJacobian` gives the exact Newton step, but it refactors in
@@ -154,7 +167,9 @@ class _ColumnJacobian:
     window's columns changed. The window is placed again when a column outside it changes (the front has left
     it), when a node outside A turns sensible, when dt changes, or as a plain factorization (empty window) when
     there is no last change to centre it on; a singular S falls back to the correction above. The width is
-    adapted at each placement to the measured costs of the last cycle (:meth:`_adapt_width`). ``factorizations``
+    adapted at each placement to the measured costs of the last cycle (:meth:`_adapt_width`; timing-based, so the
+    placements, and the round-off of the iterates, may differ between two runs of the same problem on large
+    meshes; the Woodbury path below ``WINDOW_MIN`` is deterministic as before). ``factorizations``
     counts the factorizations of M0_RR, ``corrections`` the solves for Z, ``window_factorizations`` those of S.
     """
 

@@ -50,13 +50,46 @@ Command: ``python studies/stefan_performance/run.py --level 1 --out out/stefan_p
 steps), one-phase h = 0.05 ... 0.0125; 1 both down to h = 0.003125 (42k / 16k nodes, 720 steps); 2 both down to
 h = 0.0015625 (170k / 66k nodes, 1440 steps).
 
-Measured at level 1 (one NGSolve and one BLAS thread, the 2-core machine shared with other jobs; CPU time =
-wall time within 1 %; the ratios of repeated runs differ by up to 15 % at the fine levels, more on the coarse
-ones). "Newton": iterations per step, mean / max; "fact", "corr", "chg": factorizations, correction columns and
-nodes changing branch, per step; times in ms per step; "lin": the linear heat step with its factorization
-reused, "ratio" = step / lin (the headline), "r f": step / (linear step with assembly and factorization);
-front: relative error of the front from the melted volume and from the T crossing; "imbal": relative energy
-imbalance; "run": seconds for the level (mesh, initial state, both runs, errors).
+Measured with the solver's window mode (issue 5, the remaining target: :class:`_ColumnJacobian` of
+:mod:`ngs_geomech.solvers.stefan` factors M0 outside a window of nodes around the front and the window's Schur
+complement per changed Newton matrix, for factored sets of at least 8000 unknowns; the smaller meshes keep the
+Woodbury correction, unchanged). Level 2, one run, the other core busy for most of it (load about 2.5: the linear
+step at 170k nodes took 146 ms against 64 ms in the level-2 run below; both are timed under the same load),
+columns as in the tables below ("corr": solves for the window's interface in window mode: two-phase h <= 0.00625,
+one-phase h <= 0.003125 once its factored set, the liquid and a halo, reaches 8000 unknowns):
+
+    two-phase  h    nodes steps Newton fact  corr  chg   step    lin ratio   r f front vol front T  L2 rel  imbal run
+         0.05       215    45 1.22/2 .022  0.42  0.8   1.13   0.42  2.70  0.60  1.29e-2  1.92e-2  4.3e-3 5e-16  0.2
+         0.025      717    90 1.28/3 .022  0.72  1.4   1.41   0.64  2.22  0.23  6.34e-3  1.18e-2  2.1e-3 1e-14  0.5
+         0.0125    2842   180 1.86/5 .022  1.42  2.7   4.41   1.40  3.15  0.18  3.34e-3  4.39e-3  9.0e-4 3e-14  2.2
+         0.00625  10806   360 1.44/4 .014  0.26  5.1  15.09   9.16  1.65  0.11  1.37e-3  3.37e-3  4.7e-4 2e-14 14.0
+         0.003125 42051   720 1.76/5 .010  0.52  9.8  63.25  29.06  2.18  0.13  6.34e-4  6.43e-4  2.4e-4 2e-14 96.5
+         0.0015625 170186 1440 1.71/4 .006 0.62 19.8 257.19 145.74  1.76  0.11  3.32e-4  1.28e-3  1.0e-4 5e-13 683
+    one-phase
+         0.05        83    45 1.13/3 .067  0.76  0.8   0.99   0.56  1.78  0.58  2.35e-3  3.80e-2  5.8e-3 2e-15  0.1
+         0.025      282    90 1.07/2 .056  1.20  1.3   1.31   0.65  2.01  0.71  9.70e-4  9.17e-3  2.7e-3 2e-15  0.3
+         0.0125    1099   180 1.51/3 .056  2.58  2.7   2.07   0.64  3.24  0.28  3.60e-4  7.96e-5  1.1e-3 0      0.9
+         0.00625   4170   360 1.10/3 .069  4.45  5.1   3.83   1.75  2.18  0.08  1.53e-4  7.96e-5  5.3e-4 2e-14  3.7
+         0.003125 16276   720 1.10/3 .060  5.82  9.9  11.39   8.46  1.35  0.07  8.29e-5  1.20e-3  2.7e-4 1e-13 22.0
+         0.0015625 65634 1440 1.09/3 .034 2.45 20.0  56.73  44.25  1.28  0.07  4.62e-5  5.86e-4  1.5e-4 1e-13 180
+
+Newton iterations, front errors, L2 errors and imbalances are those of the Woodbury solver below (the same
+iterates: at 42k nodes the final enthalpies agree to 1.2e-12 J/m^3, identical iteration counts). The time
+ratios before (level 2 with the Woodbury correction at every size, the run of the issue): two-phase 2.10, 2.24,
+3.43, 2.78, 3.46, 4.61 (h = 0.05 ... 0.0015625); after: 2.70, 2.22, 3.15, 1.65, 2.18, 1.76 (the three coarse
+levels run the same code as before: their ratios move with the load of the machine). Old and new solver in
+one process at 170k nodes, the first 500 steps (where the front is fastest), blocks of 100 steps alternating,
+the machine busy: 960 against 330 ms per step (2.9 x), 16.5 correction columns and 0.046 factorizations per
+step against 0.90 interface solves and 0.008 factorizations (adapted width 37), the same Newton iterations
+(mean 2.03, max 4), final enthalpies within 1.5e-13 J/m^3.
+
+Measured at level 1 before the window mode (one NGSolve and one BLAS thread, the 2-core machine shared with other
+jobs; CPU time = wall time within 1 %; the ratios of repeated runs differ by up to 15 % at the fine levels, more
+on the coarse ones). "Newton": iterations per step, mean / max; "fact", "corr", "chg": factorizations, correction
+columns and nodes changing branch, per step; times in ms per step; "lin": the linear heat step with its
+factorization reused, "ratio" = step / lin (the headline), "r f": step / (linear step with assembly and
+factorization); front: relative error of the front from the melted volume and from the T crossing; "imbal":
+relative energy imbalance; "run": seconds for the level (mesh, initial state, both runs, errors).
 
     two-phase  h    nodes steps Newton fact  corr  chg   step    lin ratio   r f front vol front T  L2 rel  imbal run
          0.05       215    45 1.22/2 .022  0.42  0.8   0.36   0.14  2.55  0.45  1.29e-2  1.92e-2  4.3e-3 9e-16  0.1
@@ -71,8 +104,8 @@ imbalance; "run": seconds for the level (mesh, initial state, both runs, errors)
          0.00625   4170   360 1.10/3 .069  4.45  5.1   1.47   0.62  2.39  0.10  1.53e-4  7.96e-5  5.3e-4 2e-14  1.5
          0.003125 16276   720 1.10/3 .069  8.66  9.9   6.66   1.99  3.35  0.11  8.29e-5  1.20e-3  2.7e-4 1e-13  9.4
 
-Level 2 (the next run, same set-up; the rows of the coarser levels agree with the tables above to 10 - 30 % in
-time; this run while the other core was busy with tests):
+Level 2 before the window mode (the next run, same set-up; the rows of the coarser levels agree with the
+tables above to 10 - 30 % in time; this run while the other core was busy with tests):
 
     two-phase  h    nodes steps Newton fact  corr  chg   step    lin ratio   r f front vol front T  L2 rel  imbal run
          0.003125 42051   720 1.76/5 .025  5.33  9.8  33.77   8.46  3.99  0.22  6.34e-4  6.43e-4  2.4e-4 2e-14 40.0
@@ -91,12 +124,27 @@ from the T crossing moves from node to node (no clean order). Energy imbalance a
 (<= 5e-13).
 
 Targets: Newton mean <= 4: met (largest mean 1.86, max 5 iterations); not growing: met (1.22 at h = 0.05,
-1.44 - 1.86 from h = 0.0125 on, up and down between levels; log-log slope -0.12); time ratio <= 3: NOT met,
-3.1 - 3.3 from h = 0.0125 to 0.003125 in this run (2.8 - 4.0 in others; one-phase 2.2 - 3.4), 4.10 at 170k
-nodes (level 2; order of the front over all six levels 1.08, L2 1.06). Against a linear step with its
-factorization the Stefan step costs 0.1 - 0.25 of it.
+1.44 - 1.86 from h = 0.0125 on, up and down between levels; log-log slope -0.10 over the six levels of level 2);
+time ratio <= 3 at the finest level: met with the window mode (1.76 at 170k nodes, 2.18 at 42k; before: 4.10 -
+4.61 at 170k, 3.1 - 3.5 at 42k); at every level: NOT met, h = 0.0125 (2842 nodes, the Woodbury correction, the
+code unchanged) 3.15 in the last run (3.1 - 3.7 in others). Order of the front over all six levels 1.08, L2
+1.06. Against a linear step with its factorization the Stefan step costs 0.1 - 0.25 of it.
 
-Where a step's time goes (profile, two-phase, h = 0.00625, 4.2 - 4.8 ms): 2.8 SuperLU solves (1.1 ms: two per
+Where a step's time goes with the window mode (profile, two-phase, 170k nodes, the window's width fixed at 16,
+287 ms per step on the busy machine): two SuperLU solves with M0_RR per Newton iteration (about 125 ms per
+step: the bulk), the placements (factorization of M0_RR and the solves for the window's interface, about 130
+columns: 5.7 s each, 14 in 1440 steps, 56 ms per step; the adapted width halves their number: 8 placements,
+0.0056 factorizations per step in the table), the window's Schur complement (a factorization per changed
+Newton matrix, 1.07 per step, about 2300 unknowns: about 10 ms per step), the nodal states, residuals and
+GridFunctions (about 90 ms). Why a window rather than a better refactoring policy for the Woodbury correction:
+its correction columns are the nodes the front sweeps since the factorization, one solve each, and a
+refactorization does not remove them (every node that changes after it needs its own column again), so no
+policy gets below about one solve per swept node (11.7 per step at 170k, each about the cost of a linear
+step); the window's cost is instead per placement (its interface, two lines of nodes across the front) and per
+Newton matrix (a sparse LU of the window's size). Avoiding the second solve per iteration would need the
+columns M0_RR^-1 e_i on the interface stored in full (130 x 170k, 177 MB): not done.
+
+Before the window mode (profile, two-phase, h = 0.00625, 4.2 - 4.8 ms): 2.8 SuperLU solves (1.1 ms: two per
 Newton iteration with a correction), 2.6 correction columns (0.75 ms, batched), 0.025 factorizations of 14 ms
 (0.35 ms), the nodal states and GridFunctions (1.15 ms: ``StefanForms.nodal_state`` 3.4 times per step, once
 in ``store``), the rest numpy/Python. A linear step costs about one NGSolve sparsecholesky solve plus the
@@ -119,7 +167,8 @@ so the previous time ratios were about 4.5 - 24 (two-phase, e.g. 23.8 at h = 0.0
 
 Cost on the shared 2-core machine: level 0 about 7 s (two-phase 5.6 s, of it 4.3 s at h = 0.00625); level 1
 about 65 s (two-phase h = 0.003125 alone 45 s: Stefan run 26 s, linear reference 9 s, mesh and initial state
-10 s); level 2 LEVEL2.
+10 s); level 2 about 17 min with the window mode on the busy machine (two-phase 170k nodes 11.4 min, one-phase
+66k nodes 3 min).
 """
 
 from __future__ import annotations
