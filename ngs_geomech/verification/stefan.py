@@ -342,8 +342,10 @@ def neumann_strip(problem: NeumannProblem, h: float, dt: float, t0: float, t1: f
     reused), ``linear_step_time_factor`` (s, with assembly and factorization), the ratios ``time_ratio`` and
     ``time_ratio_factor``, the same in CPU (process) time ``cpu_time_per_step``, ``linear_step_cpu_time``,
     ``time_ratio_cpu`` (factorization reused; less disturbed by other jobs on the machine), ``factorizations``
-    (and ``factorizations_per_step``), ``corrections_per_step`` (the Newton solver's low-rank correction
-    columns, one solve each) and ``phase_changes_per_step`` (nodes changing between solid, mushy and liquid).
+    (and ``factorizations_per_step``), ``corrections_per_step`` (the Newton solver's extra solves: low-rank
+    correction columns, one solve each, or in window mode (factored sets of 8000 unknowns and more) the solves for
+    the window's boundary nodes when a window is set up; :class:`ngs_geomech.solvers.stefan._ColumnJacobian`) and
+    ``phase_changes_per_step`` (nodes changing between solid, mushy and liquid).
     Runs on one NGSolve thread and one BLAS thread (:func:`single_threaded_blas`; the timings compare like with
     like; idle worker threads made sparse Cholesky 30 times slower at 500 dofs).
     """

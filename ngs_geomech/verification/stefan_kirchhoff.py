@@ -20,7 +20,7 @@ backward Euler with dt = c h, measured at t1 against the finest level: the front
 liquid fraction / height) and the temperature along the line y = height/2 (sampled, an L2 norm in x), the
 energy balance (heat content gained against the heat that entered at the Dirichlet nodes), Newton iterations
 per step, and the time per step against the same run with b = 0 (the fast path: one factorization reused with
-low-rank corrections).
+low-rank corrections, or window-boundary solves on large meshes).
 
 Nothing here prints or writes files; every function returns a plain dict.
 """
@@ -170,7 +170,8 @@ def melting_strip(material: PhaseChangeMaterial = STRIP, t_hot: float = 30.0, t_
     as in a scene run (counted in ``halvings``). Per level: front (m, from the melted volume) and its difference
     to the reference, the sampled L2
     difference of T along y = height/2 (K m^(1/2)), the energy imbalance |gain - heat in| / |heat in|, Newton
-    iterations (mean, max), factorizations and low-rank corrections per step, the wall time per step, and with
+    iterations (mean, max), factorizations and extra solves (low-rank corrections) per step, the wall time per
+    step, and with
     ``timing`` the same run with b = 0 (same mesh and steps): its time per step and its factorizations."""
     xs = np.linspace(0.0, length, samples)
     ymid = 0.5 * height
