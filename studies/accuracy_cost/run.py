@@ -32,8 +32,9 @@ timings compare like with like on the shared machine; runs under 0.1 s are repea
   St_S = 0.75, from t0 = 0.05 s to t1 = 0.5 s, started from the exact enthalpy); error: the front from the
   melted volume, |s_h - s| / s at t1 (the front from the temperatures in the tables too). Knobs: h and dt
   together (dt = 0.2 h s/m), h alone (dt fixed), dt alone (h fixed), the semi-smooth Newton tolerance
-  (``StefanSolver(tol=...)``, relative to the enthalpy scale). Lumped P1 only (no order knob); adaptivity in time
-  is not in the library yet (no adaptive knob).
+  (``StefanSolver(tol=...)``, relative to the enthalpy scale), and meshes that follow the front
+  (:func:`ngs_geomech.verification.stefan_adaptive.neumann_adaptive`, levels 1-4 from a 0.05 m base, dt = 0.2
+  h_fine; dofs = the mean over the steps). Lumped P1 only (no order knob).
 * ``transient``: time step of transient heat conduction, the manufactured two-region solution
   (:func:`ngs_geomech.verification.manufactured.transient_convergence`, P2, which holds the solution exactly in
   space, so the error is the time error alone): L2 error at t = 1 s (K m) for backward Euler and Crank-Nicolson.
@@ -46,8 +47,8 @@ timings compare like with like on the shared machine; runs under 0.1 s are repea
 
 Not measured: the linear solver tolerance (every linear solve is direct: sparse Cholesky / UMFPACK; an
 iterative solver is being added in another issue); a contact solver tolerance (the active-set method stops
-when the sets repeat, exact at convergence: it has no tolerance, only ``maxit``); the order and adaptive knobs
-of the Stefan strip (P1 lumped only; no time-dependent adaptivity yet).
+when the sets repeat, exact at convergence: it has no tolerance, only ``maxit``); the order knob of the Stefan
+strip (P1 lumped only).
 
 Command: ``python studies/accuracy_cost/run.py --level 0 --out out/accuracy_cost`` (writes ``results.json``
 and one figure per problem, ``<problem>_error_vs_wall.png``, error against wall time, log-log, the Pareto front
@@ -217,6 +218,14 @@ by +-20 % between runs (ratios of runs over 0.2 s within 10 %).
         error   0.0035   0.0034   0.0033   0.0033
         newto     1.46     1.77     1.86     1.86
         mesh_     0.35     0.35    0.343    0.352
+      front-following meshes (dt = 0.2 h_fine) (levels; measured later, 2026-11-25, beside another job)
+        value        1        2        3        4
+        dofs       307      391      636     1047
+        wall     0.256    0.677    1.588    7.280
+        error   0.0126   0.0033   0.0023  0.00038
+        remes        0        2        2        9
+      (the same run alone took 3.15 s at 4 levels in studies/mesh_convergence; beside the job the uniform h = 0.00625
+      took 7.4 s for 1.37e-3): following the front is the cheapest knob for 5e-3 and 2e-3.
     transient: L2 error at t = 1 s (K m)
       dt, backward Euler (dt (s))
         value      0.2      0.1     0.05    0.025   0.0125
@@ -305,6 +314,7 @@ from ngs_geomech.verification import contact_problems as cp
 from ngs_geomech.verification import manufactured as mms
 from ngs_geomech.verification import nonlinear_law as nl
 from ngs_geomech.verification import stefan as st
+from ngs_geomech.verification import stefan_adaptive as sad
 from ngs_geomech.verification.study import convergence_entry, json_safe, one_ngsolve_thread
 
 STUDY = "accuracy_cost"
@@ -319,7 +329,7 @@ LEVELS = {
         "transient_dts": (0.2, 0.1, 0.05, 0.025, 0.0125), "lambda_h": 0.05, "lambda_fine": False,
         "lambda_tols": (1e-1, 1e-2, 1e-3, 1e-4, 1e-6, 1e-10),
         "growing_levels": (1, 2, 3, 4), "growing_ref_level": 6, "growing_arc_k": (1, 2, 3, 4),
-        "growing_maxh": (0.1, 0.05)},
+        "growing_maxh": (0.1, 0.05), "stefan_front_levels": (1, 2, 3, 4)},
 }
 LEVELS[1] = {**LEVELS[0], "corner_h": LEVELS[0]["corner_h"] + (0.0078125,),
              "corner_h_p": LEVELS[0]["corner_h_p"] + (0.03125,), "corner_dofs": 60000,
@@ -328,7 +338,7 @@ LEVELS[1] = {**LEVELS[0], "corner_h": LEVELS[0]["corner_h"] + (0.0078125,),
              "stefan_dts": LEVELS[0]["stefan_dts"] + (0.000625,), "stefan_h_dt": 0.00625,
              "transient_dts": LEVELS[0]["transient_dts"] + (0.00625,), "lambda_fine": True,
              "growing_levels": (1, 2, 3, 4, 5), "growing_ref_level": 7, "growing_arc_k": (1, 2, 3, 4, 5),
-             "growing_maxh": (0.1, 0.05, 0.025, 0.0125)}
+             "growing_maxh": (0.1, 0.05, 0.025, 0.0125), "stefan_front_levels": (1, 2, 3, 4, 5)}
 LEVELS[2] = {**LEVELS[1], "corner_h": LEVELS[1]["corner_h"] + (0.00390625,), "corner_dofs": 250000,
              "hertz_k": {1: 7, 2: 6, 3: 5}, "hertz_dofs": {1: 250000, 2: 400000},
              "stefan_h": LEVELS[1]["stefan_h"] + (0.0015625,)}
@@ -583,6 +593,18 @@ def stefan_series(p: dict) -> list[dict]:
             _add(s, value, r["dofs"], r["wall_s"], r["error"], front_T=r["front_T"], newton=r["newton"], dt=dt, h=h,
                  failed=r["failed"], mesh_s=r["mesh_s"])
         out.append(s)
+    # meshes that follow the front (adapt.stefan.FrontAdaptiveStefan, as studies/mesh_convergence: base 0.05 m,
+    # h_fine = 0.05 / 2^levels at the front with 2 levels + 2 rings, remeshed when the front is about to leave the
+    # band, the enthalpy by the lumped projection, dt = 0.2 h_fine)
+    s = _series("stefan", "levels (h_fine = 0.05 / 2^levels m)", "front-following meshes (dt = 0.2 h_fine)",
+                cols + ("remeshes",))
+    for lev in p["stefan_front_levels"]:
+        hf = 0.05 / 2 ** lev
+        r = sad.neumann_adaptive(STEFAN, 0.05, lev, 0.2 * hf, STEFAN_T0, STEFAN_T1, layers=2 * lev + 2,
+                                 remesh_every=0, transfer="projection", height=STEFAN_HEIGHT)
+        _add(s, lev, r["ndof_mean"], r["wall_s"], r["front_rel_error"], front_T=float("nan"),
+             newton=r["newton_mean"], dt=0.2 * hf, h=hf, failed=0, mesh_s=float("nan"), remeshes=r["remeshes"])
+    out.append(s)
     return out
 
 
