@@ -182,14 +182,7 @@ def _check_adaptivity(scene: Scene, problems: list[Problem]) -> None:
             bc.foundation is not None for bc in scene.boundary_conditions.values())):
         problems.append(Problem("adaptivity.indicators", "'contact_zone' needs mechanics with a contact interface or "
                                 "a foundation"))
-    if not (0 < a.theta <= 1):
-        problems.append(Problem("adaptivity.theta", f"must be in (0, 1], got {a.theta}"))
-    if a.tolerance is not None and not (a.tolerance > 0 and math.isfinite(a.tolerance)):
-        problems.append(Problem("adaptivity.tolerance", f"must be > 0, got {a.tolerance}"))
-    if a.max_dofs is not None and a.max_dofs < 1:
-        problems.append(Problem("adaptivity.max_dofs", f"must be >= 1, got {a.max_dofs}"))
-    if a.max_refinements < 0:
-        problems.append(Problem("adaptivity.max_refinements", f"must be >= 0, got {a.max_refinements}"))
+    _check_loop_settings(a, problems)
 
 
 def _check_front_following(scene: Scene, problems: list[Problem]) -> None:
@@ -217,17 +210,34 @@ def _check_front_following(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem(f"interfaces.{itf.name}", "front-following meshes ([adaptivity] with "
                                     "'phase_front') need conforming meshes: contact interfaces are not "
                                     "supported (use type = 'glued', or remove [adaptivity])"))
+    _check_following_settings(a, problems, "front-following meshes", "the front leaves")
+
+
+def _check_following_settings(a, problems: list[Problem], what: str, leaves: str) -> None:
+    """levels, layers, remesh_every of meshes that follow a feature over time, and the loop keys they do not use
+    (``what``: the meshes' name; ``leaves``: when they are remeshed with remesh_every = 0)."""
     for key in ("target", "tolerance", "max_dofs"):
         if getattr(a, key) is not None:
-            problems.append(Problem(f"adaptivity.{key}", "not used by front-following meshes (time-dependent "
-                                    "scenes): remove it"))
+            problems.append(Problem(f"adaptivity.{key}", f"not used by {what} (time-dependent scenes): remove it"))
     if not 1 <= a.levels <= 8:
         problems.append(Problem("adaptivity.levels", f"must be between 1 and 8, got {a.levels}"))
     if not 0 <= a.layers <= 20:
         problems.append(Problem("adaptivity.layers", f"must be between 0 and 20, got {a.layers}"))
     if a.remesh_every < 0:
-        problems.append(Problem("adaptivity.remesh_every", f"must be >= 0 (0: when the front leaves the refined "
-                                f"band), got {a.remesh_every}"))
+        problems.append(Problem("adaptivity.remesh_every", f"must be >= 0 (0: when {leaves} the refined band), got "
+                                f"{a.remesh_every}"))
+
+
+def _check_loop_settings(a, problems: list[Problem]) -> None:
+    """The marker's theta and the stop rule of the SOLVE -> ESTIMATE -> MARK -> REFINE loop."""
+    if not (0 < a.theta <= 1):
+        problems.append(Problem("adaptivity.theta", f"must be in (0, 1], got {a.theta}"))
+    if a.tolerance is not None and not (a.tolerance > 0 and math.isfinite(a.tolerance)):
+        problems.append(Problem("adaptivity.tolerance", f"must be > 0, got {a.tolerance}"))
+    if a.max_dofs is not None and a.max_dofs < 1:
+        problems.append(Problem("adaptivity.max_dofs", f"must be >= 1, got {a.max_dofs}"))
+    if a.max_refinements < 0:
+        problems.append(Problem("adaptivity.max_refinements", f"must be >= 0, got {a.max_refinements}"))
 
 
 def _check_pre_adapted(scene: Scene, problems: list[Problem]) -> None:
@@ -241,14 +251,7 @@ def _check_pre_adapted(scene: Scene, problems: list[Problem]) -> None:
     if a.target == "mechanics":
         problems.append(Problem("adaptivity.target", "a transient scene's mesh is adapted to the steady heat problem "
                                 "at the start time: target must be 'heat' (or indicators = ['contact_zone'])"))
-    if not (0 < a.theta <= 1):
-        problems.append(Problem("adaptivity.theta", f"must be in (0, 1], got {a.theta}"))
-    if a.tolerance is not None and not (a.tolerance > 0 and math.isfinite(a.tolerance)):
-        problems.append(Problem("adaptivity.tolerance", f"must be > 0, got {a.tolerance}"))
-    if a.max_dofs is not None and a.max_dofs < 1:
-        problems.append(Problem("adaptivity.max_dofs", f"must be >= 1, got {a.max_dofs}"))
-    if a.max_refinements < 0:
-        problems.append(Problem("adaptivity.max_refinements", f"must be >= 0, got {a.max_refinements}"))
+    _check_loop_settings(a, problems)
 
 
 def _check_zone_following(scene: Scene, problems: list[Problem]) -> None:
@@ -270,17 +273,7 @@ def _check_zone_following(scene: Scene, problems: list[Problem]) -> None:
     if scene.scene.dimension == "3d":
         problems.append(Problem("scene.dimension", "meshes that follow the contact zones are available for plane "
                                 "and axisymmetric scenes only, not '3d'"))
-    for key in ("target", "tolerance", "max_dofs"):
-        if getattr(a, key) is not None:
-            problems.append(Problem(f"adaptivity.{key}", "not used by meshes that follow the contact zones "
-                                    "(time-dependent scenes): remove it"))
-    if not 1 <= a.levels <= 8:
-        problems.append(Problem("adaptivity.levels", f"must be between 1 and 8, got {a.levels}"))
-    if not 0 <= a.layers <= 20:
-        problems.append(Problem("adaptivity.layers", f"must be between 0 and 20, got {a.layers}"))
-    if a.remesh_every < 0:
-        problems.append(Problem("adaptivity.remesh_every", f"must be >= 0 (0: when a transition leaves the refined "
-                                f"band), got {a.remesh_every}"))
+    _check_following_settings(a, problems, "meshes that follow the contact zones", "a transition leaves")
 
 
 def _check_settings(scene: Scene, problems: list[Problem]) -> None:
