@@ -4,7 +4,8 @@ interface or foundation, with or without a phase change and deformation heating;
 time-dependent).
 
 What is followed: the boundary of the active set and the stick/slip transitions of every contact
-(:func:`transition_elements`) at each mechanics solve (the output steps). The mesh is the
+(:func:`transition_elements`) at each mechanics solve (the output steps; every step in a coupled scene). The mesh
+is the
 scene's geometry meshed anew by :func:`ngs_geomech.geometry.mesh.make_mesh` (regions and boundaries keep their
 names; the physics, contact pairs and mortar couplings are rebuilt on each mesh by the run's ``build`` callable)
 with the local size restricted to h_zone = h_base / 2^levels (h_base: the median longest edge of the scene's own
@@ -31,7 +32,7 @@ Transfer (each measured and recorded in ``remeshes``; a remesh at the start time
 on the new mesh instead of carrying the old one). Fields are set by NGSolve's ``Set`` of the old field
 (element-wise projection from interior quadrature points, then averaging). ``Set(..., dual = True)`` (point values
 at vertices and on edges) was tried and is worse here: points on a contact side are located in the other body's
-element (the heat content change of the fault test went from 9e-4 to 2e-2, Hertz's strain norm from 1e-3 to 11).
+element (the heat content change of the fault test went from 9e-4 to 2e-2, Hertz's strain norm from 3e-4 to 11).
 
 * temperature: interpolated (NGSolve's ``Set`` of the old field evaluated on the new mesh, per body); the change
   of the heat content int rho c T dx (J per m of depth in plane scenes) and the relative L2 difference
