@@ -33,8 +33,8 @@ timings compare like with like on the shared machine; runs under 0.1 s are repea
   melted volume, |s_h - s| / s at t1 (the front from the temperatures in the tables too). Knobs: h and dt
   together (dt = 0.2 h s/m), h alone (dt fixed), dt alone (h fixed), the semi-smooth Newton tolerance
   (``StefanSolver(tol=...)``, relative to the enthalpy scale), and meshes that follow the front
-  (:func:`ngs_geomech.verification.stefan_adaptive.neumann_adaptive`, levels 1-4 from a 0.05 m base, dt = 0.2
-  h_fine; dofs = the mean over the steps). Lumped P1 only (no order knob).
+  (:func:`ngs_geomech.verification.stefan_adaptive.neumann_adaptive`, levels 1-3 from a 0.05 m base, level 1 of
+  the study 1-4; dt = 0.2 h_fine; dofs = the mean over the steps). Lumped P1 only (no order knob).
 * ``transient``: time step of transient heat conduction, the manufactured two-region solution
   (:func:`ngs_geomech.verification.manufactured.transient_convergence`, P2, which holds the solution exactly in
   space, so the error is the time error alone): L2 error at t = 1 s (K m) for backward Euler and Crank-Nicolson.
@@ -218,7 +218,8 @@ by +-20 % between runs (ratios of runs over 0.2 s within 10 %).
         error   0.0035   0.0034   0.0033   0.0033
         newto     1.46     1.77     1.86     1.86
         mesh_     0.35     0.35    0.343    0.352
-      front-following meshes (dt = 0.2 h_fine) (levels; measured later, 2026-11-25, beside another job)
+      front-following meshes (dt = 0.2 h_fine) (levels; measured later, 2026-11-25, beside another job; levels 4 is
+      in level 1 of the study)
         value        1        2        3        4
         dofs       307      391      636     1047
         wall     0.256    0.677    1.588    7.280
@@ -329,7 +330,7 @@ LEVELS = {
         "transient_dts": (0.2, 0.1, 0.05, 0.025, 0.0125), "lambda_h": 0.05, "lambda_fine": False,
         "lambda_tols": (1e-1, 1e-2, 1e-3, 1e-4, 1e-6, 1e-10),
         "growing_levels": (1, 2, 3, 4), "growing_ref_level": 6, "growing_arc_k": (1, 2, 3, 4),
-        "growing_maxh": (0.1, 0.05), "stefan_front_levels": (1, 2, 3, 4)},
+        "growing_maxh": (0.1, 0.05), "stefan_front_levels": (1, 2, 3)},
 }
 LEVELS[1] = {**LEVELS[0], "corner_h": LEVELS[0]["corner_h"] + (0.0078125,),
              "corner_h_p": LEVELS[0]["corner_h_p"] + (0.03125,), "corner_dofs": 60000,
@@ -338,7 +339,7 @@ LEVELS[1] = {**LEVELS[0], "corner_h": LEVELS[0]["corner_h"] + (0.0078125,),
              "stefan_dts": LEVELS[0]["stefan_dts"] + (0.000625,), "stefan_h_dt": 0.00625,
              "transient_dts": LEVELS[0]["transient_dts"] + (0.00625,), "lambda_fine": True,
              "growing_levels": (1, 2, 3, 4, 5), "growing_ref_level": 7, "growing_arc_k": (1, 2, 3, 4, 5),
-             "growing_maxh": (0.1, 0.05, 0.025, 0.0125), "stefan_front_levels": (1, 2, 3, 4, 5)}
+             "growing_maxh": (0.1, 0.05, 0.025, 0.0125), "stefan_front_levels": (1, 2, 3, 4)}
 LEVELS[2] = {**LEVELS[1], "corner_h": LEVELS[1]["corner_h"] + (0.00390625,), "corner_dofs": 250000,
              "hertz_k": {1: 7, 2: 6, 3: 5}, "hertz_dofs": {1: 250000, 2: 400000},
              "stefan_h": LEVELS[1]["stefan_h"] + (0.0015625,)}
