@@ -52,6 +52,7 @@ from .problems.coupled import KELVIN, DeformationHeating, relative_change
 from .problems.dynamic_run import DynamicsRun
 from .problems.heat import heat_setup, initial_temperature
 from .problems.mechanics import elastic_setup, mechanics_warnings
+from .problems.nested import nested_start
 from .problems.stefan import StefanRun
 from .problems.stefan_adaptive import FrontFollowing
 from .scene.model import Scene
@@ -664,9 +665,11 @@ class _Mechanics:
             self.contact_output = ContactOutput(self.forms, self.contacts)
         else:
             sv = scene.solver
+            self.nested = (scene, geo, temperature) if ms.nested_levels > 0 and self.setup.nonlinear else None
             self.solver = ElasticSolver(self.forms, method=ms.nonlinear_solver, tol=ms.tolerance,
                                         maxit=ms.max_iterations, relaxation=ms.secant_relaxation, solver=sv.linear,
-                                        linear_tol=sv.tolerance, linear_maxit=sv.max_iterations)
+                                        linear_tol=sv.tolerance, linear_maxit=sv.max_iterations,
+                                        start="current" if self.nested else "linear")
             self.contact_output = None
             free = self.forms.unheld_rigid_motions()
             if free:
@@ -686,9 +689,13 @@ class _Mechanics:
         if mesh.dim == 3:
             self.probe_fields["displacement_z"] = u[2]
         self.times: list[float] = []
+        self.nested_solves: list[list] = []      # per solve: the coarse solves (ndof, iterations, wall s)
 
     def solve(self, t: float, where: str, record: bool = True) -> None:
         self.forms.t.Set(t)
+        if getattr(self, "nested", None):
+            scene, geo, temperature = self.nested
+            self.nested_solves.append(nested_start(scene, geo, self.forms, temperature, t, where))
         self.solver.solve(where)
         if record:
             self.record(t)
@@ -718,6 +725,9 @@ class _Mechanics:
                "solves": len(h), "times_s": self.times,
                "iterations": [i.iterations for i in h], "wall_s": [i.wall_s for i in h],
                "last_changes": h[-1].changes if h else []}
+        if self.nested_solves:
+            out["nested_iteration"] = [[{"ndof": n, "iterations": i, "wall_s": w} for n, i, w in solves]
+                                       for solves in self.nested_solves]
         if self.contact_output is not None:
             out.update(self.contact_output.summary())
         return out

@@ -232,3 +232,41 @@ def test_newton_and_secant_solve_one_discrete_problem(lam):
           f"||u_N - u_S||_1 / ||u_N||_1 = {rel:.1e}")
     assert sols["newton"][1] <= 10
     assert rel < 1e-8
+
+
+@pytest.mark.usefixtures("one_thread")
+def test_nested_iteration_newton_at_lam_half():
+    """mechanics.nested_levels: Newton at lam = 1/2 started from the solutions on 2 and 4 times coarser meshes
+    takes at most 10 steps on every mesh (14 from the linear solution at h = 0.05) and finds the same solution."""
+    runs = {}
+    for levels in (0, 2):
+        d = nl.plate_scene(0.5, 0.05, tol=1e-8)
+        d["mechanics"]["nested_levels"] = levels
+        runs[levels] = api.run(scene_from_dict(d), None, progress=False)
+    cold, nested = runs[0].summary["mechanics"], runs[2].summary["mechanics"]
+    coarse = nested["nested_iteration"][0]
+    print(f"\nlam 0.5, h 0.05: cold Newton {cold['iterations']}, nested {nested['iterations']} after coarse "
+          f"{[(c['ndof'], c['iterations']) for c in coarse]}")
+    assert cold["iterations"][0] > 10
+    assert nested["iterations"][0] <= 10 and all(c["iterations"] <= 10 for c in coarse)
+    assert [c["ndof"] for c in coarse] == sorted(c["ndof"] for c in coarse)
+    f0, f2 = runs[0].mechanics.forms, runs[2].mechanics.forms
+    assert nl._rel_diff(f0.displacement(), f2.displacement(), f0.mesh) < 1e-8
+
+
+@pytest.mark.parametrize("change, text", [
+    ({"nonlinear_solver": "secant"}, "nonlinear_solver = 'newton'"),
+    ({"nested_levels": 9}, "between 0 and 6"),
+])
+def test_nested_iteration_bad_settings_are_named(change, text):
+    from ngs_geomech.errors import SceneError
+    from ngs_geomech.scene.validate import validate
+    d = nl.plate_scene(0.5, 0.1)
+    d["mechanics"].update({"nested_levels": 2, **change})
+    with pytest.raises(SceneError) as info:
+        validate(scene_from_dict(d))
+    assert any(p.item == "mechanics.nested_levels" and text in p.message for p in info.value.problems)
+    d = nl.plate_scene(1.0, 0.1)
+    d["mechanics"]["nested_levels"] = 1
+    with pytest.raises(SceneError, match="law is linear"):
+        validate(scene_from_dict(d))

@@ -377,6 +377,10 @@ class MechanicsSettings:
     max_iterations: int = field(integer, 100, doc="iteration limit of the nonlinear solver")
     regularization: float = field(number, 1e-6, doc="delta in (A1/A_ref + delta)^lambda (lambda < 1 is singular "
                                                     "at zero strain)")
+    nested_levels: int = field(integer, 0, doc="Newton on the lambda law (no contact): start from the solution on "
+                                               "meshes 2^k times coarser (mesh.maxh and boundary_maxh scaled), k = "
+                                               "nested_levels ... 1, each started from the one before (nested "
+                                               "iteration); 0: from the linear elastic solution")
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -147,6 +147,27 @@ def _check_dynamics(scene: Scene, problems: list[Problem]) -> None:
                                     f"physics.mechanics = {ph.mechanics!r}: use 'ssn' or 'penalty'"))
 
 
+def _check_nested(scene: Scene, problems: list[Problem]) -> None:
+    """``mechanics.nested_levels``: Newton on a nonlinear law without contact."""
+    ms = scene.mechanics
+    if ms.nested_levels == 0:
+        return
+    if not 0 < ms.nested_levels <= 6:
+        problems.append(Problem("mechanics.nested_levels", f"must be between 0 and 6, got {ms.nested_levels}"))
+    if scene.physics.mechanics != "static":
+        problems.append(Problem("mechanics.nested_levels", "needs physics.mechanics = 'static'"))
+    if ms.nonlinear_solver != "newton":
+        problems.append(Problem("mechanics.nested_levels", "is a start for Newton: needs "
+                                "mechanics.nonlinear_solver = 'newton'"))
+    if all(m.rheology_lambda == 1.0 for m in scene.materials.values()):
+        problems.append(Problem("mechanics.nested_levels", "the law is linear (rheology_lambda = 1 everywhere): "
+                                "there is no Newton iteration to start; remove it"))
+    if any(itf.type == "contact" for itf in scene.interfaces) or any(
+            bc.foundation is not None for bc in scene.boundary_conditions.values()):
+        problems.append(Problem("mechanics.nested_levels", "is not available with contact (the contact solve "
+                                "has its own start)"))
+
+
 def _check_adaptivity(scene: Scene, problems: list[Problem]) -> None:
     a = scene.adaptivity
     if a is None:
@@ -311,6 +332,7 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
                                     "in every heat step: set physics.coupling = 'staggered' or 'iterated' (with "
                                     "physics.thermal = 'transient' and physics.mechanics = 'static')"))
     _check_adaptivity(scene, problems)
+    _check_nested(scene, problems)
     _check_dynamics(scene, problems)
     _check_formulation(scene, problems)
     if ph.coupling != "none":
