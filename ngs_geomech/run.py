@@ -52,7 +52,7 @@ from .problems.coupled import KELVIN, DeformationHeating, relative_change
 from .problems.dynamic_run import DynamicsRun
 from .problems.heat import heat_setup, initial_temperature
 from .problems.mechanics import elastic_setup, mechanics_warnings
-from .problems.nested import nested_start
+from .problems.nested import NestedStart
 from .problems.stefan import StefanRun
 from .problems.stefan_adaptive import FrontFollowing
 from .scene.model import Scene
@@ -651,6 +651,7 @@ class _Mechanics:
         self.setup = elastic_setup(scene, geo, mesh, temperature)
         self.forms = ElasticForms(mesh, self.setup)
         self.contacts = contact_specs(scene, geo, mesh, self.forms.V)
+        self.nested = None                     # NestedStart (mechanics.nested_levels, validated: no contact)
         if self.contacts:
             floating = self.forms.floating_bodies()
             check_supported(self.contacts, floating, scene.scene.name)
@@ -665,11 +666,12 @@ class _Mechanics:
             self.contact_output = ContactOutput(self.forms, self.contacts)
         else:
             sv = scene.solver
-            self.nested = (scene, geo, temperature) if ms.nested_levels > 0 and self.setup.nonlinear else None
+            self.nested = (NestedStart(scene, geo, temperature) if ms.nested_levels > 0 and self.setup.nonlinear
+                           else None)
             self.solver = ElasticSolver(self.forms, method=ms.nonlinear_solver, tol=ms.tolerance,
                                         maxit=ms.max_iterations, relaxation=ms.secant_relaxation, solver=sv.linear,
                                         linear_tol=sv.tolerance, linear_maxit=sv.max_iterations,
-                                        start="current" if self.nested else "linear")
+                                        start="linear" if self.nested is None else "current")
             self.contact_output = None
             free = self.forms.unheld_rigid_motions()
             if free:
@@ -693,9 +695,8 @@ class _Mechanics:
 
     def solve(self, t: float, where: str, record: bool = True) -> None:
         self.forms.t.Set(t)
-        if getattr(self, "nested", None):
-            scene, geo, temperature = self.nested
-            self.nested_solves.append(nested_start(scene, geo, self.forms, temperature, t, where))
+        if self.nested is not None:
+            self.nested_solves.append(self.nested(self.forms, t, where))
         self.solver.solve(where)
         if record:
             self.record(t)

@@ -660,13 +660,16 @@ def _side_edges(mesh, side: str) -> list[tuple[int, ...]]:
 
 
 @register("contact_zone", "indicator", "contact")
-def contact_zone(contacts, *, layers: int = 0, active: bool = False) -> Estimate:
+def contact_zone(contacts, *, layers: int = 0, active: bool = False, local_reach: bool = False) -> Estimate:
     """Flag the elements at the boundary of the active set and at stick/slip transitions (module docstring).
 
     ``contacts``: (mesh, [(ContactOperator, nodal status array)]) (status 0 open, 1 stick, 2 slip; e.g.
     :func:`contact_status` or the contact output's ``status``); ``layers`` extra rings of elements around the
     flagged ones; ``active``: flag the whole contact zone (every element touching a side segment with a node in
-    contact), not only its boundary and transitions (for quantities inside the zone, e.g. the peak pressure)."""
+    contact), not only its boundary and transitions (for quantities inside the zone, e.g. the peak pressure).
+    The opposite side's segments are flagged within twice the interface's longest nodal length of a flagged
+    segment, or with ``local_reach`` within that segment's own length (on a graded mesh the global reach takes
+    coarse elements far from a transition: the meshes that follow contact zones over time use the local one)."""
     mesh, contacts = contacts
     xy = _vertex_coords(mesh)
     inc = _incidence(mesh)
@@ -674,19 +677,23 @@ def contact_zone(contacts, *, layers: int = 0, active: bool = False) -> Estimate
     for op, status in contacts:
         status = np.asarray(status).astype(int)
         index = {int(v): j for j, v in enumerate(op.nodes)}
-        points = []
+        points, lengths = [], []
         for seg in _side_edges(mesh, op.side):
             js = [index[v] for v in seg if v in index]
             changes = len(js) >= 2 and len({int(status[j]) for j in js}) > 1
             if changes or (active and any(status[j] > 0 for j in js)):
                 vmark[list(seg)] = True
                 points.append(np.mean(xy[list(seg)], axis=0))
-        if op.opposite is not None and points:
-            reach = 2.0 * float(np.max(op.length)) if op.size else 0.0
+                lengths.append(float(np.linalg.norm(xy[seg[0]] - xy[seg[1]])))
+        if op.opposite and points:
+            if local_reach:
+                reach = np.array(lengths)
+            else:
+                reach = np.full(len(points), 2.0 * float(np.max(op.length)) if op.size else 0.0)
             pts = np.array(points)
             for seg in _side_edges(mesh, op.opposite):
                 c = np.mean(xy[list(seg)], axis=0)
-                if float(np.min(np.linalg.norm(pts - c, axis=1))) <= reach:
+                if np.any(np.linalg.norm(pts - c, axis=1) <= reach):
                     vmark[list(seg)] = True
     flags = _grow(inc @ vmark > 0, inc, layers)
     return Estimate("contact_zone", "indicator", flags.astype(float))

@@ -70,11 +70,10 @@ import ngsolve as ngs
 import numpy as np
 
 from ..adapt.estimators import (
-    _grow,
-    _incidence,
     _side_edges,
     _vertex_coords,
     contact_status,
+    contact_zone,
     element_sizes,
     element_vertices,
     phase_front,
@@ -84,9 +83,7 @@ from ..geometry.assemble import GeometryModel
 from ..geometry.mesh import make_mesh
 from ..scene.model import Scene
 from .heat import initial_temperature
-
-TRANSFER_ORDER = 4
-"""Extra quadrature order of the enthalpy's lumped projection (a phase change)."""
+from .stefan_adaptive import TRANSFER_ORDER, phase_change_size
 
 BAND_FACTOR = 1.25
 """remesh_every = 0: remesh when a transition lies in elements this much larger than the band's."""
@@ -158,32 +155,10 @@ def interpolate_on_side(xy_old: np.ndarray, values: np.ndarray, segments: np.nda
 
 
 def transition_elements(mesh, contacts: list, layers: int = 0) -> np.ndarray:
-    """Flags (per element) of the elements at the contact transitions: for every side segment whose nodes differ
-    in status (open / stick / slip; ``contacts``: [(ContactOperator, nodal status)]) the elements sharing one of
-    its vertices, and on the opposite side the elements sharing a vertex of a segment within one segment length
-    of it, plus ``layers`` rings. (As :func:`ngs_geomech.adapt.estimators.contact_zone`, but the opposite side is
-    searched within the local segment length, not twice the longest one of the interface: on a graded mesh that
-    reach took coarse elements far from the transition.)"""
-    xy = _vertex_coords(mesh)[:, :2]
-    inc = _incidence(mesh)
-    vmark = np.zeros(mesh.nv, dtype=bool)
-    for op, status in contacts:
-        status = np.asarray(status).astype(int)
-        index = {int(v): j for j, v in enumerate(op.nodes)}
-        points, lengths = [], []
-        for seg in _side_edges(mesh, op.side):
-            js = [index[v] for v in seg if v in index]
-            if len(js) >= 2 and len({int(status[j]) for j in js}) > 1:
-                vmark[list(seg)] = True
-                points.append(np.mean(xy[list(seg)], axis=0))
-                lengths.append(float(np.linalg.norm(xy[seg[0]] - xy[seg[1]])))
-        if op.opposite and points:
-            pts, reach = np.array(points), np.array(lengths)
-            for seg in _side_edges(mesh, op.opposite):
-                c = np.mean(xy[list(seg)], axis=0)
-                if np.any(np.linalg.norm(pts - c, axis=1) <= reach):
-                    vmark[list(seg)] = True
-    return _grow(inc @ vmark > 0, inc, layers)
+    """Flags (per element) of the elements at the contact transitions (``contacts``: [(ContactOperator, nodal
+    status)]), ``layers`` rings around: :func:`ngs_geomech.adapt.estimators.contact_zone` with the opposite side
+    searched within the local segment length."""
+    return contact_zone((mesh, contacts), layers=layers, local_reach=True).eta > 0
 
 
 def _segments(mesh, op) -> np.ndarray:
@@ -249,9 +224,7 @@ class ContactFollowing:
         self.front = "phase_front" in a.indicators      # validated: a scene with a phase change
         self.h_front = None
         if self.front:
-            regions = set(phys.stefan.regions)
-            in_pc = np.array([el.mat in regions for el in mesh.Elements(ngs.VOL)])
-            self.h_front = float(np.median(sizes[in_pc] if in_pc.any() else sizes)) * 0.5 ** self.levels
+            self.h_front = phase_change_size(mesh, phys.stefan.regions) * 0.5 ** self.levels
         self.remeshes: list[ContactRemesh] = []
         self.ndofs: list[int] = []                # unknowns of each mechanics solve's (final) mesh
         self.solves = 0
@@ -481,7 +454,7 @@ def _transfer_enthalpy(old, new, t0: float | None) -> tuple[float | None, float]
 
 
 def _transfer_temperature(old, new, scene: Scene, t0: float | None) -> tuple[float | None, float]:
-    """T (and the heat step's old state) carried to ``new``; the heat solver's next step is backward Euler.
+    """T carried to ``new``; the heat solver's next step is backward Euler.
     ``t0`` (s; a remesh at the start time): the scene's initial temperature set on the new mesh instead (the
     state is the initial condition, which no transfer error need spoil). Returns (relative heat content change or
     None without heat capacity, relative L2 difference)."""
@@ -492,8 +465,7 @@ def _transfer_temperature(old, new, scene: Scene, t0: float | None) -> tuple[flo
         new.heat.t_new.Set(t0)
         T_new.Set(initial_temperature(scene, new.mesh, new.heat.t_new))
         new.solver.set_dirichlet()
-    new.heat.gf_old.vec.data = new.heat.gf.vec
-    new.solver.backward_euler_steps = 1
+    new.solver.backward_euler_steps = 1      # (the run's next heat step copies the state into gf_old)
     mesh = new.mesh
     w = 2 * np.pi * ngs.x if new.heat.setup.axisymmetric else 1.0
     before = float(ngs.Integrate(w * old.heat.rho_c * T_old, old.mesh))

@@ -32,24 +32,38 @@ def coarse_settings(scene: Scene, k: int):
     return dataclasses.replace(m, maxh=m.maxh * f, boundary_maxh={b: h * f for b, h in m.boundary_maxh.items()})
 
 
-def nested_start(scene: Scene, geo: GeometryModel, forms: ElasticForms, temperature, t: float, where: str) -> list:
-    """Set ``forms``' displacement to the nested-iteration start at time t (s): the Newton solutions on the meshes
-    2^k coarser, k = nested_levels ... 1, each started from the previous one. Returns the coarse solves'
-    (ndof, iterations, wall time s)."""
-    ms = scene.mechanics
-    prev = None
-    out = []
-    for k in range(ms.nested_levels, 0, -1):
-        mesh = make_mesh(geo, coarse_settings(scene, k))
-        f = ElasticForms(mesh, elastic_setup(scene, geo, mesh, temperature))
-        f.t.Set(t)
+class NestedStart:
+    """Newton's start on a scene's mesh by nested iteration (module docstring): the coarse meshes and forms are
+    built at the first solve and kept (the temperature CF they hold is the scene mesh's field, so later solves
+    see its new values)."""
+
+    def __init__(self, scene: Scene, geo: GeometryModel, temperature):
+        self.scene, self.geo, self.temperature = scene, geo, temperature
+        self.levels: list[ElasticForms] = []
+
+    def _build(self) -> None:
+        for k in range(self.scene.mechanics.nested_levels, 0, -1):
+            mesh = make_mesh(self.geo, coarse_settings(self.scene, k))
+            self.levels.append(ElasticForms(mesh, elastic_setup(self.scene, self.geo, mesh, self.temperature)))
+
+    def __call__(self, forms: ElasticForms, t: float, where: str) -> list:
+        """Set ``forms``' displacement to the start at time t (s): the Newton solutions on the meshes 2^k coarser,
+        k = nested_levels ... 1, each started from the previous one. Returns the coarse solves' (ndof,
+        iterations, wall time s)."""
+        if not self.levels:
+            self._build()
+        ms = self.scene.mechanics
+        prev = None
+        out = []
+        for k, f in zip(range(ms.nested_levels, 0, -1), self.levels):
+            f.t.Set(t)
+            if prev is not None:
+                f.displacement().Set(prev)
+            solver = ElasticSolver(f, method="newton", tol=ms.tolerance, maxit=ms.max_iterations,
+                                   start="linear" if prev is None else "current")
+            info = solver.solve(f"{where}, nested iteration on the mesh {2 ** k} times coarser")
+            out.append((int(f.X.ndof), info.iterations, info.wall_s))
+            prev = f.displacement()
         if prev is not None:
-            f.displacement().Set(prev)
-        solver = ElasticSolver(f, method="newton", tol=ms.tolerance, maxit=ms.max_iterations,
-                               start="linear" if prev is None else "current")
-        info = solver.solve(f"{where}, nested iteration on the mesh {2 ** k} times coarser")
-        out.append((int(f.X.ndof), info.iterations, info.wall_s))
-        prev = f.displacement()
-    if prev is not None:
-        forms.displacement().Set(prev)
-    return out
+            forms.displacement().Set(prev)
+        return out

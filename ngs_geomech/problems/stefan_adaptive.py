@@ -71,6 +71,15 @@ class Remesh(RemeshRecord):
                 "repeated_step": self.repeated_step, "meshings": self.passes, "wall_s": self.wall_s}
 
 
+def phase_change_size(mesh, regions) -> float:
+    """The median longest edge (m) of the elements of ``mesh`` in the phase-change ``regions`` (of all elements
+    when there are none): the base size that front-following meshes halve ``levels`` times."""
+    regions = set(regions)
+    in_pc = np.array([el.mat in regions for el in mesh.Elements(ngs.VOL)])
+    sizes = element_sizes(mesh)
+    return float(np.median(sizes[in_pc] if in_pc.any() else sizes))
+
+
 def _copy(gf):
     g = ngs.GridFunction(gf.space)
     g.vec.data = gf.vec
@@ -87,11 +96,7 @@ class FrontFollowing:
         self.scene, self.geo, self.build, self.show = scene, geo, build, show
         self.levels, self.layers, self.remesh_every = a.levels, a.layers, a.remesh_every
         self.phys = phys
-        mesh = phys.mesh
-        regions = set(phys.stefan.regions)
-        in_pc = np.array([el.mat in regions for el in mesh.Elements(ngs.VOL)])
-        sizes = element_sizes(mesh)
-        self.h_base = float(np.median(sizes[in_pc] if in_pc.any() else sizes))
+        self.h_base = phase_change_size(phys.mesh, phys.stefan.regions)
         self.h_front = self.h_base * 0.5 ** self.levels
         self.remeshes: list[Remesh] = []
         self.ndofs: list[int] = []               # unknowns of each step's (final) mesh

@@ -97,18 +97,7 @@ class HeatSolver:
     def solve_steady(self, where: str) -> StepInfo:
         """The steady problem of transient forms: the step operator with the caller's inv_dt = 0 and theta = 1
         (kept: :meth:`solve` would set theta from the scheme)."""
-        self.set_dirichlet()
-        rhs = self.f.right_hand_side()
-        if self.solver == "iterative":
-            return self._solve_iterative(where, rhs)
-        if not self.f.setup.nonlinear:
-            mat, inv, fresh = self._system(f"steady:{self.f.version}")
-            if self._free_mask is None:
-                self._free_mask = np.array(list(self.f.freedofs), dtype=bool)
-            solve_watched(mat, inv, rhs, self.f.gf.vec, self._free_mask, f"steady heat solve at {where}",
-                          "Check the material data and boundary conditions of the scene.")
-            return StepInfo(1, 0.0, fresh)
-        return self._newton(where, rhs)
+        return self._solve_step(where)
 
     def solve(self, where: str) -> StepInfo:
         """Solve for the new state (t_new, inv_dt already set, old state in gf_old). Steps ending by
@@ -122,6 +111,10 @@ class HeatSolver:
             self.backward_euler_steps = max(0, self.backward_euler_steps - 1)
             if theta != self.f.theta.Get():
                 self.f.theta.Set(theta)
+        return self._solve_step(where)
+
+    def _solve_step(self, where: str) -> StepInfo:
+        """The new state with the forms' current inv_dt and theta."""
         self.set_dirichlet()
         rhs = self.f.right_hand_side()
         if self.solver == "iterative":
