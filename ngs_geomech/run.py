@@ -153,24 +153,23 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     tic = _time.perf_counter()
     phys = _Physics(scene, geo, mesh)
     adaptive = front = zone = pre = None
-    a_set = set(scene.adaptivity.indicators) if scene.adaptivity is not None else set()
-    following = bool({"contact_zone", "phase_front"} & a_set)
-    if scene.adaptivity is not None and scene.time is not None and not following:
+    ad = scene.adaptivity
+    if ad is not None and scene.time is not None and "contact_zone" in ad.indicators:
+        # validated: static mechanics with contact, plane or axisymmetric (the mesh changes at mechanics solves)
+        zone = ContactFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m), show)
+    elif ad is not None and scene.time is not None and "phase_front" in ad.indicators:   # validated: plane Stefan
+        front = FrontFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m), show)
+        phys = front.start(scene.time.start)
+        mesh = phys.mesh
+        timings["adaptivity_s"] = _time.perf_counter() - tic
+    elif ad is not None and scene.time is not None:
         # validated: transient heat without a followed feature: the mesh adapted once to the steady heat problem
         # with the data at the start time, the run on it
         pre = _SceneAdaptive(scene, geo, phys, show, steady_at=scene.time.start)
         pre.result = adaptive_solve(pre, **pre.settings())
         phys, mesh = pre.phys, pre.mesh
         timings["adaptivity_s"] = _time.perf_counter() - tic
-    elif scene.adaptivity is not None and scene.time is not None and "contact_zone" in scene.adaptivity.indicators:
-        # validated: static mechanics with contact, plane or axisymmetric (the mesh changes at mechanics solves)
-        zone = ContactFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m), show)
-    elif scene.adaptivity is not None and scene.time is not None:    # validated: a plane Stefan scene
-        front = FrontFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m), show)
-        phys = front.start(scene.time.start)
-        mesh = phys.mesh
-        timings["adaptivity_s"] = _time.perf_counter() - tic
-    elif scene.adaptivity is not None:        # validated: a stationary scene
+    elif ad is not None:                      # validated: a stationary scene
         adaptive = _SceneAdaptive(scene, geo, phys, show)
         run_ = adaptive_solve(adaptive, **adaptive.settings())
         adaptive.result = run_
@@ -202,20 +201,11 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                             "conductivity_factor": []}}
     solve_s = 0.0
 
-    def follow(t: float, where: str, dt: float | None = None) -> None:
-        """Contact-zone following: the mechanics solve at t (``dt`` given: it was solved by the coupled step of
-        length dt and recorded), the run's objects switched to the new mesh when it remeshed."""
+    def switch(new: _Physics) -> None:
+        """Go on with the physics ``new`` on a new mesh (following meshes): the run's objects, probes and VTK."""
         nonlocal phys, mesh, heat, solver, T, stefan, mech, coupling, thermal_fields, probes
-        new = zone.solve(t, where) if dt is None else zone.check(t, where)
-        if new is phys:
-            return
         phys, mesh, heat, solver, T, stefan, mech, coupling = (new, new.mesh, new.heat, new.solver, new.T,
                                                                new.stefan, new.mech, new.coupling)
-        if coupling is not None:
-            _update_pressure(heat, stefan, mech, where)
-            if dt is not None:                   # the step's rate and record from the solve on the new mesh
-                coupling.set_rate(dt)
-                mech.record(t, replace=True)
         if T is not None:
             thermal_fields = {"temperature": T}
         if stefan is not None:
@@ -224,6 +214,19 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         probes = _moved_probes(probes, scene, mesh, axi)
         if vtk:
             vtk.mesh, vtk.coefs = mesh, [phys.fields[n] for n in vtk.names]
+
+    def follow(t: float, where: str, dt: float | None = None) -> None:
+        """Contact-zone following: the mechanics solve at t (``dt`` given: it was solved by the coupled step of
+        length dt and recorded), the run switched to the new mesh when it remeshed."""
+        new = zone.solve(t, where) if dt is None else zone.check(t, where)
+        if new is phys:
+            return
+        switch(new)
+        if coupling is not None:
+            _update_pressure(heat, stefan, mech, where)
+            if dt is not None:                   # the step's rate and record from the solve on the new mesh
+                coupling.set_rate(dt)
+                mech.record(t, replace=True)
 
     def output(t: float, k: int | None, last: bool, where: str) -> None:
         """Mechanics (when on) and VTK at the output steps; thermal probes at every step."""
@@ -326,12 +329,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                         info = front.step(a, b, where)
                         history["newton_iterations"].append(info.iterations)
                         if front.phys is not phys:         # remeshed: the run goes on on the new mesh
-                            phys, mesh, stefan, T = front.phys, front.mesh, front.stefan, front.phys.T
-                            thermal_fields = {"temperature": T, "liquid_fraction": stefan.fields["liquid_fraction"],
-                                              "front": stefan.fields["liquid_fraction"]}
-                            probes = _moved_probes(probes, scene, mesh, axi)
-                            if vtk:
-                                vtk.mesh, vtk.coefs = mesh, [phys.fields[n] for n in vtk.names]
+                            switch(front.phys)
                     elif stefan is not None:
                         info = stefan.step(a, b, where)
                         history["newton_iterations"].append(info.iterations)
