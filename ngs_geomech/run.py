@@ -25,7 +25,6 @@ from pathlib import Path
 import ngsolve as ngs
 import numpy as np
 
-from .adapt.estimators import contact_status as est_contact_status
 from .adapt.loop import adaptive_solve, refine_mesh
 from .adapt.marking import StopRule
 from .checkpoint import CHECKPOINT_WALL_S, Plan, RunState, Snapshot, check_scene, plan_steps
@@ -46,7 +45,7 @@ from .physics.stefan import vertex_rules
 from .physics.thermal import HeatForms
 from .probes import THERMAL, ProbeSet
 from .problems.contact import check_supported, contact_specs, contact_warnings
-from .problems.contact_following import ContactFollowing
+from .problems.contact_following import ContactFollowing, contact_statuses
 from .problems.contact_output import ContactOutput
 from .problems.coupled import KELVIN, DeformationHeating, relative_change
 from .problems.dynamic_run import DynamicsRun
@@ -617,13 +616,7 @@ class _SceneAdaptive:
         if needs == "forms":
             return p.mech.forms if self.target == "mechanics" else p.heat
         if needs == "contact":
-            m = p.mech
-            items = []
-            for spec, (lam_n, lam_t) in zip(m.contacts, m.solver.contact.multipliers):
-                law = spec.law
-                bound = law.slip_bound if law.kind == "tresca" else law.friction
-                items.append((spec.op, est_contact_status(law.kind, lam_n, lam_t, bound)))
-            return self.mesh, items
+            return self.mesh, contact_statuses(p.mech)
         raise ValueError(f"a scene has no {needs!r} input for an estimator")
 
     def refine(self, marks) -> None:

@@ -164,19 +164,21 @@ def transition_elements(mesh, contacts: list, layers: int = 0) -> np.ndarray:
 def _segments(mesh, op) -> np.ndarray:
     """The side's boundary segments as pairs of multiplier-node indices (the end vertices of each segment)."""
     index = {int(v): j for j, v in enumerate(op.nodes)}
-    out = [(index[e[0]], index[e[-1] if len(e) == 2 else e[1]]) for e in _side_edges(mesh, op.side)
-           if e[0] in index and e[1] in index]
+    out = [(index[e[0]], index[e[1]]) for e in _side_edges(mesh, op.side) if e[0] in index and e[1] in index]
     return np.array(out, dtype=int).reshape(-1, 2)
 
 
-def _statuses(mech) -> list:
-    """[(ContactOperator, nodal status 0 open / 1 stick / 2 slip)] of the last mechanics solve."""
-    items = []
-    for spec, (lam_n, lam_t) in zip(mech.contacts, mech.solver.contact.multipliers):
-        law = spec.law
-        bound = law.slip_bound if law.kind == "tresca" else law.friction
-        items.append((spec.op, contact_status(law.kind, lam_n, lam_t, bound)))
-    return items
+def law_status(law, lam_n: np.ndarray, lam_t: np.ndarray) -> np.ndarray:
+    """Nodal status (0 open, 1 stick, 2 slip) of multipliers under a contact law
+    (:func:`ngs_geomech.adapt.estimators.contact_status` with the law's slip bound or friction coefficient)."""
+    return contact_status(law.kind, lam_n, lam_t, law.slip_bound if law.kind == "tresca" else law.friction)
+
+
+def contact_statuses(mech) -> list:
+    """[(ContactOperator, nodal status)] of a mechanics run's last solve (``mech``: with ``contacts`` and a
+    contact ``solver``)."""
+    return [(spec.op, law_status(spec.law, lam_n, lam_t))
+            for spec, (lam_n, lam_t) in zip(mech.contacts, mech.solver.contact.multipliers)]
 
 
 def _strain_norm(mech) -> float:
@@ -241,7 +243,7 @@ class ContactFollowing:
     def _features(self, layers: int) -> list:
         """[(element flags, target size h)]: the contact transitions at h_zone and, with 'phase_front', the
         elements the liquid fraction 1/2 crosses at h_front, each with ``layers`` rings."""
-        out = [(transition_elements(self.mesh, _statuses(self.phys.mech), layers), self.h_zone)]
+        out = [(transition_elements(self.mesh, contact_statuses(self.phys.mech), layers), self.h_zone)]
         if self.front:
             st = self.phys.stefan
             st.forms.store(st.solver.e)
@@ -308,9 +310,6 @@ class ContactFollowing:
         tic = time.perf_counter()
         old = self.phys
         mesh = make_mesh(self.geo, self.scene.mesh, restrictions)
-        was_on_base = self._on_base
-        self._on_base = not restrictions
-        self.factorizations_before += _factorizations(old)
         new = self.build(mesh)
         heat_change = l2_change = None
         commit = None
@@ -318,10 +317,10 @@ class ContactFollowing:
         initial = abs(t - t0) <= 1e-12 * max(abs(t0), 1.0)
         if old.heat is not None:
             heat_change, l2_change = _transfer_temperature(old, new, self.scene, t0 if initial else None)
-        elif getattr(old, "stefan", None) is not None:
+        elif old.stefan is not None:
             heat_change, l2_change, commit = _transfer_enthalpy(old, new, t0 if initial else None)
         om, nm = old.mech, new.mech
-        if getattr(old, "coupling", None) is not None and getattr(new, "coupling", None) is not None:
+        if old.coupling is not None and new.coupling is not None:
             new.coupling.u_prev.Set(old.coupling.u_prev)      # u^n of the step: the rate is set after the solve
         strain_before = _strain_norm(om)
         force_before = _normal_force(om)
@@ -331,13 +330,8 @@ class ContactFollowing:
         force_after = _normal_force(nm, [n for n, _ in lams])
         warm = hasattr(nm.solver.contact, "warm_start")
         if warm:
-            sets = []
-            for spec, (lam_n, lam_t) in zip(nm.contacts, lams):
-                law = spec.law
-                status = contact_status(law.kind, lam_n, lam_t, law.slip_bound if law.kind == "tresca"
-                                        else law.friction)
-                sets.append((status > 0, status == 1, status == 2))
-            nm.solver.contact.warm_start(nm.forms.X.ndof, sets)
+            status = [law_status(spec.law, lam_n, lam_t) for spec, (lam_n, lam_t) in zip(nm.contacts, lams)]
+            nm.solver.contact.warm_start(nm.forms.X.ndof, [(st > 0, st == 1, st == 2) for st in status])
         moved = ngs.GridFunction(nm.forms.displacement().space)
         moved.vec.data = nm.forms.displacement().vec
         try:
@@ -352,8 +346,6 @@ class ContactFollowing:
                 nm.solve(t, f"{where} (on the remeshed mesh, cold start)", record=False)
         except SolverError as exc:
             # the run goes on on the old mesh (its solve at t stands); the remesh is counted as rejected
-            self.factorizations_before -= _factorizations(old)
-            self._on_base = was_on_base
             self.rejected.append({"t_s": t, "reason": str(exc)})
             if self.show:
                 print(f"contact-zone following: remesh at t = {t:.6g} s rejected (the contact solve on the new "
@@ -370,6 +362,8 @@ class ContactFollowing:
 
         diff = h1(u - moved, ngs.Grad(u) - ngs.Grad(moved))
         norm = h1(u, ngs.Grad(u))
+        self.factorizations_before += _factorizations(old)
+        self._on_base = not restrictions
         self.phys = new
         rec = ContactRemesh(t, old.mech.forms.X.ndof, nm.forms.X.ndof, mesh.ne, heat_change, l2_change,
                             strain_before, strain_after, force_before, force_after,
@@ -416,7 +410,7 @@ def _factorizations(phys) -> int:
     n = phys.mech.solver.factorizations
     if phys.solver is not None:
         n += phys.solver.factorizations
-    if getattr(phys, "stefan", None) is not None:
+    if phys.stefan is not None:
         n += phys.stefan.solver.factorizations
     return n
 
