@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from ngs_geomech.errors import SolverError
+from ngs_geomech.geometry.mesh import make_mesh
 from ngs_geomech.physics.elasticity import ElasticForms
 from ngs_geomech.physics.thermal import HeatForms
 from ngs_geomech.problems.heat import heat_setup
@@ -174,3 +175,41 @@ def test_two_workers_equal_serial(tmp_path):
     print(f"\n2 MPI workers: CG heat {data['cg_heat']} (serial {serial['cg_heat']}), elastic {data['cg_elastic']} "
           f"(serial {serial['cg_elastic']}); max rel. difference T {dT:.1e}, u {du:.1e}")
     assert dT < 1e-8 and du < 1e-8
+
+
+def test_two_level_preconditioner_componentwise_supports_and_secant():
+    """3D P2 elasticity takes the two-level AMG preconditioner (the P1 part with each component's own Dirichlet
+    boundaries): a box held by symmetry planes (u_x = 0 on xmin, u_y = 0 on ymin) and u_z = 0 on its base, under
+    the lambda law (lam = 1.5, secant method: the preconditioner's Jacobi part is rebuilt after every assembly),
+    reaches the direct solution; the heat solve takes BDDC with the AMG vertex problem."""
+    data = box_scene(0.3, 2, 3)
+    block = data["blocks"][0]
+    block["boundaries"].update({"xsym": "xmin", "ysym": "ymin"})
+    block["boundaries"]["hot"] = "xmax"
+    block["boundaries"].pop("cold")
+    data["boundary_conditions"] = {"hot": {"temperature": 100.0}, "base": {"displacement": ["free", "free", 0.0]},
+                                   "xsym": {"symmetry": True}, "ysym": {"symmetry": True}}
+    data["materials"]["rock"]["rheology_lambda"] = 1.5
+    scene = scene_from_dict(data, source="two_level_box")
+    geo = validate(scene)
+    mesh = make_mesh(geo, scene.mesh)
+    heat = HeatForms(mesh, heat_setup(scene, geo, mesh))
+    out = {}
+    for solver in ("direct", "iterative"):
+        heat.t_new.Set(0.0)
+        heat.gf.vec[:] = 0.0
+        hs = HeatSolver(heat, solver=solver, tol=1e-12)
+        hs.solve("steady")
+        T = heat.gf.vec.FV().NumPy().copy()
+        forms = ElasticForms(mesh, elastic_setup(scene, geo, mesh, heat.temperature()))
+        es = ElasticSolver(forms, method="secant", solver=solver, tol=1e-10, linear_tol=1e-12)
+        info = es.solve("two-level box")
+        out[solver] = (T, forms.gf.vec.FV().NumPy().copy(), info.iterations, list(es.cg_iterations),
+                       [p.kind for p in es._pre.values()], getattr(hs._pre, "kind", None))
+    (Td, ud, nd, _, _, _), (Ti, ui, ni, cg, kinds, heat_kind) = out["direct"], out["iterative"]
+    print(f"\nsecant iterations {nd} / {ni}, CG per solve {cg}, T diff {max_rel_difference(Ti, Td):.1e}, "
+          f"u diff {max_rel_difference(ui, ud):.1e}")
+    assert kinds == ["two_level_amg"] and heat_kind == "bddc_h1amg"
+    assert max_rel_difference(Ti, Td) < 1e-9 and max_rel_difference(ui, ud) < 1e-8
+    assert abs(ni - nd) <= 1 and len(cg) >= 3 and all(0 < k < 200 for k in cg)
+    assert np.max(np.abs(ud)) > 1e-5

@@ -389,8 +389,9 @@ class SolverSettings:
     coupling, Stefan and the mixed formulation always solve directly)."""
 
     linear: str = field(one_of("auto", "direct", "iterative"), "auto",
-                        doc="'direct' (sparse Cholesky / UMFPACK), 'iterative' (CG with BDDC for order >= 2, AMG "
-                            "for P1) or 'auto' (iterative above 60k unknowns per system in 3D, 1M in 2D)")
+                        doc="'direct' (sparse Cholesky / UMFPACK), 'iterative' (CG with BDDC for order >= 2, two-level "
+                            "AMG for 3D P2 elasticity, AMG for P1) or 'auto' (iterative above 60k unknowns per system "
+                            "in 3D, 1M in 2D)")
     tolerance: float = field(number, 1e-10, doc="relative residual of the iterative solver")
     max_iterations: int = field(integer, 2000, doc="iteration limit of the iterative solver")
 

@@ -5,13 +5,21 @@ indefinite matrix or preconditioner, or the iteration limit.
 Preconditioners (NGSolve's, registered on the bilinear form before it is assembled, so they see the element
 matrices):
 
-* order >= 2 (scalar or vector H1): NGSolve's element-wise BDDC with the **vertex** wirebasket. NGSolve's H1
-  space puts the lowest-order edge dofs into the wirebasket in 3D (``wb_withedges``), which for P2 makes the
-  BDDC coarse problem the whole system (2 iterations, the cost of a direct solve): the edge dofs are set to
-  interface dofs here, so the coarse problem is the P1 (vertex) problem, factored directly, and the edge and
-  higher dofs are eliminated element by element. The condition number then depends on the order only
-  (measured, 3D P2: heat 32 / 36 / 40 iterations to 1e-10 at 8k / 51k / 377k dofs; elasticity 80 / 97 at 24k /
-  154k; see ``studies/scaling``).
+* order 2, vector (elasticity) in 3D, serial: a **two-level AMG** preconditioner
+  (:meth:`Preconditioned._two_level_mat`): Jacobi on the edge dofs plus, on the P1 part (the vertex dofs of
+  NGSolve's hierarchical basis), the displacement decomposition of the P1 case (one ``h1amg`` per component).
+  Nothing is factored but AMG's coarsest level. Measured (``studies/scaling`` box, 2 threads): 98 / 100 / 105 /
+  111 / 114 iterations to 1e-10 at 15k / 58k / 213k / 432k / 1.53M heat + elastic dofs; at 1.15M elastic dofs
+  the elastic solve took 51 s against 118 s with BDDC, whose coarse problem (the P1 vertex problem, factored
+  directly) grew like dofs^1.7.
+* order >= 2 otherwise (scalar heat, 2D, order >= 3, distributed meshes): NGSolve's element-wise BDDC with the
+  **vertex** wirebasket. NGSolve's H1 space puts the lowest-order edge dofs into the wirebasket in 3D
+  (``wb_withedges``), which for P2 makes the BDDC coarse problem the whole system (2 iterations, the cost of a
+  direct solve): the edge dofs are set to interface dofs here, so the coarse problem is the P1 (vertex) problem,
+  and the edge and higher dofs are eliminated element by element. The condition number then depends on the order
+  only (measured, 3D P2: heat 32 / 36 / 40 iterations to 1e-10 at 8k / 51k / 377k dofs; elasticity 80 / 97 at
+  24k / 154k). In 3D on one process the scalar vertex problem is solved by ``h1amg`` (``coarsetype="h1amg"``:
+  32 -> 34 iterations at 382k dofs, and no superlinear coarse factorization); elsewhere it is factored.
 * order 1, scalar (heat): NGSolve's algebraic multigrid ``h1amg`` (12 / 15 / 18 iterations at 1k / 7k / 50k
   dofs in 3D).
 * order 1, vector (elasticity): the displacement-decomposition preconditioner, one ``h1amg`` per displacement
@@ -30,6 +38,7 @@ import math
 from dataclasses import dataclass
 
 import ngsolve as ngs
+import numpy as np
 
 from ..errors import SolverError
 
@@ -67,16 +76,35 @@ def choose_solver(solver: str, ndof: int, dim: int, spd: bool = True) -> str:
 
 def vertex_wirebasket(space) -> int:
     """Make the vertex dofs the only wirebasket dofs of an H1 / VectorH1 ``space`` (NGSolve's 3D default adds the
-    lowest-order edge dofs): the BDDC coarse problem becomes the vertex (P1) problem. Returns the number of dofs
-    moved to the interface. Touches only coupling types (used by BDDC and static condensation), so direct
-    solvers are unaffected."""
+    lowest-order edge dofs): the BDDC coarse problem becomes the vertex (P1) problem. Returns the number of edge
+    dofs set to interface dofs. Touches only coupling types (used by BDDC and static condensation), so direct
+    solvers are unaffected.
+
+    NGSolve numbers an H1 component's dofs vertices first, then the p - 1 dofs of each edge in edge order, so the
+    edge dofs of a component are one range (checked on the first and last edge; otherwise edge by edge): a
+    Python loop over the edges took 1.8 s of a 3.6 s heat solve at 108k dofs."""
     wb, iface = ngs.COUPLING_TYPE.WIREBASKET_DOF, ngs.COUPLING_TYPE.INTERFACE_DOF
-    moved = 0
-    for e in space.mesh.edges:
-        for d in space.GetDofNrs(e):
-            if d >= 0 and space.CouplingType(d) == wb:
-                space.SetCouplingType(d, iface)
-                moved += 1
+    mesh = space.mesh
+    comps = list(space.components) if isinstance(space, ngs.comp.ProductSpace) else [space]
+    offset, moved = 0, 0
+    for comp in comps:
+        first = comp.GetDofNrs(ngs.NodeId(ngs.EDGE, 0)) if mesh.nedge else ()
+        per_edge = len(first)
+        last = comp.GetDofNrs(ngs.NodeId(ngs.EDGE, mesh.nedge - 1)) if mesh.nedge else ()
+        start = mesh.nv
+        ranged = (per_edge > 0 and tuple(first) == tuple(range(start, start + per_edge))
+                  and tuple(last) == tuple(range(start + per_edge * (mesh.nedge - 1), start + per_edge * mesh.nedge)))
+        if ranged:
+            lo, hi = offset + start, offset + start + per_edge * mesh.nedge
+            moved += hi - lo
+            space.SetCouplingType(ngs.IntRange(lo, hi), iface)
+        else:
+            for e in mesh.edges:
+                for d in comp.GetDofNrs(e):
+                    if d >= 0 and space.CouplingType(offset + d) == wb:
+                        space.SetCouplingType(offset + d, iface)
+                    moved += d >= 0
+        offset += comp.ndof
     return moved
 
 
@@ -95,34 +123,96 @@ class Preconditioned:
     every assembly (and linearization) of ``form``. ``scale`` (a CF, Pa) weights the displacement-decomposition
     form of P1 elasticity; ``weight`` (the axisymmetric r, or 1) multiplies it."""
 
-    def __init__(self, form, space, order: int, vector: bool, scale=None, weight=None):
+    def __init__(self, form, space, order: int, vector: bool, scale=None, weight=None, dirichlet=None):
+        """``dirichlet``: per displacement component the boundary regex of its fixed values (what the space was
+        built with); with it a 3D P2 vector space, when not distributed, gets the two-level preconditioner."""
         self.kind = ""
         self.form = form
         self._aux = []
-        if order >= 2:
+        self._scale = scale if scale is not None else ngs.CoefficientFunction(1.0)
+        self._weight = weight if weight is not None else ngs.CoefficientFunction(1.0)
+        self._space = space
+        self._two_level = None
+        distributed = space.mesh.comm.size > 1
+        if order == 2 and vector and space.mesh.dim == 3 and dirichlet is not None and not distributed:
+            self.kind = "two_level_amg"
+            self.pre = None
+            self._dirichlet = list(dirichlet)
+        elif order >= 2:
             vertex_wirebasket(space)
-            self.pre = ngs.Preconditioner(form, "bddc")
-            self.kind = "bddc"
+            if not vector and space.mesh.dim == 3 and not distributed:
+                # the vertex problem by AMG (scalar: h1amg is made for it): same iterations (32 / 34 at 382k
+                # dofs), no superlinear coarse factorization
+                self.pre = ngs.Preconditioner(form, "bddc", coarsetype="h1amg")
+                self.kind = "bddc_h1amg"
+            else:
+                self.pre = ngs.Preconditioner(form, "bddc")
+                self.kind = "bddc"
         elif not vector:
             self.pre = ngs.Preconditioner(form, "h1amg")
             self.kind = "h1amg"
         else:
             self.kind = "h1amg_per_component"
             self.pre = None
-            self._scale = scale if scale is not None else ngs.CoefficientFunction(1.0)
-            self._weight = weight if weight is not None else ngs.CoefficientFunction(1.0)
-            self._space = space
 
     @property
     def mat(self):
         if self.pre is not None:
             return self.pre.mat
+        if self.kind == "two_level_amg":
+            return self._two_level_mat()
         return self._component_mat()
 
     def update(self) -> None:
-        """Rebuild the auxiliary component forms (P1 elasticity; the coefficients may have changed)."""
+        """After an assembly of the form: rebuild the auxiliary component forms (P1 elasticity and the P1 part of
+        the two-level preconditioner: the coefficients may have changed) and the Jacobi part of the two-level
+        preconditioner (the matrix's diagonal)."""
         if self.pre is None:
             self._aux = []
+            self._two_level = None
+
+    def _two_level_mat(self):
+        """3D P2 elasticity: C = D_E^-1 + sum_k E_k A_k^-1 E_k^T. NGSolve's H1 basis is hierarchical (the vertex
+        functions of P2 are the P1 hat functions), so the P1 space is the span of the vertex dofs: E_k injects the
+        P1 dofs of component k into them, and A_k^-1 is one h1amg cycle on the P1 form scale x weight x grad u .
+        grad v with component k's Dirichlet boundaries (the displacement decomposition of the P1 case); D_E is the
+        diagonal of the P2 matrix on the free edge dofs (Jacobi). The two-level splitting of P2 into P1 and
+        the edge bubbles is stable uniformly in h, so the condition number does not grow under refinement, and
+        nothing is factored but AMG's small coarsest level: the cost per iteration is linear in the dofs.
+        (Measured, box of studies/scaling, 2 threads: 90 / 96 / 98 iterations at 44k / 324k / 1.15M dofs;
+        set-up + CG 36 s at 1.15M against 118 s with the vertex-wirebasket BDDC, whose coarse P1 problem,
+        factored directly, grew like dofs^1.7.)"""
+        if self._two_level is not None:
+            return self._two_level
+        space, mesh = self._space, self._space.mesh
+        if not self._aux:
+            nv = mesh.nv
+            offsets = np.cumsum([0] + [c.ndof for c in space.components])
+            for k, comp in enumerate(space.components):
+                # vertex i of the P2 component is its dof i (low-order dofs first), checked on a sample
+                for i in (0, nv // 2, nv - 1):
+                    if tuple(comp.GetDofNrs(ngs.NodeId(ngs.VERTEX, i))) != (i,):
+                        raise AssertionError("two-level preconditioner: the P2 vertex dofs are not numbered first")
+                p1 = ngs.H1(mesh, order=1, dirichlet=self._dirichlet[k])
+                u, v = p1.TnT()
+                a = ngs.BilinearForm(p1, symmetric=True)
+                a += self._weight * self._scale * ngs.grad(u) * ngs.grad(v) * ngs.dx
+                pre = ngs.Preconditioner(a, "h1amg")
+                a.Assemble()
+                rows = offsets[k] + np.arange(nv)
+                E = ngs.la.SparseMatrixd.CreateFromCOO(rows, np.arange(nv), np.ones(nv), space.ndof, p1.ndof)
+                self._aux.append((p1, a, pre, E))
+        coarse = None
+        for _, _, pre, E in self._aux:
+            term = E @ pre.mat @ E.T
+            coarse = term if coarse is None else coarse + term
+        free = np.array(list(space.FreeDofs()), dtype=bool)
+        offsets = np.cumsum([0] + [c.ndof for c in space.components])
+        for k in range(len(space.components)):
+            free[offsets[k]:offsets[k] + mesh.nv] = False          # the vertex dofs belong to the P1 part
+        jacobi = self.form.mat.CreateSmoother(ngs.BitArray(free.tolist()))
+        self._two_level = coarse + jacobi
+        return self._two_level
 
     def _component_mat(self):
         if not self._aux:

@@ -5,8 +5,8 @@ Physics: the box of :mod:`ngs_geomech.verification.scaling` (2 x 1 x 1 m rock, P
 0 K on the ends and a uniform source, then the thermal stress with the base fixed), built from its scene dict
 through the library classes. Each size and solver runs in its own process (``worker.py``) so that its peak memory
 is the process's max RSS (NGSolve's C++ allocations included). Solvers: "direct" (sparse Cholesky for heat,
-UMFPACK for elasticity: the library's direct path) up to :data:`DIRECT_MAX` dofs, "iterative" (CG with BDDC on
-the vertex wirebasket, tolerance 1e-10) at every size; 2 NGSolve threads. ``time_exponent`` is the slope of
+UMFPACK for elasticity: the library's direct path) up to :data:`DIRECT_MAX` dofs, "iterative" (CG with the
+library's preconditioners, tolerance 1e-10) at every size; 2 NGSolve threads. ``time_exponent`` is the slope of
 log(heat + elastic solve time) against log(dofs) for the default solver ("auto": direct below
 ``AUTO_DOFS[3]`` dofs per system, iterative above) over the sizes; ``dofs`` = heat + elastic dofs.
 
@@ -20,24 +20,33 @@ largest value of each field).
 Command: ``python studies/scaling/run.py --level 0 --out out/scaling`` (level 0: 3 sizes up to 15k dofs,
 ~30 s; level 1: up to ~0.4M dofs, ~6 min; level 2: up to ~1.5M dofs, on demand, ~11 min).
 
-Measured (level 2, 640 s in all; 2 cores shared with other jobs and, during the first two sizes, a test run, so
-the small sizes' times are noisy; 2 NGSolve threads; direct only up to DIRECT_MAX; "auto" with AUTO_DOFS[3] =
-60k per system):
+Measured (level 2, 2026-11-25, machine otherwise idle, 382 s in all; 2 NGSolve threads; direct only up to
+DIRECT_MAX; "auto" with AUTO_DOFS[3] = 60k per system). Elasticity with the two-level AMG preconditioner
+(:mod:`ngs_geomech.solvers.iterative`: Jacobi on the edge dofs + h1amg per component on the P1 part), heat with
+BDDC and the AMG vertex problem:
 
       maxh      dofs  cg T  cg u   iter s iter GiB  direct s  dir GiB   auto s
-     0.150     15080    29    70    19.14     0.19      7.80     0.28     7.80
-     0.100     58296    32    75    12.55     0.28     22.82     1.12    22.82
-     0.070    212936    30    70    17.78     0.67         -        -        -
-     0.050    432060    37    86    35.55     1.30         -        -    35.55
-     0.040    684576    40   107    62.35     2.11         -        -    62.35
-     0.035   1526724    31    77   158.04     5.40         -        -   158.04
-    MPI at 684576 dofs: serial 1 thread 47.69 s, 2 workers (3 ranks) 73.42 s, elements per rank [0, 58608, 58643],
-    CG serial [40, 106] / MPI [41, 107], max rel. difference 5.5e-12
+     0.150     15080    30    98     0.33     0.21      0.65     0.29     0.65
+     0.100     58296    33   100     1.40     0.26      5.85     1.13     5.85
+     0.070    212936    31   105     5.82     0.43         -        -        -
+     0.050    432060    38   111    12.91     0.69         -        -    12.91
+     0.040    684576    42   113    22.25     0.99         -        -    22.25
+     0.035   1526724    34   114    58.43     2.02         -        -    58.43
+    MPI at 684576 dofs: serial 1 thread 42.09 s (two-level), 2 workers (3 ranks, BDDC: the two-level preconditioner is
+    serial only, its P1 injection uses global dof numbers) 105.94 s, CG serial [42, 113] / MPI [41, 107], max rel.
+    difference 1.1e-10
 
-    time_exponent 0.57 (auto, all sizes: the noisy small sizes flatten it), time_exponent_iterative_top3 1.18
-    (0.43M -> 1.53M dofs), largest_dofs 1.53e6, peak_memory_gib_largest 5.4, direct vs iterative 2.1e-11,
-    mpi_speedup_2_ranks 0.65 (rank 0 holds no elements but its MPI waits poll a core: 3 busy processes on 2
-    cores), mpi_max_rel_difference 5.5e-12.
+    time_exponent 0.87 (auto: direct at the two small sizes), time_exponent_iterative 1.12 (15k -> 1.53M dofs),
+    time_exponent_iterative_top3 1.20 (0.43M -> 1.53M), largest_dofs 1.53e6, peak_memory_gib_largest 2.0,
+    direct vs iterative 1.3e-10, mpi_speedup_2_ranks 0.40 (against the faster serial preconditioner; same
+    preconditioner, BDDC on both sides, the run before this change gave 0.92), mpi_max_rel_difference 1.1e-10.
+    The same run with BDDC for elasticity (the same day, idle machine): 0.42 / 2.40 / 11.38 / 24.15 / 46.45 /
+    140.33 s, exponents 1.24 (all) and 1.39 (top three), 5.3 GiB at 1.53M, CG 70 - 106: the directly factored
+    BDDC vertex problem grew like dofs^1.7 and dominated at 1.5M.
+    Why the top three still grow faster than linearly with constant CG counts: the assembly grows linearly
+    (x3.6 for x3.5 dofs), the per-iteration cost by x4.7: memory, not the algorithm. A plain product with the
+    P2 elasticity matrix (2 threads) cost 0.85 ns per stored entry at 0.32M dofs (26M entries, 22 ms) and 1.63 ns
+    at 1.15M (96M entries, 156 ms): its vectors (2.6 MB -> 9.2 MB each) no longer stay in the 32 MB L3 cache.
 Level 0 (quiet machine): 2.5k / 9.9k / 15k dofs, iterative 0.42 / 1.03 / 1.62 s, direct 0.37 / 1.46 / 2.88 s.
 """
 
