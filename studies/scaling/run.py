@@ -47,7 +47,7 @@ BDDC and the AMG vertex problem:
     (x3.6 for x3.5 dofs), the per-iteration cost by x4.7: memory, not the algorithm. A plain product with the
     P2 elasticity matrix (2 threads) cost 0.85 ns per stored entry at 0.32M dofs (26M entries, 22 ms) and 1.63 ns
     at 1.15M (96M entries, 156 ms): its vectors (2.6 MB -> 9.2 MB each) no longer stay in the 32 MB L3 cache.
-Level 0 (quiet machine): 2.5k / 9.9k / 15k dofs, iterative 0.42 / 1.03 / 1.62 s, direct 0.37 / 1.46 / 2.88 s.
+Level 0 (quiet machine, 16 s): 2.5k / 9.9k / 15k dofs, iterative 0.12 / 0.23 / 0.38 s, direct 0.18 / 0.44 / 0.68 s.
 """
 
 from __future__ import annotations
