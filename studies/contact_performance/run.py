@@ -113,6 +113,32 @@ the millisecond timings of the coarse levels vary more). At the finest level one
 (Hertz) and 2.7 (blocks) sparsecholesky solves of K with (a), and the solve per factorization 3.0 and 3.5 with
 (b): a solve with a single UMFPACK factorization of the saddle-point system would still miss the factor 2.
 
+Where the cold time goes, and why the targets need other linear algebra (measured 2026-11-25, one thread):
+- At Hertz k = 3 / 5, 8 of 9 / 10 of 12 iterations are the penalty phase. The first iterate holds the floating
+  cylinder on the one node touching first, so the body sinks and ~186 nodes penetrate. The set then shrinks
+  geometrically. Scaling the augmentation c by 10, 100 or 1000 left the counts unchanged (9 iterations, 4
+  factorizations at k = 3).
+- Even a perfect start misses the frictionless target. The warm solve (the final sets given: 1 iteration, 1
+  factorization) has the ratio 3.0 at 140k dofs, because one UMFPACK factorization of the saddle-point system
+  costs 1.5 - 2 sparse Cholesky factorizations of K.
+- A condensed path was prototyped: CHOLMOD (cvxopt) on K with the 2897 contact-surface dofs ordered last, so that
+  the Schur complement on the surface comes out of one factorization and the active-set iterations become dense
+  surface solves. Its set-up alone, at 140k dofs:
+  | step | s |
+  | --- | --- |
+  | building the matrix | 0.42 |
+  | AMD | 0.13 |
+  | symbolic | 0.35 |
+  | numeric | 0.37 |
+  | getfactor | 0.25 |
+  | surface block extraction | 0.19 |
+  | **total** | **1.8** |
+  The reference linear solves take 1.22 s (NGSolve's sparsecholesky) and 0.66 s (CHOLMOD). The dense surface
+  iterations would come on top: each TRSV with the 2897 x 2897 factor is ~5 ms.
+  - With those, the ratio would be ~2 against sparsecholesky and ~3.5 against CHOLMOD, so the path was not built.
+  - A smaller surface (only the nodes that can touch) would be needed. So would a sparse-RHS triangular solve,
+    which neither cvxopt nor NGSolve exposes.
+
 Cost (the same conditions): (a) level 0 8.4 s (Hertz 3.1 s, blocks 1.6 s, Uzawa 3.7 s); level 1 102 s (Hertz
 45 s, of it 34 s at 140k dofs; blocks 32 s; Uzawa 25 s); level 2 300 s (Uzawa at h = 0.02 alone 198 s);
 (b) level 0 6.4 s (Hertz 1.9 s, blocks 1.0 s, Uzawa 3.5 s); level 2 251 s (Hertz 31 s, blocks 23 s, Uzawa
