@@ -539,7 +539,8 @@ class _Physics:
             setup = heat_setup(scene, geo, mesh)
             self.heat = HeatForms(mesh, setup)
             sv = scene.solver
-            self.solver = HeatSolver(self.heat, solver=sv.linear, tol=sv.tolerance, maxit=sv.max_iterations)
+            self.solver = HeatSolver(self.heat, solver=sv.linear, tol=sv.tolerance, maxit=sv.max_iterations,
+                                     preconditioner=sv.preconditioner)
             self.T = self.heat.temperature()
             self.fields["temperature"] = self.T
             self.fields["heat_flux"] = self.heat.heat_flux(self.T)
@@ -662,7 +663,8 @@ class _Mechanics:
             self.solver = ElasticSolver(self.forms, method=ms.nonlinear_solver, tol=ms.tolerance,
                                         maxit=ms.max_iterations, relaxation=ms.secant_relaxation, solver=sv.linear,
                                         linear_tol=sv.tolerance, linear_maxit=sv.max_iterations,
-                                        start="linear" if self.nested is None else "current")
+                                        start="linear" if self.nested is None else "current",
+                                        preconditioner=sv.preconditioner)
             self.contact_output = None
             free = self.forms.unheld_rigid_motions()
             if free:

@@ -15,7 +15,7 @@ import ngsolve as ngs
 import numpy as np
 import pytest
 
-from ngs_geomech.errors import SolverError
+from ngs_geomech.errors import SceneError, SolverError
 from ngs_geomech.geometry.mesh import make_mesh
 from ngs_geomech.physics.elasticity import ElasticForms
 from ngs_geomech.physics.thermal import HeatForms
@@ -213,3 +213,22 @@ def test_two_level_preconditioner_componentwise_supports_and_secant():
     assert max_rel_difference(Ti, Td) < 1e-9 and max_rel_difference(ui, ud) < 1e-8
     assert abs(ni - nd) <= 1 and len(cg) >= 3 and all(0 < k < 200 for k in cg)
     assert np.max(np.abs(ud)) > 1e-5
+
+
+def test_preconditioner_choice_bddc_against_default():
+    """solver.preconditioner = "bddc" (BDDC with the vertex problem factored directly, what distributed meshes use)
+    gives the default's solution to the solver tolerance with its own CG counts; with P1 elements the scene is
+    refused naming the key."""
+    mesh = make_box_mesh(0.3, 2, 3)
+    auto = thermoelastic_box(0.3, 2, "iterative", mesh=mesh)
+    bddc = thermoelastic_box(0.3, 2, "iterative", mesh=mesh, preconditioner="bddc")
+    dT, du = max_rel_difference(bddc["T"], auto["T"]), max_rel_difference(bddc["u"], auto["u"])
+    print(f"\nCG heat {auto['cg_heat']} / {bddc['cg_heat']}, elasticity {auto['cg_elastic']} / {bddc['cg_elastic']} "
+          f"(auto / bddc), differences {dT:.1e} {du:.1e}")
+    assert dT < 1e-8 and du < 1e-8
+    assert bddc["cg_elastic"] != auto["cg_elastic"]          # another preconditioner really ran
+    data = box_scene(0.3, 1, 3)
+    data["solver"] = {"linear": "iterative", "preconditioner": "bddc"}
+    with pytest.raises(SceneError) as info:
+        validate(scene_from_dict(data, source="p1_bddc"))
+    assert "solver.preconditioner" in str(info.value)

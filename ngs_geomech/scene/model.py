@@ -394,6 +394,11 @@ class SolverSettings:
                             "in 3D, 1M in 2D)")
     tolerance: float = field(number, 1e-10, doc="relative residual of the iterative solver")
     max_iterations: int = field(integer, 2000, doc="iteration limit of the iterative solver")
+    preconditioner: str = field(one_of("auto", "bddc"), "auto",
+                                doc="of the iterative solver: 'auto' (two-level AMG for 3D P2 elasticity, BDDC with an "
+                                    "AMG vertex problem for 3D P2 heat, BDDC for order >= 2 otherwise, AMG for P1) or "
+                                    "'bddc' (BDDC with the vertex problem factored directly, order >= 2; what "
+                                    "distributed meshes use)")
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -94,6 +94,9 @@ def _check_formulation(scene: Scene, problems: list[Problem]) -> None:
         problems.append(Problem("solver.tolerance", f"must be > 0, got {s.tolerance}"))
     if s.max_iterations < 1:
         problems.append(Problem("solver.max_iterations", f"must be >= 1, got {s.max_iterations}"))
+    if s.preconditioner == "bddc" and scene.mesh.order < 2:
+        problems.append(Problem("solver.preconditioner", "'bddc' needs mesh.order >= 2 (P1 elements have no "
+                                "interface dofs); use 'auto'"))
 
 
 def _check_dynamics(scene: Scene, problems: list[Problem]) -> None:

@@ -80,7 +80,8 @@ class ElasticSolver:
 
     def __init__(self, forms: ElasticForms, *, method: str = "newton", tol: float = 1e-8, maxit: int = 100,
                  relaxation: float | None = None, primal_dual: bool | None = None, solver: str = "auto",
-                 linear_tol: float = DEFAULT_TOL, linear_maxit: int = 2000, start: str = "linear"):
+                 linear_tol: float = DEFAULT_TOL, linear_maxit: int = 2000, start: str = "linear",
+                 preconditioner: str = "auto"):
         """``relaxation``: None (default) takes the energy-minimising step along the secant direction
         u~_{n+1} - u_n, a number w the fixed step u_{n+1} = u_n + w (u~_{n+1} - u_n) (w = 1: the plain
         secant modules method (2.32)). ``primal_dual``: the Newton tangent with an independent stress for the
@@ -91,12 +92,14 @@ class ElasticSolver:
         (iterative above ``iterative.AUTO_DOFS`` dofs). Iterative only for the pure displacement formulation
         (X = V: no oblique symmetry multipliers, no mixed pressures) and for the secant systems and the exact Newton
         Hessian; the primal-dual Newton tangent (unsymmetric) stays direct. Contact
-        (:mod:`~ngs_geomech.solvers.elastic_contact`) keeps its direct saddle-point solver."""
+        (:mod:`~ngs_geomech.solvers.elastic_contact`) keeps its direct saddle-point solver. ``preconditioner``: of
+        CG, one of ``iterative.PRECONDITIONERS``."""
         if method not in ("newton", "secant"):
             raise ValueError(f"unknown nonlinear solver {method!r}")
         if start not in ("linear", "current"):
             raise ValueError(f"start must be 'linear' or 'current', got {start!r}")
         self.start = start
+        self.preconditioner = preconditioner
         """Newton's start: 'linear' (the linear elastic solution) or 'current' (the displacement in the forms, its
         Dirichlet values set: e.g. a coarser mesh's solution carried over, nested iteration)."""
         if relaxation is not None and not relaxation > 0:
@@ -153,7 +156,8 @@ class ElasticSolver:
                  * (f.linear_switch + (1 - f.linear_switch) * f.factor(r, e)) for r in f.D}, default=1.0)
             pre = self._pre[name] = Preconditioned(form, f.V, f.setup.order, vector=True, scale=scale,
                                                    weight=f.weight,
-                                                   dirichlet=[regions_regex(set(n)) for n in f.fixed_names])
+                                                   dirichlet=[regions_regex(set(n)) for n in f.fixed_names],
+                                                   choice=self.preconditioner)
         return pre
 
     def _assemble(self, form, where: str, linearize_at=None) -> None:

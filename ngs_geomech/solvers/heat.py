@@ -31,12 +31,14 @@ class HeatSolver:
     """Drives :class:`HeatForms`: Dirichlet data, assembly, factorization cache, Newton."""
 
     def __init__(self, forms: HeatForms, newton_tol: float = 1e-10, newton_maxit: int = 30, *,
-                 solver: str = "auto", tol: float = DEFAULT_TOL, maxit: int = 2000):
+                 solver: str = "auto", tol: float = DEFAULT_TOL, maxit: int = 2000, preconditioner: str = "auto"):
         """``solver``: "direct" (sparse Cholesky, UMFPACK), "iterative" (preconditioned CG to the relative
         residual ``tol``, at most ``maxit`` iterations; :mod:`~ngs_geomech.solvers.iterative`) or "auto"
         (iterative above ``iterative.AUTO_DOFS`` dofs). Only the linear problem without contact interfaces (an SPD
-        step matrix) is solved iteratively; k(T) Newton and the mortar saddle point stay direct."""
+        step matrix) is solved iteratively; k(T) Newton and the mortar saddle point stay direct.
+        ``preconditioner``: of CG, one of ``iterative.PRECONDITIONERS``."""
         self.f = forms
+        self.preconditioner = preconditioner
         self.solver = choose_solver(solver, forms.X.ndof, forms.mesh.dim, spd=self.symmetric_for(forms))
         self._pcg = PCG(tol, maxit) if self.solver == "iterative" else None
         self._pre = None
@@ -136,7 +138,7 @@ class HeatSolver:
         key = f"{f.inv_dt.Get():.14g}:{f.theta.Get():g}:{f.version}"
         fresh = key != getattr(self, "_iter_key", None)
         if self._pre is None:
-            self._pre = Preconditioned(f.lhs, f.V, f.setup.order, vector=False)
+            self._pre = Preconditioned(f.lhs, f.V, f.setup.order, vector=False, choice=self.preconditioner)
         if fresh:
             try:
                 f.lhs.Assemble()

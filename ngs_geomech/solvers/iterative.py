@@ -45,6 +45,11 @@ from ..errors import SolverError
 SOLVERS = ("auto", "direct", "iterative")
 """Values of the ``solver`` argument of :class:`HeatSolver` and :class:`ElasticSolver`."""
 
+PRECONDITIONERS = ("auto", "bddc")
+"""Values of their ``preconditioner`` argument: "auto" the choice of the module docstring, "bddc" NGSolve's BDDC
+with the vertex wirebasket and its vertex problem factored directly for every order >= 2 (what distributed meshes
+use; the serial default before the two-level preconditioner, kept for comparison: ``studies/scaling``)."""
+
 AUTO_DOFS = {2: 1_000_000, 3: 60_000}
 """Dofs above which ``solver="auto"`` takes preconditioned CG (per mesh dimension, per system). Measured
 (``studies/scaling``, 3D P2 thermo-elastic box, 2 threads, 2026-11-25): CG (two-level AMG for elasticity, BDDC
@@ -125,9 +130,15 @@ class Preconditioned:
     every assembly (and linearization) of ``form``. ``scale`` (a CF, Pa) weights the displacement-decomposition
     form of P1 elasticity; ``weight`` (the axisymmetric r, or 1) multiplies it."""
 
-    def __init__(self, form, space, order: int, vector: bool, scale=None, weight=None, dirichlet=None):
+    def __init__(self, form, space, order: int, vector: bool, scale=None, weight=None, dirichlet=None,
+                 choice: str = "auto"):
         """``dirichlet``: per displacement component the boundary regex of its fixed values (what the space was
-        built with); with it a 3D P2 vector space, when not distributed, gets the two-level preconditioner."""
+        built with); with it a 3D P2 vector space, when not distributed, gets the two-level preconditioner.
+        ``choice`` in :data:`PRECONDITIONERS` ("bddc" needs order >= 2)."""
+        if choice not in PRECONDITIONERS:
+            raise ValueError(f"preconditioner must be one of {PRECONDITIONERS}, got {choice!r}")
+        if choice == "bddc" and order < 2:
+            raise ValueError("the BDDC preconditioner needs elements of order >= 2 (P1 has no interface dofs)")
         self.kind = ""
         self.form = form
         self._aux = []
@@ -135,7 +146,7 @@ class Preconditioned:
         self._weight = weight if weight is not None else ngs.CoefficientFunction(1.0)
         self._space = space
         self._two_level = None
-        distributed = space.mesh.comm.size > 1
+        distributed = space.mesh.comm.size > 1 or choice == "bddc"      # (BDDC with the factored vertex problem)
         if order == 2 and vector and space.mesh.dim == 3 and dirichlet is not None and not distributed:
             self.kind = "two_level_amg"
             self.pre = None

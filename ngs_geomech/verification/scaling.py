@@ -62,9 +62,10 @@ def box_scene(maxh: float, order: int, dim: int = 3, steps: int = 0) -> dict:
 
 
 def thermoelastic_box(maxh: float, order: int, solver: str = "auto", *, dim: int = 3, steps: int = 0,
-                      tol: float = 1e-10, mesh=None, keep: bool = False) -> dict:
+                      tol: float = 1e-10, mesh=None, keep: bool = False, preconditioner: str = "auto") -> dict:
     """Solve the box's heat problem, then its thermal stress, with ``solver`` ("auto", "direct", "iterative")
-    and CG tolerance ``tol`` for both. ``mesh``: reuse a mesh made before (same maxh, order, dim).
+    and CG tolerance ``tol`` for both, CG preconditioned by ``preconditioner`` ("auto", "bddc"). ``mesh``: reuse a
+    mesh made before (same maxh, order, dim).
 
     Returns ``dofs_heat``, ``dofs_elastic``, ``dofs`` (their sum), ``solver_heat``, ``solver_elastic`` (what
     "auto" chose), ``mesh_s``, ``heat_s``, ``elastic_s`` (wall times, s: set-up, assembly and solves),
@@ -80,7 +81,7 @@ def thermoelastic_box(maxh: float, order: int, solver: str = "auto", *, dim: int
     mesh_s = time.perf_counter() - tic
     tic = time.perf_counter()
     heat = HeatForms(mesh, heat_setup(scene, geo, mesh))
-    hs = HeatSolver(heat, solver=solver, tol=tol)
+    hs = HeatSolver(heat, solver=solver, tol=tol, preconditioner=preconditioner)
     if steps:
         heat.temperature().vec[:] = 0.0
         t = 0.0
@@ -97,7 +98,7 @@ def thermoelastic_box(maxh: float, order: int, solver: str = "auto", *, dim: int
     heat_s = time.perf_counter() - tic
     tic = time.perf_counter()
     forms = ElasticForms(mesh, elastic_setup(scene, geo, mesh, heat.temperature()))
-    es = ElasticSolver(forms, solver=solver, linear_tol=tol)
+    es = ElasticSolver(forms, solver=solver, linear_tol=tol, preconditioner=preconditioner)
     es.solve("thermal stress of the box")
     elastic_s = time.perf_counter() - tic
     T = heat.gf.vec.FV().NumPy().copy()

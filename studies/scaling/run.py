@@ -127,11 +127,15 @@ def run(level: int) -> tuple[dict, dict]:
         tmp = Path(tmpdir)
         for maxh in p["maxh"]:
             it = _run_worker(maxh, "iterative", THREADS, tmp)
+            bd = _run_worker(maxh, "bddc", THREADS, tmp)
             d = _run_worker(maxh, "direct", THREADS, tmp) if it["dofs"] <= DIRECT_MAX else None
             row = {"maxh": maxh, "dofs": it["dofs"], "dofs_heat": it["dofs_heat"], "dofs_elastic": it["dofs_elastic"],
                    "iterative_s": it["solve_s"], "iterative_heat_s": it["heat_s"],
                    "iterative_elastic_s": it["elastic_s"], "iterative_gib": it["peak_rss_gib"],
                    "cg_heat": it["cg_heat"][0], "cg_elastic": it["cg_elastic"][0], "mesh_s": it["mesh_s"],
+                   "bddc_s": bd["solve_s"], "bddc_gib": bd["peak_rss_gib"], "cg_heat_bddc": bd["cg_heat"][0],
+                   "cg_elastic_bddc": bd["cg_elastic"][0],
+                   "bddc_vs_iterative_max_rel_difference": _compare_points(it["points"], bd["points"]),
                    "direct_s": d["solve_s"] if d else None, "direct_heat_s": d["heat_s"] if d else None,
                    "direct_elastic_s": d["elastic_s"] if d else None, "direct_gib": d["peak_rss_gib"] if d else None}
             if d:
@@ -147,6 +151,7 @@ def run(level: int) -> tuple[dict, dict]:
         if mpiexec is not None:
             h = p["mpi_maxh"]
             serial = _run_worker(h, "iterative", 1, tmp)
+            serial_bddc = _run_worker(h, "bddc", 1, tmp)
             out = tmp / "mpi.json"
             proc = subprocess.run([mpiexec, "-n", "3", _python(), str(HERE / "mpi_box.py"), str(h), str(ORDER),
                                    str(out)], capture_output=True, text=True, env={**os.environ})
@@ -154,6 +159,7 @@ def run(level: int) -> tuple[dict, dict]:
                 raise RuntimeError(f"mpiexec failed:\n{proc.stderr[-3000:]}")
             m = json.loads(out.read_text())
             mpi = {"maxh": h, "dofs": m["dofs_heat"] + m["dofs_elastic"], "serial_1thread_s": serial["solve_s"],
+                   "serial_1thread_bddc_s": serial_bddc["solve_s"],
                    "mpi_2workers_s": m["solve_s"], "elements_per_rank": m["elements_per_rank"],
                    "cg_serial": [serial["cg_heat"][0], serial["cg_elastic"][0]],
                    "cg_mpi": [m["cg_heat"][0], m["cg_elastic"][0]],
@@ -161,6 +167,7 @@ def run(level: int) -> tuple[dict, dict]:
     auto = [(r["dofs"], r["auto_s"]) for r in rows if r.get("auto_s")]
     it_pts = [(r["dofs"], r["iterative_s"]) for r in rows]
     d_pts = [(r["dofs"], r["direct_s"]) for r in rows if r["direct_s"]]
+    b_pts = [(r["dofs"], r["bddc_s"]) for r in rows]
     largest = rows[-1]
     metrics = {
         "time_exponent": _slope(*zip(*auto)) if len(auto) >= 2 else _slope(*zip(*it_pts)),
@@ -171,6 +178,11 @@ def run(level: int) -> tuple[dict, dict]:
         "cg_iterations_heat_max": float(max(r["cg_heat"] for r in rows)),
         "cg_iterations_elastic_max": float(max(r["cg_elastic"] for r in rows)),
         "cg_iterations_elastic_ratio_last_first": rows[-1]["cg_elastic"] / rows[0]["cg_elastic"],
+        "time_exponent_bddc": _slope(*zip(*b_pts)),
+        "time_exponent_bddc_top3": _slope(*zip(*b_pts[-3:])),
+        "bddc_over_default_time_largest": largest["bddc_s"] / largest["iterative_s"],
+        "bddc_peak_memory_gib_largest": float(largest["bddc_gib"]),
+        "bddc_vs_iterative_max_rel_difference": max(r["bddc_vs_iterative_max_rel_difference"] for r in rows),
     }
     if len(d_pts) >= 2:
         metrics["time_exponent_direct"] = _slope(*zip(*d_pts))
@@ -179,6 +191,8 @@ def run(level: int) -> tuple[dict, dict]:
         metrics["direct_vs_iterative_max_rel_difference"] = max(diffs)
     if mpi is not None:
         metrics["mpi_speedup_2_ranks"] = mpi["serial_1thread_s"] / mpi["mpi_2workers_s"]
+        # the distributed run takes BDDC: the speed-up with the same preconditioner on both sides
+        metrics["mpi_speedup_2_ranks_same_preconditioner"] = mpi["serial_1thread_bddc_s"] / mpi["mpi_2workers_s"]
         metrics["mpi_max_rel_difference"] = mpi["max_rel_difference"]
     timing = {"total_s": time.perf_counter() - t_start}
     result = {"study": STUDY, "level": level, "metrics": metrics, "convergence": [], "rows": rows, "mpi": mpi,
@@ -192,14 +206,18 @@ def _fmt(v, width: int) -> str:
 
 def table(result: dict) -> list[str]:
     lines = ["", f"{'maxh':>6} {'dofs':>9} {'cg T':>5} {'cg u':>5} {'iter s':>8} {'iter GiB':>8} "
+                 f"{'cgB T':>5} {'cgB u':>5} {'bddc s':>8} {'bddc GiB':>8} "
                  f"{'direct s':>9} {'dir GiB':>8} {'auto s':>8}"]
     for r in result["rows"]:
         lines.append(f"{r['maxh']:6.3f} {r['dofs']:9d} {r['cg_heat']:5d} {r['cg_elastic']:5d} "
-                     f"{r['iterative_s']:8.2f} {r['iterative_gib']:8.2f} {_fmt(r['direct_s'], 9)} "
+                     f"{r['iterative_s']:8.2f} {r['iterative_gib']:8.2f} "
+                     f"{r.get('cg_heat_bddc', 0):5d} {r.get('cg_elastic_bddc', 0):5d} {_fmt(r.get('bddc_s'), 8)} "
+                     f"{_fmt(r.get('bddc_gib'), 8)} {_fmt(r['direct_s'], 9)} "
                      f"{_fmt(r['direct_gib'], 8)} {_fmt(r.get('auto_s'), 8)}")
     m = result.get("mpi")
     if m:
-        lines.append(f"MPI at {m['dofs']} dofs: serial 1 thread {m['serial_1thread_s']:.2f} s, 2 workers "
+        lines.append(f"MPI at {m['dofs']} dofs: serial 1 thread {m['serial_1thread_s']:.2f} s (BDDC "
+                     f"{m.get('serial_1thread_bddc_s', float('nan')):.2f} s), 2 workers (BDDC) "
                      f"{m['mpi_2workers_s']:.2f} s (elements per rank {m['elements_per_rank']}), CG serial "
                      f"{m['cg_serial']} / MPI {m['cg_mpi']}, max rel. difference {m['max_rel_difference']:.1e}")
     else:

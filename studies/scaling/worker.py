@@ -1,7 +1,7 @@
 """One size of the scaling box in its own process (run by ``studies/scaling/run.py``), so that the process's peak
 resident memory (max RSS, which counts NGSolve's C++ allocations; tracemalloc does not) belongs to that size:
 
-    python studies/scaling/worker.py MAXH ORDER SOLVER THREADS OUT.json
+    python studies/scaling/worker.py MAXH ORDER SOLVER THREADS OUT.json      (SOLVER: direct, iterative, bddc)
 
 Writes OUT.json: the dict of :func:`ngs_geomech.verification.scaling.thermoelastic_box` without the solution
 vectors, ``peak_rss_gib`` and, for the MPI comparison, ``points`` (:func:`mpi_box.sample`).
@@ -27,8 +27,10 @@ def main() -> None:
                                          sys.argv[5])
     ngs.SetNumThreads(threads)
     tic = time.perf_counter()
+    # "bddc": CG with BDDC and its directly factored vertex problem (the comparison of the preconditioners)
+    solver, pre = ("iterative", "bddc") if solver == "bddc" else (solver, "auto")
     with ngs.TaskManager():
-        r = thermoelastic_box(maxh, order, solver, keep=True)
+        r = thermoelastic_box(maxh, order, solver, keep=True, preconditioner=pre)
     total = time.perf_counter() - tic
     from mpi_box import sample  # the same sample points as the MPI runs (mpi_box imports mpi4py lazily)
 
