@@ -18,36 +18,38 @@ difference of T and u at 63 sample points between the distributed and the serial
 largest value of each field).
 
 Command: ``python studies/scaling/run.py --level 0 --out out/scaling`` (level 0: 3 sizes up to 15k dofs,
-~30 s; level 1: up to ~0.4M dofs, ~6 min; level 2: up to ~1.5M dofs, on demand, ~11 min).
+~25 s; level 1: up to ~0.4M dofs, ~8 min; level 2: up to ~1.5M dofs, on demand, ~22 min).
 
-Measured (level 2, 2026-11-25, machine otherwise idle, 382 s in all; 2 NGSolve threads; direct only up to
-DIRECT_MAX; "auto" with AUTO_DOFS[3] = 60k per system). Elasticity with the two-level AMG preconditioner
-(:mod:`ngs_geomech.solvers.iterative`: Jacobi on the edge dofs + h1amg per component on the P1 part), heat with
-BDDC and the AMG vertex problem:
+Measured (level 2, 2026-11-25, 1281 s in all; 2 NGSolve threads; the faster of two runs per size and
+preconditioner, the other in brackets; direct only up to DIRECT_MAX; "auto" with AUTO_DOFS[3] = 60k per system).
+"iter": the default preconditioners (two-level AMG for elasticity, BDDC with the AMG vertex problem for heat);
+"bddc": ``preconditioner="bddc"``, the vertex problem factored directly (the default before this change):
 
-      maxh      dofs  cg T  cg u   iter s iter GiB  direct s  dir GiB   auto s
-     0.150     15080    30    98     0.33     0.21      0.65     0.29     0.65
-     0.100     58296    33   100     1.40     0.26      5.85     1.13     5.85
-     0.070    212936    31   105     5.82     0.43         -        -        -
-     0.050    432060    38   111    12.91     0.69         -        -    12.91
-     0.040    684576    42   113    22.25     0.99         -        -    22.25
-     0.035   1526724    34   114    58.43     2.02         -        -    58.43
-    MPI at 684576 dofs: serial 1 thread 42.09 s (two-level), 2 workers (3 ranks, BDDC: the two-level preconditioner is
-    serial only, its P1 injection uses global dof numbers) 105.94 s, CG serial [42, 113] / MPI [41, 107], max rel.
-    difference 1.1e-10
+      maxh      dofs  cg T  cg u   iter s           iter GiB  cgB T cgB u   bddc s          bddc GiB  direct s
+     0.150     15080    30    98     0.41 (0.51)     0.21      29    70     0.42 (0.46)     0.19      0.74
+     0.100     58296    33   100     1.66 (1.75)     0.26      32    75     1.76 (2.15)     0.28      5.82
+     0.070    212936    31   105     7.63 (8.53)     0.43      30    70    10.18 (11.14)    0.67         -
+     0.050    432060    38   111    16.07 (16.69)    0.69      37    86    22.49 (27.14)    1.29         -
+     0.040    684576    42   113    21.35 (28.86)    0.99      40   106    53.38 (56.57)    2.08         -
+     0.035   1526724    34   114    64.98 (70.28)    2.01      31    77   129.80 (133.39)   5.28         -
+    MPI at 684576 dofs: serial 1 thread 36.32 s (BDDC 89.26 s), 2 workers (3 ranks, BDDC: the two-level
+    preconditioner is serial only, its P1 injection uses global dof numbers) 105.73 s, CG serial [42, 113] / MPI
+    [41, 107], max rel. difference 1.1e-10
 
-    time_exponent 0.87 (auto: direct at the two small sizes), time_exponent_iterative 1.12 (15k -> 1.53M dofs),
-    time_exponent_iterative_top3 1.20 (0.43M -> 1.53M), largest_dofs 1.53e6, peak_memory_gib_largest 2.0,
-    direct vs iterative 1.3e-10, mpi_speedup_2_ranks 0.40 (against the faster serial preconditioner; same
-    preconditioner, BDDC on both sides, the run before this change gave 0.92), mpi_max_rel_difference 1.1e-10.
-    The same run with BDDC for elasticity (the same day, idle machine): 0.42 / 2.40 / 11.38 / 24.15 / 46.45 /
-    140.33 s, exponents 1.24 (all) and 1.39 (top three), 5.3 GiB at 1.53M, CG 70 - 106: the directly factored
-    BDDC vertex problem grew like dofs^1.7 and dominated at 1.5M.
-    Why the top three still grow faster than linearly with constant CG counts: the assembly grows linearly
+    time_exponent 0.87 (auto: direct at the two small sizes), time_exponent_iterative 1.09 (15k -> 1.53M dofs),
+    time_exponent_iterative_top3 1.14 (0.43M -> 1.53M); BDDC 1.26 and 1.36; largest_dofs 1.53e6,
+    peak_memory_gib_largest 2.0 (BDDC 5.3), bddc_over_default_time_largest 2.0, direct vs iterative 1.3e-10, BDDC vs
+    default 3.0e-10, mpi_speedup_2_ranks 0.34 (against the faster serial preconditioner),
+    mpi_speedup_2_ranks_same_preconditioner 0.84 (BDDC on both sides; rank 0 holds no elements but its MPI waits
+    poll a core: 3 busy processes on 2 cores), mpi_max_rel_difference 1.1e-10.
+    Single runs the same day scattered more: the default at 1.53M took 58.4 s and 79.4 s in two level-2 runs
+    (top-three exponents 1.20 and 1.50), hence the best of two.
+    Why the top sizes grow faster than linearly with constant CG counts: the assembly grows linearly
     (x3.6 for x3.5 dofs), the per-iteration cost by x4.7: memory, not the algorithm. A plain product with the
     P2 elasticity matrix (2 threads) cost 0.85 ns per stored entry at 0.32M dofs (26M entries, 22 ms) and 1.63 ns
     at 1.15M (96M entries, 156 ms): its vectors (2.6 MB -> 9.2 MB each) no longer stay in the 32 MB L3 cache.
-Level 0 (quiet machine, 16 s): 2.5k / 9.9k / 15k dofs, iterative 0.12 / 0.23 / 0.38 s, direct 0.18 / 0.44 / 0.68 s.
+Level 0 (23 s): 2.5k / 9.9k / 15k dofs, iterative 0.13 / 0.32 / 0.54 s, direct 0.19 / 0.49 / 0.92 s, BDDC at 15k
+0.45 s.
 """
 
 from __future__ import annotations
