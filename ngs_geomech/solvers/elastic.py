@@ -99,9 +99,9 @@ class ElasticSolver:
         if start not in ("linear", "current"):
             raise ValueError(f"start must be 'linear' or 'current', got {start!r}")
         self.start = start
-        self.preconditioner = preconditioner
         """Newton's start: 'linear' (the linear elastic solution) or 'current' (the displacement in the forms, its
         Dirichlet values set: e.g. a coarser mesh's solution carried over, nested iteration)."""
+        self.preconditioner = preconditioner
         if relaxation is not None and not relaxation > 0:
             raise ValueError(f"relaxation must be positive, got {relaxation}")
         self.f = forms

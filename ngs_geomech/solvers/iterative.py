@@ -146,14 +146,17 @@ class Preconditioned:
         self._weight = weight if weight is not None else ngs.CoefficientFunction(1.0)
         self._space = space
         self._two_level = None
-        distributed = space.mesh.comm.size > 1 or choice == "bddc"      # (BDDC with the factored vertex problem)
-        if order == 2 and vector and space.mesh.dim == 3 and dirichlet is not None and not distributed:
+        self._p1 = None
+        # BDDC with its vertex problem factored: asked for, or on a distributed mesh (the two-level injection and
+        # h1amg of the vertex problem are serial)
+        bddc_only = space.mesh.comm.size > 1 or choice == "bddc"
+        if order == 2 and vector and space.mesh.dim == 3 and dirichlet is not None and not bddc_only:
             self.kind = "two_level_amg"
             self.pre = None
             self._dirichlet = list(dirichlet)
         elif order >= 2:
             vertex_wirebasket(space)
-            if not vector and space.mesh.dim == 3 and not distributed:
+            if not vector and space.mesh.dim == 3 and not bddc_only:
                 # the vertex problem by AMG (scalar: h1amg is made for it): same iterations (32 / 34 at 382k
                 # dofs), no superlinear coarse factorization
                 self.pre = ngs.Preconditioner(form, "bddc", coarsetype="h1amg")
@@ -191,53 +194,53 @@ class Preconditioned:
         grad v with component k's Dirichlet boundaries (the displacement decomposition of the P1 case); D_E is the
         diagonal of the P2 matrix on the free edge dofs (Jacobi). The two-level splitting of P2 into P1 and
         the edge bubbles is stable uniformly in h, so the condition number does not grow under refinement, and
-        nothing is factored but AMG's small coarsest level: the cost per iteration is linear in the dofs.
-        (Measured, box of studies/scaling, 2 threads: 90 / 96 / 98 iterations at 44k / 324k / 1.15M dofs;
-        set-up + CG 36 s at 1.15M against 118 s with the vertex-wirebasket BDDC, whose coarse P1 problem,
-        factored directly, grew like dofs^1.7.)"""
+        nothing is factored but AMG's small coarsest level: the cost per iteration is linear in the dofs
+        (measured: the module docstring). The P1 spaces, injections and the edge-dof mask are built once; an
+        :meth:`update` re-assembles the P1 forms and re-reads the diagonal."""
         if self._two_level is not None:
             return self._two_level
         space, mesh = self._space, self._space.mesh
-        if not self._aux:
+        if self._p1 is None:          # the P1 spaces, injections and edge-dof mask: fixed for the space
             nv = mesh.nv
             offsets = np.cumsum([0] + [c.ndof for c in space.components])
+            free = np.array(list(space.FreeDofs()), dtype=bool)
+            self._p1 = []
             for k, comp in enumerate(space.components):
                 # vertex i of the P2 component is its dof i (low-order dofs first), checked on a sample
                 for i in (0, nv // 2, nv - 1):
                     if tuple(comp.GetDofNrs(ngs.NodeId(ngs.VERTEX, i))) != (i,):
                         raise AssertionError("two-level preconditioner: the P2 vertex dofs are not numbered first")
                 p1 = ngs.H1(mesh, order=1, dirichlet=self._dirichlet[k])
-                u, v = p1.TnT()
-                a = ngs.BilinearForm(p1, symmetric=True)
-                a += self._weight * self._scale * ngs.grad(u) * ngs.grad(v) * ngs.dx
-                pre = ngs.Preconditioner(a, "h1amg")
-                a.Assemble()
-                rows = offsets[k] + np.arange(nv)
-                E = ngs.la.SparseMatrixd.CreateFromCOO(rows, np.arange(nv), np.ones(nv), space.ndof, p1.ndof)
-                self._aux.append((p1, a, pre, E))
+                E = ngs.la.SparseMatrixd.CreateFromCOO(offsets[k] + np.arange(nv), np.arange(nv), np.ones(nv),
+                                                       space.ndof, p1.ndof)
+                self._p1.append((p1, E))
+                free[offsets[k]:offsets[k] + nv] = False          # the vertex dofs belong to the P1 part
+            self._edges = ngs.BitArray(free.tolist())
+        if not self._aux:
+            self._aux = [self._amg(p1, symmetric=True) for p1, _ in self._p1]
         coarse = None
-        for _, _, pre, E in self._aux:
+        for (_, E), (_, pre) in zip(self._p1, self._aux):
             term = E @ pre.mat @ E.T
             coarse = term if coarse is None else coarse + term
-        free = np.array(list(space.FreeDofs()), dtype=bool)
-        offsets = np.cumsum([0] + [c.ndof for c in space.components])
-        for k in range(len(space.components)):
-            free[offsets[k]:offsets[k] + mesh.nv] = False          # the vertex dofs belong to the P1 part
-        jacobi = self.form.mat.CreateSmoother(ngs.BitArray(free.tolist()))
-        self._two_level = coarse + jacobi
+        self._two_level = coarse + self.form.mat.CreateSmoother(self._edges)
         return self._two_level
+
+    def _amg(self, space, symmetric: bool = False):
+        """The scalar form scale x weight x grad u . grad v on ``space``, assembled, and its h1amg: a component
+        operator of the displacement decomposition. Returns (form, preconditioner)."""
+        u, v = space.TnT()
+        a = ngs.BilinearForm(space, symmetric=symmetric)
+        a += self._weight * self._scale * ngs.grad(u) * ngs.grad(v) * ngs.dx
+        pre = ngs.Preconditioner(a, "h1amg")
+        a.Assemble()
+        return a, pre
 
     def _component_mat(self):
         if not self._aux:
             space = self._space
             total = None
             for k in range(len(space.components)):
-                comp = space.components[k]
-                u, v = comp.TnT()
-                a = ngs.BilinearForm(comp)
-                a += self._weight * self._scale * ngs.grad(u) * ngs.grad(v) * ngs.dx
-                pre = ngs.Preconditioner(a, "h1amg")
-                a.Assemble()
+                a, pre = self._amg(space.components[k])
                 emb = space.Embedding(k)
                 term = emb @ pre.mat @ emb.T
                 total = term if total is None else total + term
