@@ -61,6 +61,15 @@ couplings), so the discrete maximum principle holds only up to O(1/penalty) at t
 Backward Euler with any step dt (the seed's time discretization (2.55)). Energy is conserved exactly by the
 discrete equations: sum_i m_i (e_i - e_i^old) = dt (sum_i F_i + boundary inflow at the Dirichlet nodes), since
 the columns of every K_r sum to zero.
+
+Distributed meshes (MPI, :mod:`ngs_geomech.parallel`). Every nodal array of this class (``mass``,
+``mass_by_group``, ``weights``, the graph, ``loads``, :meth:`conduction`, the states) holds this rank's local
+vertices with *cumulated* values (a vertex shared by several ranks has its full value on each), so the nodal maps
+stay pointwise numpy. The assembled parts (the lumped masses, the loads, K_r theta: the local matrix ``stiffness``
+of a rank, ``a.mat.local_mat``, applied to a cumulated vector gives a distributed one) are cumulated with
+:meth:`cumulate`; sums over nodes (:meth:`heat_content`, :meth:`melted_volume`, :meth:`latent_heat_stored`,
+:meth:`nodal_sum`) count the vertices this rank owns and add over the ranks, so they are global on every rank.
+Contact interfaces (the mortar penalty) are refused there (ValueError): not supported under MPI.
 """
 
 from __future__ import annotations
@@ -73,6 +82,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
+from .. import parallel
 from ..errors import SolverError
 from .coefficients import Steady, expression_function, regions_regex
 
@@ -311,6 +321,10 @@ class StefanForms:
         bad = sorted(set(setup.sources) - regions)
         if bad:
             raise ValueError(f"Stefan problem: source region(s) {bad} not in the mesh")
+        if setup.interfaces and parallel.distributed(mesh):
+            raise ValueError("Stefan problem: contact interfaces (the heat penalty on the temperature jump between "
+                             f"touching blocks, {[m for m, _, _ in setup.interfaces]}) are not supported on a "
+                             "distributed mesh (MPI): run this scene serially")
         for master, minion, penalty in setup.interfaces:
             bad = sorted({master, minion} - boundaries)
             if bad:
@@ -321,6 +335,8 @@ class StefanForms:
                 raise ValueError(f"Stefan problem: material of region {name!r} must be a PhaseChangeMaterial or a "
                                  f"PlainThermalMaterial, got {type(mat).__name__}")
         self.dim = mesh.dim
+        self.distributed = parallel.distributed(mesh)
+        """Whether the mesh is a part of a distributed mesh (MPI): see the module docstring."""
         self.version = 0
         """Changes when the stiffness matrices change (:meth:`set_pressure`)."""
         self.rules = vertex_rules(self.dim)
@@ -335,6 +351,9 @@ class StefanForms:
             raise AssertionError("Stefan forms: P1 dofs are expected to be the mesh vertices")
         self.free = np.array(list(self.V.FreeDofs()), dtype=bool)
         self.dirichlet_dofs = np.nonzero(~self.free)[0]
+        self.owned = parallel.owned(self.V)
+        """The local vertices this rank owns (all on a serial mesh): each global vertex is owned once."""
+        self._work = ngs.GridFunction(self.V).vec.CreateVector() if self.distributed else None
         self._group_materials()
         self._assemble_matrices()
         self._build_graph()
@@ -374,7 +393,7 @@ class StefanForms:
             lf = ngs.LinearForm(self.V)
             lf += v * ngs.dx(definedon=where, intrules=self.rules)
             lf.Assemble()
-            masses[:, g] = lf.vec.FV().NumPy()
+            masses[:, g] = self.cumulate(lf.vec.FV().NumPy())
             # the whole mesh with an indicator (not definedon), so that all groups share one sparsity pattern
             indicator = self.mesh.MaterialCF({n: 1.0 for n in names}, default=0.0)
             if pressure_factor is not None:
@@ -403,7 +422,8 @@ class StefanForms:
         pattern = None
         for a in self._group_forms:
             a.Assemble()
-            vals, cols, ptr = a.mat.CSR()
+            # distributed: this rank's local matrix (applied to a cumulated vector: a distributed result)
+            vals, cols, ptr = (a.mat.local_mat if self.distributed else a.mat).CSR()
             K = sp.csr_matrix((np.array(vals), np.array(cols), np.array(ptr)), shape=(self.n, self.n))
             if pattern is None:
                 pattern = (K.indices.copy(), K.indptr.copy())
@@ -581,7 +601,7 @@ class StefanForms:
         lf = ngs.LinearForm(self.V)
         lf += e_cf * v * ngs.dx(bonus_intorder=order)
         lf.Assemble()
-        return lf.vec.FV().NumPy() / self.mass
+        return self.cumulate(lf.vec.FV().NumPy()) / self.mass
 
     def kirchhoff_derivatives(self, state: NodalState) -> np.ndarray:
         """D theta_g / dT per node and group (n x G, W/(m K)): the conductivity of the node's interval (the
@@ -608,9 +628,22 @@ class StefanForms:
     def check_conductivity(self, T: np.ndarray, where: str = "") -> None:
         """ConductivityRangeError naming the regions, the temperature and the law when a temperature-dependent
         conductivity k (1 + b (T - T_ref)) is not positive at a node of its regions (``where``: added to the
-        message, e.g. the time)."""
+        message, e.g. the time). On a distributed mesh raised on every rank when a node of some rank fails."""
         if not self.temperature_dependent:
             return
+        if self.distributed:
+            try:
+                self._check_conductivity(T, where)
+                error = None
+            except ConductivityRangeError as exc:
+                error = (str(exc), exc.regions)
+            errors = [err for err in parallel.allgather(self.mesh, error) if err is not None]
+            if errors:
+                raise ConductivityRangeError(*errors[0])
+            return
+        self._check_conductivity(T, where)
+
+    def _check_conductivity(self, T: np.ndarray, where: str) -> None:
         for g, m in enumerate(self.groups):
             if not m.temperature_dependent:
                 continue
@@ -636,7 +669,7 @@ class StefanForms:
             out += K @ m.kirchhoff(T)
         if len(self.stiffness) > len(self.groups):            # contact interfaces: the jump penalty, linear in T
             out += self.stiffness[-1] @ T
-        return out
+        return self.cumulate(out)
 
     def conduction_magnitude(self, T: np.ndarray) -> np.ndarray:
         """sum_g |K_g| |theta_g(T)| (entrywise absolute values): the size of the terms that make up
@@ -648,7 +681,7 @@ class StefanForms:
             out += K @ np.abs(m.kirchhoff(T))
         if len(self._abs_stiffness) > len(self.groups):
             out += self._abs_stiffness[-1] @ np.abs(T)
-        return out
+        return self.cumulate(out)
 
     def liquid_fractions(self, e: np.ndarray, state: NodalState | None = None) -> np.ndarray:
         """Liquid fraction per node and PCM group (n x G; 0 for plain groups): 1 above the group's Theta_R,
@@ -665,17 +698,57 @@ class StefanForms:
         return out
 
     def melted_volume(self, e: np.ndarray) -> float:
-        """Liquid volume (lumped), m^2 per metre of depth in 2D, m^3 in 3D."""
+        """Liquid volume (lumped), m^2 per metre of depth in 2D, m^3 in 3D (global on a distributed mesh)."""
+        if self.distributed:
+            return self.nodal_sum(np.sum(self.mass_by_group * self.liquid_fractions(e), axis=1))
         return float(np.sum(self.mass_by_group * self.liquid_fractions(e)))
 
     def latent_heat_stored(self, e: np.ndarray) -> float:
         """Latent heat held by the liquid (lumped), J per metre of depth in 2D, J in 3D."""
         L = np.array([m.latent_heat if isinstance(m, PhaseChangeMaterial) else 0.0 for m in self.groups])
+        if self.distributed:
+            return self.nodal_sum(np.sum(self.mass_by_group * self.liquid_fractions(e) * L, axis=1))
         return float(np.sum(self.mass_by_group * self.liquid_fractions(e) * L))
 
     def heat_content(self, e: np.ndarray) -> float:
-        """sum_i m_i e_i: the (lumped) enthalpy of the body, J per metre of depth in 2D, J in 3D."""
+        """sum_i m_i e_i: the (lumped) enthalpy of the body, J per metre of depth in 2D, J in 3D (global on a
+        distributed mesh)."""
+        if self.distributed:
+            return self.nodal_sum(self.mass * e)
         return float(self.mass @ e)
+
+    # -- distributed meshes ---------------------------------------------------------------------------------
+    def cumulate(self, values: np.ndarray) -> np.ndarray:
+        """The cumulated nodal array of a distributed one (each rank's local part of an assembled vector, e.g. a
+        linear form or K theta: a shared vertex holds a part on each rank): the full value at every local vertex,
+        a new array. On a serial mesh ``values`` itself."""
+        if not self.distributed:
+            return values
+        w = self._work
+        w.FV().NumPy()[:] = values
+        w.SetParallelStatus(ngs.PARALLEL_STATUS.DISTRIBUTED)
+        w.Cumulate()
+        return w.FV().NumPy().copy()
+
+    def consistent(self, values: np.ndarray) -> np.ndarray:
+        """A nodal array with every shared vertex at its owner's value on every rank (the same bits: the other
+        ranks' zeros are added), so that the ranks take the same branch at a shared vertex. Serial: ``values``."""
+        if not self.distributed:
+            return values
+        return self.cumulate(np.where(self.owned, values, 0.0))
+
+    def nodal_sum(self, values: np.ndarray) -> float:
+        """The sum over the global vertices of a cumulated nodal array (one value per local vertex), each vertex
+        counted once (the owned ones, added over the ranks): the same on every rank. Serial: the plain sum."""
+        values = np.asarray(values, dtype=float)
+        if not self.distributed:
+            return float(np.sum(values))
+        return float(parallel.allsum(self.mesh, float(np.sum(values[self.owned]))))
+
+    def nodal_max(self, values: np.ndarray, default: float = -math.inf) -> float:
+        """The largest entry of a nodal array over all ranks (``default`` where a rank has none)."""
+        local = float(np.max(values)) if np.size(values) else default
+        return float(parallel.allmax(self.mesh, local)) if self.distributed else local
 
     # -- data at a time -------------------------------------------------------------------------------------
     def loads(self, t: float) -> np.ndarray:
@@ -686,6 +759,8 @@ class StefanForms:
             self.t_load.Set(t)
             self._loads.Assemble()
             self._loads_assembled = True
+        if self.distributed:
+            return self.cumulate(self._loads.vec.FV().NumPy())
         return self._loads.vec.FV().NumPy().copy()
 
     def dirichlet_temperatures(self, t: float) -> np.ndarray:

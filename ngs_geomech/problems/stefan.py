@@ -13,6 +13,15 @@ naming that key when k is not positive at a temperature reached. Validation refu
 anisotropic conductivities, axisymmetric scenes and P2.
 
 Volumes are m^2 per metre of depth in plane scenes (m^3 in 3D), heats J per metre of depth (J in 3D).
+
+Distributed meshes (MPI, :mod:`ngs_geomech.parallel`): every rank holds the nodal state of its part, the solver
+takes its distributed Newton path (:mod:`ngs_geomech.solvers.stefan`), and the figures of :meth:`StefanRun.record`
+and :meth:`StefanRun.summary` (volumes, melted volumes, heats, energy balance, iterations) are global, the same on
+every rank (each vertex counted once). :meth:`StefanRun.phase_boundary` gives the iso-line of all parts on every
+rank (a collective call, on the gathered vertex arrays of :mod:`ngs_geomech.io.meshdata`). Contact interfaces are
+refused there (not supported under MPI). :meth:`StefanRun.capture` and :meth:`StefanRun.restore` work on this
+rank's local arrays (valid only for the same partition) and the front-following meshes
+(:mod:`ngs_geomech.problems.stefan_adaptive`) are serial.
 """
 
 from __future__ import annotations
@@ -20,6 +29,7 @@ from __future__ import annotations
 import ngsolve as ngs
 import numpy as np
 
+from .. import parallel
 from ..errors import SolverError
 from ..geometry.assemble import GeometryModel
 from ..geometry.isolines import IsoLines, iso_segments
@@ -94,7 +104,9 @@ def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> Stefan
 
 
 def _nodal(mesh, cf) -> np.ndarray:
-    """A CoefficientFunction at the mesh vertices."""
+    """A CoefficientFunction at the mesh vertices (this rank's vertices on a distributed mesh)."""
+    if mesh.nv == 0:                                  # rank 0 of a distributed mesh holds no vertices
+        return np.zeros(0)
     pts = np.array([v.point for v in mesh.vertices])
     mips = mesh(*pts.T) if pts.shape[1] == 3 else mesh(pts[:, 0], pts[:, 1])
     return np.asarray(cf(mips), dtype=float).ravel()
@@ -102,13 +114,15 @@ def _nodal(mesh, cf) -> np.ndarray:
 
 class StefanRun:
     """The Stefan problem of a run: forms, solver, output fields and the histories a summary and a checkpoint
-    need. ``regions`` are the phase-change regions (scene order)."""
+    need. ``regions`` are the phase-change regions (scene order). ``krylov_preconditioner`` ("bddc" or "jacobi"):
+    the preconditioner of the Newton steps' GMRES on a distributed mesh (:mod:`ngs_geomech.solvers.stefan`; not
+    used on a serial mesh)."""
 
-    def __init__(self, scene: Scene, mesh, geo: GeometryModel | None = None):
+    def __init__(self, scene: Scene, mesh, geo: GeometryModel | None = None, krylov_preconditioner: str = "bddc"):
         self.scene = scene
         self.mesh = mesh
         self.forms = f = StefanForms(mesh, stefan_setup(scene, mesh, geo))
-        self.solver = StefanSolver(f)
+        self.solver = StefanSolver(f, krylov_preconditioner=krylov_preconditioner)
         self.regions = [n for n, m in scene.materials.items() if has_phase_change(m)]
         self.latent = {r: f.setup.materials[r].latent_heat for r in self.regions}
         self.group = {r: next(g for g, names in enumerate(f.group_regions) if r in names) for r in self.regions}
@@ -118,8 +132,8 @@ class StefanRun:
             lf = ngs.LinearForm(f.V)
             lf += v * ngs.dx(definedon=mesh.Materials(r), intrules=vertex_rules(mesh.dim))
             lf.Assemble()
-            self.mass[r] = lf.vec.FV().NumPy().copy()
-        self.volume = {r: float(self.mass[r].sum()) for r in self.regions}
+            self.mass[r] = lf.vec.FV().NumPy().copy()      # distributed on a distributed mesh: sums add over ranks
+        self.volume = {r: float(parallel.allsum(mesh, float(self.mass[r].sum()))) for r in self.regions}
         T = f.gf_temperature
         k = mesh.MaterialCF({n: (ngs.IfPos(T - m.melting_temperature, m.conductivity_liquid, m.conductivity_solid)
                                  if isinstance(m, PhaseChangeMaterial) else m.conductivity)
@@ -201,7 +215,7 @@ class StefanRun:
         rec = self.records
         rec["time_s"].append(float(t))
         for r in self.regions:
-            melted = float(self.mass[r] @ frac[:, self.group[r]])
+            melted = float(parallel.allsum(self.mesh, float(self.mass[r] @ frac[:, self.group[r]])))
             rec["melted_volume"][r].append(melted)
             rec["latent_heat_stored"][r].append(self.latent[r] * melted)
         rec["heat_content"].append(self.forms.heat_content(e))
@@ -209,7 +223,10 @@ class StefanRun:
     # -- output -------------------------------------------------------------------------------------------
     def phase_boundary(self) -> IsoLines | None:
         """The liquid_fraction = 1/2 iso-line on the triangles of the phase-change regions (2D), with the
-        temperature at its points available through :meth:`IsoLines.interpolate`; None in 3D."""
+        temperature at its points available through :meth:`IsoLines.interpolate`; None in 3D. On a distributed
+        mesh a collective call: the vertices and triangles of all parts joined in rank order
+        (:func:`~ngs_geomech.io.meshdata.mesh_arrays`, :func:`~ngs_geomech.io.meshdata.vertex_values`), the
+        same lines on every rank; interpolate takes ``vertex_values`` of a field (gathered the same way)."""
         m = self._arrays
         if m is None:
             return None

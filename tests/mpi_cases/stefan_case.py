@@ -1,0 +1,110 @@
+"""A small two-phase Stefan run of the built-in scene ``melting_block`` (frozen silt with an ice lens thawing under
+a heated floor, granite below; :mod:`ngs_geomech.problems.stefan`), coarse and a few steps, on a serial or a
+netgen distributed mesh: the same code path as ``ngs-geomech run`` takes for the Stefan problem.
+
+    mpiexec -n 3 python stefan_case.py OUT.json [jacobi] [bddc]     (netgen keeps no elements on rank 0: 2 workers)
+
+writes, on rank 0, for each preconditioner named (the distributed Newton path's GMRES; default bddc) the
+temperatures at :data:`POINTS`, the Newton iterations per step, the GMRES iterations per Newton solve, the melted
+volumes, the heat content and the energy balance of the summary, and the phase boundary (its segment count and
+total length); under "contact" the message refusing a contact-interface scene (:func:`refused`). :func:`solve`
+runs the same problem serially when ``comm`` is None (tests/test_mpi_stefan.py compares the two).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+
+OVERRIDES = ["mesh.maxh=0.35"]
+"""Coarse: about 500 vertices."""
+
+DT = 5 * 86400.0
+"""Time step, s (5 days: the thaw front crosses about one element layer per step near the floor)."""
+
+STEPS = 6
+
+POINTS = np.array([[0.3, -0.2], [0.3, -0.6], [1.0, -0.5], [1.4, -1.2], [2.4, -0.3], [3.0, -0.4], [4.5, -1.0],
+                   [1.0, -2.5], [5.0, -3.5], [0.5, -1.0]])
+"""Sample points (m): under the floor, in and around the ice lens, outside the building, in the bedrock."""
+
+
+def solve(comm=None, preconditioner: str = "bddc") -> dict:
+    """The run on a serial mesh (``comm`` None) or on a distributed one (an mpi4py communicator; ``preconditioner``
+    of its GMRES: "jacobi" or "bddc"); the dict of the module docstring (the same on every rank)."""
+    from ngs_geomech import parallel
+    from ngs_geomech.geometry.mesh import make_mesh
+    from ngs_geomech.io.meshdata import vertex_values
+    from ngs_geomech.problems.stefan import StefanRun
+    from ngs_geomech.scene.parse import load_scene
+    from ngs_geomech.scene.validate import validate
+
+    scene = load_scene("melting_block", OVERRIDES)
+    geo = validate(scene)
+    mesh = make_mesh(geo, scene.mesh, comm=comm)
+    run = StefanRun(scene, mesh, geo, krylov_preconditioner=preconditioner)
+    run.set_initial(0.0)
+    run.record(0.0)
+    infos = []
+    for k in range(STEPS):
+        infos.append(run.step(k * DT, (k + 1) * DT, f"step {k + 1}"))
+        run.record((k + 1) * DT)
+    T = parallel.point_values(mesh, run.fields["temperature"], POINTS)[:, 0]
+    summary = run.summary()
+    iso = run.phase_boundary()
+    seg = iso.as_segments()
+    jac = run.solver.jac
+    return {
+        "elements_per_rank": [int(n) for n in parallel.allgather(mesh, mesh.ne)],
+        "vertices": int(parallel.allsum(mesh, int(np.count_nonzero(run.forms.owned)))),
+        "temperature": T.tolist(),
+        "newton": [int(i.iterations) for i in infos],
+        "krylov": list(getattr(jac, "krylov_iterations", [])),
+        "krylov_unconverged": int(getattr(jac, "unconverged", 0)),
+        "krylov_residual_max": float(max(getattr(jac, "residuals", []), default=0.0)),
+        "factorizations": [int(i.factorizations) for i in infos],
+        "phase_changes": [int(i.phase_changes) for i in infos],
+        "boundary_heat": [float(i.boundary_heat) for i in infos],
+        "source_heat": [float(i.source_heat) for i in infos],
+        "melted_volume": summary["melted_volume"],
+        "heat_content": run.records["heat_content"],
+        "volume": {r: v["volume"] for r, v in summary["phase_change_regions"].items()},
+        "imbalance_rel": summary["energy"]["imbalance_rel_max"],
+        "phase_boundary_segments": int(len(seg)),
+        "phase_boundary_length": float(np.sum(np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1))) if len(seg) else 0.0,
+        "phase_boundary_temperature_max_abs": (float(np.max(np.abs(iso.interpolate(
+            vertex_values(run.forms.gf_temperature))))) if len(seg) else 0.0),
+    }
+
+
+def refused(comm) -> str:
+    """The message with which the built-in scene ``contact_melting`` (heat through a contact interface: the mortar
+    penalty) is refused on a distributed mesh ("" when it is not)."""
+    from ngs_geomech.geometry.mesh import make_mesh
+    from ngs_geomech.problems.stefan import StefanRun
+    from ngs_geomech.scene.parse import load_scene
+    from ngs_geomech.scene.validate import validate
+
+    scene = load_scene("contact_melting", ["mesh.maxh=0.5"])
+    geo = validate(scene)
+    mesh = make_mesh(geo, scene.mesh, comm=comm)
+    try:
+        StefanRun(scene, mesh, geo)
+    except ValueError as exc:
+        return str(exc)
+    return ""
+
+
+if __name__ == "__main__":
+    # mpi4py before ngsolve's first use of MPI
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    data = {name: solve(comm if comm.size > 1 else None, name) for name in sys.argv[2:] or ["bddc"]}
+    if comm.size > 1:
+        data["contact"] = refused(comm)
+    if comm.rank == 0:
+        with open(sys.argv[1], "w") as fh:
+            json.dump(data, fh, indent=1)
