@@ -3,7 +3,8 @@ rank 0 keeps no elements) run the built-in scene ``melting_block`` through :clas
 (tests/mpi_cases/stefan_case.py), with each Krylov preconditioner of the distributed Newton path (Jacobi, BDDC),
 and equal the serial run (SuperLU path) in this process: temperatures at sample points to the Newton / GMRES
 tolerance, the same Newton iterations (+1 at most), melted volumes, heat content, heats per step and phase
-boundary to round-off. A contact-interface scene is refused on the distributed mesh with a clear message."""
+boundary to round-off; the same for the one-phase Neumann strip (a mushy region held fixed in the Newton
+steps). A contact-interface scene is refused on the distributed mesh with a clear message."""
 
 from __future__ import annotations
 
@@ -36,13 +37,13 @@ def _mpiexec() -> str | None:
     return found
 
 
-def _serial() -> dict:
+def _case():
     from importlib.util import module_from_spec, spec_from_file_location
 
     spec = spec_from_file_location("stefan_case", CASE)
     mod = module_from_spec(spec)
     spec.loader.exec_module(mod)
-    return mod.solve(None)
+    return mod
 
 
 @pytest.mark.skipif(_mpiexec() is None, reason="mpiexec or mpi4py not installed")
@@ -52,7 +53,8 @@ def test_stefan_two_workers_equal_serial(tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     runs = json.loads(out.read_text())
-    ref = _serial()
+    case = _case()
+    ref = case.solve(None)
     for name in PRECONDITIONERS:
         got = runs[name]
         assert got["elements_per_rank"][0] == 0 and all(n > 0 for n in got["elements_per_rank"][1:])
@@ -81,4 +83,13 @@ def test_stefan_two_workers_equal_serial(tmp_path):
         assert got["phase_boundary_temperature_max_abs"] == pytest.approx(
             ref["phase_boundary_temperature_max_abs"], rel=1e-6, abs=1e-9)
     assert np.mean(runs["bddc"]["krylov"]) < np.mean(runs["jacobi"]["krylov"])
+    # the one-phase strip: a mushy region ahead of the front (fixed dofs of the Newton steps)
+    got, want = runs["one_phase"], case.one_phase_strip(None)
+    dT = max_rel_difference(np.array(got["temperature"]), np.array(want["temperature"]))
+    print(f"one-phase strip: Newton {sum(got['newton'])} in {len(got['newton'])} steps (serial "
+          f"{sum(want['newton'])}), GMRES mean {np.mean(got['krylov']):.1f}, BDDC builds {got['builds']}; max rel. "
+          f"difference T {dT:.1e}")
+    assert dT < 1e-6 and all(0 <= a - b <= 1 for a, b in zip(got["newton"], want["newton"]))
+    assert got["heat_content"] == pytest.approx(want["heat_content"], rel=1e-8)
+    assert got["melted_volume"] == pytest.approx(want["melted_volume"], rel=1e-8)
     assert "not supported" in runs["contact"] and "MPI" in runs["contact"]

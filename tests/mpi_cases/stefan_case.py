@@ -7,8 +7,9 @@ netgen distributed mesh: the same code path as ``ngs-geomech run`` takes for the
 writes, on rank 0, for each preconditioner named (the distributed Newton path's GMRES; default bddc) the
 temperatures at :data:`POINTS`, the Newton iterations per step, the GMRES iterations per Newton solve, the melted
 volumes, the heat content and the energy balance of the summary, and the phase boundary (its segment count and
-total length); under "contact" the message refusing a contact-interface scene (:func:`refused`). :func:`solve`
-runs the same problem serially when ``comm`` is None (tests/test_mpi_stefan.py compares the two).
+total length); under "one_phase" the one-phase Neumann strip (:func:`one_phase_strip`, default preconditioner),
+under "contact" the message refusing a contact-interface scene (:func:`refused`). :func:`solve` and
+:func:`one_phase_strip` run the same problems serially when ``comm`` is None (tests/test_mpi_stefan.py compares).
 """
 
 from __future__ import annotations
@@ -79,6 +80,42 @@ def solve(comm=None, preconditioner: str = "bddc") -> dict:
     }
 
 
+def one_phase_strip(comm=None) -> dict:
+    """The one-phase Neumann strip of :mod:`ngs_geomech.verification.stefan` (the solid at the melting
+    temperature: a mushy region ahead of the front, held fixed in every Newton step), h = 0.05 m, dt = 0.2 h s/m,
+    t = 0.1 ... 0.5 s, on a serial or distributed mesh (rank 0 meshes and distributes): Newton iterations per step,
+    temperatures at points of the strip, heat content, melted volume, GMRES iterations and preconditioner builds."""
+    import netgen.meshing as ngm
+    import ngsolve as ngs
+
+    from ngs_geomech import parallel
+    from ngs_geomech.physics.stefan import StefanForms, StefanSetup
+    from ngs_geomech.solvers.stefan import StefanSolver
+    from ngs_geomech.verification.stefan import ONE_PHASE, schedule, strip_mesh
+
+    problem, h, t0, t1, height = ONE_PHASE, 0.05, 0.1, 0.5, 0.2
+    length = problem.domain_length(t1)
+    if comm is None:
+        mesh = strip_mesh(length, height, h)
+    elif comm.rank == 0:
+        serial = strip_mesh(length, height, h)
+        ngmesh = serial.ngmesh
+        del serial                              # no ngsolve.Mesh of it may live while it is distributed
+        mesh = ngs.Mesh(ngmesh.Distribute(comm))
+    else:
+        mesh = ngs.Mesh(ngm.Mesh.Receive(comm))
+    forms = StefanForms(mesh, StefanSetup(materials={"pcm": problem.material},
+                                          dirichlet={"hot": problem.t_hot, "far": problem.t_cold}))
+    xs = np.array([v.point[0] for v in mesh.vertices]) if mesh.nv else np.zeros(0)
+    solver = StefanSolver(forms)
+    solver.set_initial(problem.temperature(xs, t0), (xs < problem.front(t0)).astype(float))
+    newton = [solver.step(a, b).iterations for a, b in schedule(t0, t1, 0.2 * h)]
+    points = np.column_stack([np.linspace(0.01, length - 0.01, 15), np.full(15, 0.5 * height)])
+    return {"newton": newton, "temperature": parallel.point_values(mesh, forms.gf_temperature, points)[:, 0].tolist(),
+            "heat_content": forms.heat_content(solver.e), "melted_volume": forms.melted_volume(solver.e),
+            "krylov": list(getattr(solver.jac, "krylov_iterations", [])), "builds": solver.jac.factorizations}
+
+
 def refused(comm) -> str:
     """The message with which the built-in scene ``contact_melting`` (heat through a contact interface: the mortar
     penalty) is refused on a distributed mesh ("" when it is not)."""
@@ -104,6 +141,7 @@ if __name__ == "__main__":
     comm = MPI.COMM_WORLD
     data = {name: solve(comm if comm.size > 1 else None, name) for name in sys.argv[2:] or ["bddc"]}
     if comm.size > 1:
+        data["one_phase"] = one_phase_strip(comm)
         data["contact"] = refused(comm)
     if comm.rank == 0:
         with open(sys.argv[1], "w") as fh:
