@@ -115,11 +115,11 @@ coarse inverse), so its builds do not scale like the Krylov part to very large m
 :mod:`ngs_geomech.verification.stefan` (h = 0.05 m, dt = 0.2 h s/m, 40 steps): the same Newton iterations per step
 as serially, temperatures within 5e-15; one-phase (the solid at Theta_R, mushy ahead of the front) GMRES 3 per solve
 and BDDC built 20 times in 42 solves (pinned nodes turning sensible), two-phase 13 per solve, built once; 3.4 and
-4.8 s against 0.1 s serially (1.4k vertices: the per-iteration overheads of the Python GMRES and the collectives
-dominate). The whole pipeline (``mpiexec -n 3 ngs-geomech run melting_block``, 60 days, h = 0.3 m, the probes left
-out) gave the serial summary's melted volumes and heats to 5e-13 relative. Not available there: contact interfaces
-(the mortar penalty: refused by :class:`StefanForms`), the smeared :class:`ApparentHeatCapacitySolver`, and the
-SuperLU-specific options (``max_changed``, window mode).
+4.8 s against 0.1 s serially (142 and 362 vertices: the per-iteration overheads of the Python GMRES and the
+collectives dominate). The whole pipeline (``mpiexec -n 3 ngs-geomech run melting_block``, 60 days, h = 0.3 m, the
+probes left out) gave the serial summary's melted volumes and heats to 5e-13 relative. Not available there: contact
+interfaces (the mortar penalty: refused by :class:`StefanForms`), the smeared :class:`ApparentHeatCapacitySolver`,
+and the SuperLU-specific options (``max_changed``, window mode).
 
 Smeared variant (:class:`ApparentHeatCapacitySolver`): the apparent heat capacity method with the capacity
 lagged, m C_app(T_old)(T - T_old)/dt + A(T) = F with C_app = C + L/(2 delta) for |T - Theta_R| < delta, solved by
