@@ -8,6 +8,7 @@ import math
 import ngsolve as ngs
 import numpy as np
 
+from . import parallel
 from .errors import Problem, SceneError
 from .geometry.isolines import first_crossing
 from .scene.model import Probe
@@ -53,14 +54,14 @@ class ProbeSet:
                 s = np.linspace(0.0, length, n)
                 xyz = a[None, :] + (s / length)[:, None] * (b - a)[None, :]
                 mips = mesh(*xyz.T)
-                inside = mips["nr"] >= 0
-                if not inside[0]:
+                inside = mips["nr"] >= 0                  # in this rank's part (a distributed mesh)
+                if not parallel.anyof(mesh, inside[0]):
                     problems.append(Problem(f"output.probes ({p.name}).line", f"the first point {p.line[0]} is not "
                                             "inside the mesh"))
                 self._lines[p.name] = (s, mips[inside], inside)
             elif p.point is not None:
                 mip = mesh(*p.point)
-                if mip.nr < 0:
+                if not parallel.anyof(mesh, mip.nr >= 0):
                     problems.append(Problem(f"output.probes ({p.name}).point", f"{p.point} is not inside the mesh"))
                 self._points[p.name] = mip
             elif p.statistic in ("max", "min"):
@@ -86,15 +87,23 @@ class ProbeSet:
             if p.line is not None:
                 s, mips, inside = self._lines[p.name]
                 vals = np.full(len(s), np.nan)
-                vals[inside] = np.asarray(cf(mips), dtype=float).ravel()
+                if inside.any():
+                    vals[inside] = np.asarray(cf(mips), dtype=float).ravel()
+                vals = parallel.first_valid(self.mesh, vals)
                 self.times[p.name].append(float(t))
                 self.series[p.name].append(first_crossing(s, vals, FRONT_LEVEL))
                 continue
             if p.point is not None:
-                v = float(cf(self._points[p.name]))
+                mip = self._points[p.name]
+                v = float(cf(mip)) if mip.nr >= 0 else math.nan
+                v = float(parallel.first_valid(self.mesh, np.array([v]))[0])
             elif p.statistic in ("max", "min"):
-                vals = np.asarray(cf(self._samples[p.name])).ravel()
-                v = float(vals.max() if p.statistic == "max" else vals.min())
+                samples = self._samples[p.name]
+                vals = np.asarray(cf(samples)).ravel() if len(samples) else np.zeros(0)
+                if p.statistic == "max":
+                    v = parallel.allmax(self.mesh, float(vals.max()) if vals.size else -math.inf)
+                else:
+                    v = parallel.allmin(self.mesh, float(vals.min()) if vals.size else math.inf)
             else:
                 if p.region:
                     dx = ngs.dx(definedon=self.mesh.Materials(p.region))
@@ -108,7 +117,9 @@ class ProbeSet:
 
 
 def _shortest_edge(mesh) -> float:
-    """The length of the shortest mesh edge, m."""
+    """The length of the shortest mesh edge, m (over all parts of a distributed mesh)."""
+    if mesh.nv == 0:                             # rank 0 of a distributed mesh
+        return parallel.allmin(mesh, math.inf)
     pts = np.array([v.point for v in mesh.vertices])
     ends = np.array([[v.nr for v in e.vertices] for e in mesh.edges])
-    return float(np.min(np.linalg.norm(pts[ends[:, 0]] - pts[ends[:, 1]], axis=1)))
+    return parallel.allmin(mesh, float(np.min(np.linalg.norm(pts[ends[:, 0]] - pts[ends[:, 1]], axis=1))))

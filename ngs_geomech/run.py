@@ -25,6 +25,7 @@ from pathlib import Path
 import ngsolve as ngs
 import numpy as np
 
+from . import parallel
 from .adapt.loop import adaptive_solve, refine_mesh
 from .adapt.marking import StopRule
 from .checkpoint import CHECKPOINT_WALL_S, Plan, RunState, Snapshot, check_scene, plan_steps
@@ -56,7 +57,7 @@ from .problems.stefan import StefanRun
 from .problems.stefan_adaptive import FrontFollowing
 from .scene.model import Scene
 from .scene.schema import to_dict
-from .scene.validate import stefan_scene, validate
+from .scene.validate import distributed_problems, stefan_scene, validate
 from .solvers.contact import ContactSolver, nodal_modulus
 from .solvers.contact_uzawa import UzawaSolver
 from .solvers.elastic import ElasticSolver
@@ -85,35 +86,71 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
     the scene or the mesh differs from the checkpointed run's)."""
     timings: dict[str, float] = {}
     t0 = _time.perf_counter()
+    comm = parallel.world()                     # several MPI ranks: a distributed run (module docstring)
     geo = geometry or validate(scene)
+    if comm is not None:
+        problems = distributed_problems(scene, resume)
+        if problems:
+            raise SceneError(problems, source=f"scene {scene.scene.name!r} (distributed run, {comm.size} ranks)")
     timings["validate_s"] = _time.perf_counter() - t0
     cp = None
     if resume:
         cp = _checkpoint_to_resume(scene, out)
     if threads:
         ngs.SetNumThreads(threads)
+    root = comm is None or comm.rank == 0
     staging = None
     if out is not None:
-        if cp is None and progress:
+        if cp is None and progress and root:
             _note_resumable(Path(out))
         try:
-            staging = OutputDir(Path(out), resume=cp.staging if cp is not None else None)
+            staging = _staging(Path(out), cp, comm)
         except BlockingIOError as exc:
             raise ResumeError(f"cannot resume: {exc}") from None
     try:
         with ngs.TaskManager():
-            result = _run(scene, geo, staging, progress, timings, cp)
+            result = _run(scene, geo, staging, progress and root, timings, cp, comm)
         timings["total_s"] = _time.perf_counter() - t0
         result.summary["wall_time_s"] = finite(timings)
-        if staging is not None:
+        if comm is not None:
+            comm.Barrier()                      # every rank's VTK part is written
+        if staging is not None and root:
             write_json_atomic(staging.path / "summary.json", result.summary)
             result.out = staging.commit()
+        elif staging is not None:
+            result.out = Path(out)
         return result
     except BaseException:
-        if staging is not None:
+        if staging is not None and root:
             # a staging directory with a checkpoint stays for --resume (out itself is untouched)
             staging.abort(keep=has_checkpoint(staging.path))
         raise
+
+
+@dataclass
+class _RankStaging:
+    """The staging directory of a distributed run as the ranks other than 0 see it: they write their VTK parts
+    into it; rank 0 owns it (creates, commits or removes it)."""
+
+    path: Path
+
+
+def _staging(out: Path, cp: Checkpoint | None, comm):
+    """The run's staging directory (rank 0 creates it and tells the others its path)."""
+    if comm is None:
+        return OutputDir(out, resume=cp.staging if cp is not None else None)
+    if comm.rank == 0:
+        try:
+            staging = OutputDir(out)
+        except BaseException:
+            comm.bcast(None, root=0)
+            raise
+        comm.bcast(str(staging.path), root=0)
+        return staging
+    path = comm.bcast(None, root=0)
+    if path is None:
+        raise SolverError(f"rank {comm.rank}: rank 0 could not create the staging directory of {out}")
+    return _RankStaging(Path(path))
 
 
 def _checkpoint_to_resume(scene: Scene, out) -> Checkpoint:
@@ -143,9 +180,9 @@ def _note_resumable(out: Path) -> None:
 
 
 def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool, timings: dict,
-         cp: Checkpoint | None = None) -> RunResult:
+         cp: Checkpoint | None = None, comm=None) -> RunResult:
     tic = _time.perf_counter()
-    mesh = make_mesh(geo, scene.mesh)
+    mesh = make_mesh(geo, scene.mesh, comm=comm)
     timings["mesh_s"] = _time.perf_counter() - tic
     axi = scene.scene.dimension == "axisymmetric"
     name = scene.scene.name
@@ -304,7 +341,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         else:
             wall = math.inf
         last_saved = _time.perf_counter()
-        snapshots = staging is not None and front is None and zone is None   # none on following meshes
+        # none on following meshes, nor in distributed runs
+        snapshots = staging is not None and front is None and zone is None and comm is None
         snap = state.capture(plan.k0, t_done, solve_s) if snapshots else None
         bar = Progress(ts.end - ts.start, f"{name}", enabled=show)
         try:
@@ -338,8 +376,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                     follow(b, where)
                 output(b, k, k == nsteps - 1, where)
                 solve_s += _time.perf_counter() - tic
-                if staging is not None and front is None and zone is None:    # (a run writing nothing has no
-                    # checkpoints, nor one on front- or contact-zone-following meshes)
+                if snapshots:       # (a run writing nothing has no checkpoints, nor one on front- or
+                    # contact-zone-following meshes or a distributed one)
                     snap = state.capture(k + 1, b, solve_s)
                     if every and k + 1 < nsteps and \
                             ((k + 1) % every == 0 or _time.perf_counter() - last_saved >= wall):
@@ -354,12 +392,19 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     state_factorizations = (front.factorizations if front is not None else zone.factorizations if zone is not None
                             else state.factorizations())
     timings["solve_s"] = solve_s
-    dofs = (heat.X.ndof if heat else 0) + (stefan.forms.n if stefan else 0) + (mech.forms.X.ndof if mech else 0)
+    if comm is None:
+        dofs = (heat.X.ndof if heat else 0) + (stefan.forms.n if stefan else 0) + (mech.forms.X.ndof if mech else 0)
+        counts = {"vertices": mesh.nv, "elements": mesh.ne}
+    else:
+        dofs = ((heat.X.ndofglobal if heat else 0) + (stefan.forms.V.ndofglobal if stefan else 0)
+                + (mech.forms.X.ndofglobal if mech else 0))
+        counts = {"vertices": ngs.H1(mesh, order=1).ndofglobal, "elements": parallel.allsum(mesh, mesh.ne),
+                  "ranks": comm.size, "elements_per_rank": parallel.allgather(mesh, mesh.ne)}
     thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity in THERMAL), [])
     summary = {
         "scene": to_dict(scene),
         "versions": versions(),
-        "mesh": {"vertices": mesh.nv, "elements": mesh.ne, "dofs": dofs, "order": scene.mesh.order,
+        "mesh": {**counts, "dofs": dofs, "order": scene.mesh.order,
                  "regions": list(mesh.GetMaterials())},
         "steps": nsteps,
         "factorizations": state_factorizations,
@@ -389,7 +434,8 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         summary["adaptivity"] = zone.summary()
     if staging is not None:
         tic = _time.perf_counter()
-        _figures(scene, mesh, T, probes, staging.path / "figures", mech, stefan, coupling, adaptive)
+        _figures(scene, mesh, T, probes, staging.path / "figures", mech, stefan, coupling, adaptive,
+                 draw=comm is None or comm.rank == 0)
         timings["output_s"] = _time.perf_counter() - tic
     return RunResult(mesh=mesh, forms=heat, summary=summary, out=None, timings=timings, mechanics=mech,
                      stefan=stefan)
@@ -658,6 +704,8 @@ class _Mechanics:
             self.contact_output = ContactOutput(self.forms, self.contacts)
         else:
             sv = scene.solver
+            if parallel.distributed(mesh):
+                _check_distributed_mechanics(scene, self.forms)
             self.nested = (NestedStart(scene, geo, temperature) if ms.nested_levels > 0 and self.setup.nonlinear
                            else None)
             self.solver = ElasticSolver(self.forms, method=ms.nonlinear_solver, tol=ms.tolerance,
@@ -727,6 +775,23 @@ class _Mechanics:
         return out
 
 
+def _check_distributed_mechanics(scene: Scene, forms: ElasticForms) -> None:
+    """What the elastic solver cannot do on a distributed mesh, as a SceneError naming the keys (before any solve:
+    the mixed formulation and the primal-dual Newton tangent of softening regions are solved directly)."""
+    problems = []
+    if forms.mixed:
+        problems.append(Problem("mechanics.formulation", f"the mixed displacement-pressure formulation (regions "
+                                f"{', '.join(forms.mixed)}) is not supported in distributed runs; set "
+                                "formulation = 'displacement'"))
+    soft = [r for r, p in forms.setup.props.items() if p.lam < 1.0]
+    if soft and scene.mechanics.nonlinear_solver == "newton":
+        problems.append(Problem("mechanics.nonlinear_solver", f"Newton with softening regions ({', '.join(soft)}: "
+                                "rheology_lambda < 1) uses a tangent solved directly, not available in distributed "
+                                "runs; use 'secant'"))
+    if problems:
+        raise SceneError(problems, source=f"scene {scene.scene.name!r} (distributed run)")
+
+
 def _interface_flows(forms: HeatForms, history: dict, axi: bool) -> None:
     """Heat flow through each contact interface (W; W per m of depth in plane scenes), master -> minion."""
     w = 2 * math.pi * ngs.x if axi else 1.0
@@ -736,12 +801,16 @@ def _interface_flows(forms: HeatForms, history: dict, axi: bool) -> None:
 
 
 def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None, stefan=None,
-             coupling=None, adaptive=None) -> None:
+             coupling=None, adaptive=None, draw: bool = True) -> None:
+    """The run's figures. A distributed run calls this on every rank (the mesh data are gathered collectively);
+    only the rank with ``draw`` draws and writes."""
     if not scene.output.figures:
         return
+    figures = _figure_module(draw)
     if adaptive is not None:
         steps = adaptive.result.steps
-        directory.mkdir(parents=True, exist_ok=True)
+        if draw:
+            directory.mkdir(parents=True, exist_ok=True)
         figures.convergence_figure([s.ndof for s in steps], {f"estimate ({adaptive.estimator})":
                                                             [s.estimate for s in steps]},
                                    directory / "adaptivity.png",
@@ -757,7 +826,8 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
             groups.setdefault(p.quantity, []).append(p.name)
     if mesh.dim != 2 and not groups:
         return
-    directory.mkdir(parents=True, exist_ok=True)
+    if draw:
+        directory.mkdir(parents=True, exist_ok=True)
     labels = ("r (m)", "z (m)") if scene.scene.dimension == "axisymmetric" else ("x (m)", "y (m)")
     arrays = mesh_arrays(mesh) if mesh.dim == 2 else None
     t_end = scene.time.end if scene.time else None
@@ -771,15 +841,15 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
                                  title=f"{scene.scene.name}: temperature, {_when(t_end)} (near field)",
                                  label=f"T ({t_unit})", axis_labels=labels, window=scene.output.figure_window)
     if arrays is not None and stefan is not None:
-        _stefan_figures(scene, arrays, T, stefan, directory, labels, t_end, t_unit)
+        _stefan_figures(scene, arrays, T, stefan, directory, labels, t_end, t_unit, figures)
     if arrays is not None and coupling is not None:
         figures.field_figure(arrays, _vertex_average(mesh, coupling.source), directory / "deformation_heating.png",
                              title=f"{scene.scene.name}: deformation heating, {_when(t_end)}",
                              label="-Theta_0 beta : e(u_t) (W/m^3)", axis_labels=labels, cmap="coolwarm")
     if arrays is not None and mech is not None:
-        _mechanics_figures(scene, mesh, arrays, mech, directory, labels, t_end)
+        _mechanics_figures(scene, mesh, arrays, mech, directory, labels, t_end, figures)
         if mech.contact_output is not None:
-            _contact_figures(scene, mech, directory, t_end)
+            _contact_figures(scene, mech, directory, t_end, figures)
     for quantity, names in groups.items():
         times = probes.times[names[0]]
         span = times[-1] - times[0]
@@ -794,7 +864,7 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
 
 
 def _stefan_figures(scene: Scene, arrays, T, stefan: StefanRun, directory: Path, labels, t_end: float,
-                    t_unit: str) -> None:
+                    t_unit: str, figures) -> None:
     """The temperature with the phase boundary (liquid_fraction = 1/2) at the last time, and the melted volume
     fraction of each phase-change region over the output times."""
     iso = stefan.phase_boundary()
@@ -816,7 +886,8 @@ def _when(t: float | None) -> str:
     return "steady state" if t is None else f"t = {format_time(t)}"
 
 
-def _mechanics_figures(scene: Scene, mesh, arrays, mech, directory: Path, labels, t_end: float) -> None:
+def _mechanics_figures(scene: Scene, mesh, arrays, mech, directory: Path, labels, t_end: float,
+                       figures) -> None:
     """Von Mises stress and principal stress crosses (the seed's Fig. 1) at the last mechanics time."""
     vm = _vertex_average(mesh, mech.fields["von_mises"])
     figures.field_figure(arrays, vm / 1e6, directory / "von_mises.png",
@@ -834,18 +905,16 @@ def _mechanics_figures(scene: Scene, mesh, arrays, mech, directory: Path, labels
         pts = samples.xy
         if len(pts) == 0:
             continue
-        mips = mesh(pts[:, 0], pts[:, 1])
-        sxx = np.asarray(sig[0, 0](mips)).ravel()
-        syy = np.asarray(sig[1, 1](mips)).ravel()
-        sxy = np.asarray(sig[0, 1](mips)).ravel()
+        sxx, syy, sxy = parallel.point_values(mesh, ngs.CoefficientFunction((sig[0, 0], sig[1, 1], sig[0, 1])),
+                                              pts).T
         s1, s2, th = stress_figures.principal_2d(sxx, syy, sxy)
-        stress_figures.principal_stress_crosses(
+        figures.principal_stress_crosses(
             arrays, pts, s1, s2, th, directory / fname, axis_labels=labels, window=window,
             title=f"{scene.scene.name}: principal stresses, {_when(t_end)}",
             background=vm / 1e6, background_label="von Mises stress (MPa)")
 
 
-def _contact_figures(scene: Scene, mech, directory: Path, t_end: float) -> None:
+def _contact_figures(scene: Scene, mech, directory: Path, t_end: float, figures) -> None:
     """Pressure, traction (with the slip bound), gap and slip along each contact, at the last mechanics time
     (2D scenes; 3D contacts are in the boundary VTK only)."""
     for spec, res in zip(mech.contacts, mech.contact_output.latest):
@@ -868,3 +937,23 @@ def _vertex_average(mesh, cf) -> np.ndarray:
     g = ngs.GridFunction(ngs.H1(mesh, order=1))
     g.Set(cf)
     return vertex_values(g)
+
+
+class _NoDraw:
+    """Stands for the figure modules on the ranks of a distributed run that do not draw."""
+
+    def __getattr__(self, name):
+        return lambda *args, **kwargs: None
+
+
+def _figure_module(draw: bool):
+    """The drawing functions: :mod:`~ngs_geomech.io.figures` plus the principal-stress crosses, or no-ops."""
+    if not draw:
+        return _NoDraw()
+
+    class _Draw:
+        def __getattr__(self, name):
+            if name == "principal_stress_crosses":
+                return stress_figures.principal_stress_crosses
+            return getattr(figures, name)
+    return _Draw()

@@ -15,13 +15,51 @@ netgen reports a failed face ("NOT ALL FACES HAVE BEEN MESHED") on stdout only a
 an order-1 mesh of a curved block (a circle of 8 segments: 90 %)."""
 
 
-def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=()):
+def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=(), comm=None):
     """Mesh the geometry (sizes from blocks, boundaries and ``settings``); curve it to the field order.
     ``restrictions``: points (x, y, z, h) where the local size is at most h (m; netgen's RestrictH, graded
     from there by ``settings.grading``): front-following meshes (:mod:`ngs_geomech.problems.stefan_adaptive`).
     Region and boundary names are the geometry's whatever the restrictions.
 
+    ``comm`` (an mpi4py communicator of several ranks): a distributed mesh. Rank 0 meshes and checks, then sends
+    the parts (netgen's ``Distribute``: rank 0 keeps no elements); the others receive theirs. Every rank calls
+    this; a SceneError found on rank 0 is raised on every rank.
+
     Raises SceneError naming the region (and ``mesh.maxh``) when netgen left a region (largely) unmeshed."""
+    if comm is not None and comm.size > 1:
+        return _distributed_mesh(geo, settings, comm)
+    mesh = _serial_mesh(geo, settings, restrictions)
+    if settings.order > 1:
+        mesh.Curve(settings.order)
+    return mesh
+
+
+def _distributed_mesh(geo: GeometryModel, settings: MeshSettings, comm):
+    import netgen.meshing as ngm
+
+    if comm.rank == 0:
+        error = None
+        try:
+            serial = _serial_mesh(geo, settings, ())
+        except SceneError as exc:
+            error = (exc.problems, exc.source)
+        comm.bcast(error, root=0)
+        if error is not None:
+            raise SceneError(*error)
+        ngmesh = serial.ngmesh
+        del serial              # no ngsolve.Mesh of it may live while it is distributed (MPI_Allreduce abort)
+        mesh = ngs.Mesh(ngmesh.Distribute(comm))
+    else:
+        error = comm.bcast(None, root=0)
+        if error is not None:
+            raise SceneError(*error)
+        mesh = ngs.Mesh(ngm.Mesh.Receive(comm))
+    if settings.order > 1:
+        mesh.Curve(settings.order)
+    return mesh
+
+
+def _serial_mesh(geo: GeometryModel, settings: MeshSettings, restrictions):
     if restrictions:
         from netgen.meshing import MeshingParameters
         from pyngcore import SuspendTaskManager
@@ -40,8 +78,6 @@ def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=()):
         ngmesh = geo.occ_geometry().GenerateMesh(maxh=settings.maxh, grading=settings.grading)
     mesh = ngs.Mesh(ngmesh)
     _check_meshed(geo, mesh, settings)
-    if settings.order > 1:
-        mesh.Curve(settings.order)
     return mesh
 
 

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 import ngsolve as ngs
 import numpy as np
 
+from .. import parallel
+
 
 @dataclass
 class MeshArrays:
@@ -18,10 +20,26 @@ class MeshArrays:
 
 
 def mesh_arrays(mesh) -> MeshArrays:
-    """Vertex triangulation of a 2D mesh (curved and higher-order elements drawn by their vertices)."""
+    """Vertex triangulation of a 2D mesh (curved and higher-order elements drawn by their vertices).
+
+    On a distributed mesh (MPI) a collective call: every rank gets the parts of all ranks joined in rank order
+    (a vertex on a part boundary appears once per part holding it), matching :func:`vertex_values`."""
     if mesh.dim != 2:
         raise ValueError("mesh_arrays needs a 2D mesh")
-    pts = np.array([v.point for v in mesh.vertices])
+    local = _local_arrays(mesh)
+    if not parallel.distributed(mesh):
+        return local
+    parts = parallel.allgather(mesh, (local.points, local.triangles, local.tri_region, local.outline))
+    offsets = np.cumsum([0] + [len(p[0]) for p in parts])
+    used = [(p, o) for p, o in zip(parts, offsets) if len(p[0])]
+    return MeshArrays(points=np.concatenate([p[0] for p, _ in used]).reshape(-1, local.points.shape[1] or 2),
+                      triangles=np.concatenate([p[1].reshape(-1, 3) + o for p, o in used]).astype(int),
+                      tri_region=np.concatenate([p[2] for p, _ in used]).astype(int), regions=local.regions,
+                      outline=np.concatenate([p[3].reshape(-1, 2, p[0].shape[1]) for p, _ in used]))
+
+
+def _local_arrays(mesh) -> MeshArrays:
+    pts = np.array([v.point for v in mesh.vertices]).reshape(-1, 2)
     tris, reg = [], []
     for el in mesh.Elements(ngs.VOL):
         vs = [v.nr for v in el.vertices]
@@ -39,6 +57,8 @@ def mesh_arrays(mesh) -> MeshArrays:
 
 def vertex_values(gf) -> np.ndarray:
     """Values of a scalar H1 GridFunction at the mesh vertices (its first nv dofs: the H1 basis of NGSolve
-    is hierarchical, so vertex dofs are vertex values at any order)."""
-    nv = gf.space.mesh.nv
-    return np.array(gf.vec.FV().NumPy()[:nv], copy=True)
+    is hierarchical, so vertex dofs are vertex values at any order). Distributed meshes: collective, all parts in
+    rank order (as :func:`mesh_arrays`)."""
+    mesh = gf.space.mesh
+    vals = np.array(gf.vec.FV().NumPy()[:mesh.nv], copy=True)
+    return parallel.concat(mesh, vals) if parallel.distributed(mesh) else vals

@@ -46,6 +46,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
+from .. import parallel
 from ..elastic_materials import ElasticProperties, axisymmetric, plane_strain, plane_stress, to_voigt_stress
 from .coefficients import TimeFunction, regions_regex
 
@@ -177,6 +178,7 @@ def _axis_aligned_normal(mesh, name: str) -> tuple[int, np.ndarray] | None:
         else:
             n = np.cross(pts[1] - pts[0], pts[2] - pts[0])
         normals.append(n / np.linalg.norm(n))
+    normals = [n for part in parallel.allgather(mesh, normals) for n in part]   # a distributed mesh: every part's
     if not normals:
         raise ValueError(f"boundary {name!r} has no elements")
     n0 = normals[0]
@@ -186,6 +188,40 @@ def _axis_aligned_normal(mesh, name: str) -> tuple[int, np.ndarray] | None:
     if abs(abs(n0[k]) - 1) < 1e-10:
         return k, n0
     return None, n0
+
+
+def _region_groups(mesh) -> list[list[str]]:
+    """The bodies of a distributed mesh as groups of region names: regions sharing a node (glued interfaces,
+    one conforming mesh) belong to one body. Each region's nodes are marked in a P1 vector on the elements of
+    this rank's part and summed over the ranks (a node on a part boundary sees the regions of both parts)."""
+    names = list(mesh.GetMaterials())
+    V = ngs.H1(mesh, order=1)
+    marks = []
+    for name in names:
+        gf = ngs.GridFunction(V)
+        arr = gf.vec.FV().NumPy()
+        for el in mesh.Materials(name).Elements():
+            arr[[v.nr for v in el.vertices]] = 1.0
+        gf.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)
+        gf.vec.Cumulate()
+        marks.append(gf.vec.FV().NumPy() > 0)
+    pairs = {(i, j) for i in range(len(names)) for j in range(i + 1, len(names)) if np.any(marks[i] & marks[j])}
+    pairs = set().union(*parallel.allgather(mesh, pairs))
+    present = parallel.allgather(mesh, {i for i in range(len(names)) if marks[i].any()})
+    present = set().union(*present)
+    parent = list(range(len(names)))
+
+    def root(i):
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    for i, j in pairs:
+        parent[root(i)] = root(j)
+    groups: dict[int, list[str]] = {}
+    for i in sorted(present):
+        groups.setdefault(root(i), []).append(names[i])
+    return list(groups.values())
 
 
 def _rigid_modes(model: str, dim: int, center=(0.0, 0.0, 0.0)) -> dict:
@@ -516,9 +552,49 @@ class ElasticForms:
         a rigid motion of the whole mesh is held as soon as one body is, which left a second, unsupported body
         free (a singular system solved without a word).
         """
+        if parallel.distributed(self.mesh):
+            return self._unheld_distributed()
         if self._bodies()[0] > 1:
             return [f"{name} of body {'+'.join(fb.regions)}" for fb in self.floating_bodies() for name in fb.names]
         return self._unheld_whole_mesh()
+
+    def _unheld_distributed(self) -> list[str]:
+        """:meth:`unheld_rigid_motions` on a distributed mesh: the bodies are the groups of regions sharing a node
+        (:func:`_region_groups`), and each body's constraint matrix A (rows on this rank's constrained dofs and
+        oblique-symmetry vertices) enters through its Gram matrix A^T A summed over the ranks (same null space)."""
+        mesh, dim = self.mesh, self.dim
+        groups = _region_groups(mesh)
+        fixed = ~np.array(list(self.V.FreeDofs()), dtype=bool)
+        g = ngs.GridFunction(self.V)
+        out = []
+        for regions in groups:
+            where = mesh.Materials(regions_regex(set(regions)))
+            vol = ngs.Integrate(ngs.CoefficientFunction(1.0), mesh, definedon=where)
+            c = np.array([ngs.Integrate(cx, mesh, definedon=where) / vol for cx in (ngs.x, ngs.y, ngs.z)[:dim]])
+            modes = _rigid_modes(self.setup.model, dim, c)
+            mask = np.zeros(self.V.ndof, dtype=bool)
+            for el in mesh.Elements(ngs.VOL):
+                if el.mat in regions:
+                    mask[[d for d in self.V.GetDofNrs(el) if d >= 0]] = True
+            body_fixed = fixed & mask
+            obl = [(np.array(mesh[v].point[:dim]), nvec[:dim]) for name, nvec in self.oblique
+                   for el in mesh.Boundaries(name).Elements() for v in el.vertices
+                   if any(e.mat in regions for e in mesh[v].elements)] if self.oblique else []
+            columns = []
+            for comps in modes.values():
+                cf = ngs.CoefficientFunction(comps)
+                g.Set(cf)
+                col = list(g.vec.FV().NumPy()[body_fixed])
+                col += [float(np.dot(np.array(cf(mesh(*p))).ravel(), nvec)) for p, nvec in obl]
+                columns.append(col)
+            A = np.array(columns, dtype=float).reshape(len(modes), -1).T
+            gram = parallel.allsum(mesh, A.T @ A)
+            w, vec = np.linalg.eigh(gram)
+            a_eff = (vec * np.sqrt(np.maximum(w, 0.0))).T        # same singular values and vectors as A
+            names = _free_combinations(a_eff, list(modes))[1]
+            label = f" of body {'+'.join(sorted(regions))}" if len(groups) > 1 else ""
+            out += [f"{name}{label}" for name in names]
+        return out
 
     def _bodies(self):
         """(number of bodies, body label per vertex, volume elements): connected parts of the mesh."""

@@ -117,7 +117,12 @@ class ElasticSolver:
         self._fixed = ngs.Projector(forms.V.FreeDofs(), False)
         self._linear_inverse = None
         self.factorizations = 0
-        self.solver = choose_solver(solver, forms.X.ndof, forms.mesh.dim, spd=forms.X is forms.V)
+        self.solver = choose_solver(solver, forms.X.ndof, forms.mesh.dim, spd=forms.X is forms.V,
+                                    distributed=forms.mesh.comm.size > 1)
+        if forms.mesh.comm.size > 1 and (forms.X is not forms.V or (self.primal_dual and method == "newton")):
+            raise ValueError("on a distributed mesh the elastic solver takes the displacement formulation and, "
+                             "with softening regions (lam < 1), the secant method (the mixed formulation and the "
+                             "primal-dual Newton tangent are solved directly)")
         self._pcg = PCG(linear_tol, linear_maxit) if self.solver == "iterative" else None
         self._pre: dict[str, Preconditioned] = {}
         self._secant_ready = False

@@ -39,7 +39,11 @@ class HeatSolver:
         ``preconditioner``: of CG, one of ``iterative.PRECONDITIONERS``."""
         self.f = forms
         self.preconditioner = preconditioner
-        self.solver = choose_solver(solver, forms.X.ndof, forms.mesh.dim, spd=self.symmetric_for(forms))
+        self.distributed = forms.mesh.comm.size > 1
+        if self.distributed and forms.setup.contacts:
+            raise ValueError("heat contact interfaces (mortar coupling) are not supported on a distributed mesh")
+        self.solver = choose_solver(solver, forms.X.ndof, forms.mesh.dim, spd=self.symmetric_for(forms),
+                                    distributed=self.distributed)
         self._pcg = PCG(tol, maxit) if self.solver == "iterative" else None
         self._pre = None
         self.cg_iterations: list[int] = []
@@ -119,7 +123,7 @@ class HeatSolver:
         """The new state with the forms' current inv_dt and theta."""
         self.set_dirichlet()
         rhs = self.f.right_hand_side()
-        if self.solver == "iterative":
+        if self.solver == "iterative" and not self.f.setup.nonlinear:
             return self._solve_iterative(where, rhs)
         if not self.f.setup.nonlinear:
             mat, inv, fresh = self._system(f"{self.f.inv_dt.Get():.14g}:{self.f.theta.Get():g}:{self.f.version}")
@@ -181,10 +185,13 @@ class HeatSolver:
                 raise SolverError(f"Newton for the k(T) heat problem at {where} did not converge in "
                                   f"{self.newton_maxit} iterations (relative residual {rel:.3e}). "
                                   "Reduce the time step or check that kappa(T) stays positive.")
-            f.lhs.AssembleLinearization(gf.vec)
-            inv = inverse(with_coupling(f.lhs.mat, coupling), free, symmetric=False)
+            if self.solver == "iterative":         # a distributed mesh (choose_solver): GMRES, BDDC of J
+                self._linearized_solve(gf.vec, res, du, where)
+            else:
+                f.lhs.AssembleLinearization(gf.vec)
+                inv = inverse(with_coupling(f.lhs.mat, coupling), free, symmetric=False)
+                du.data = inv * res
             self.factorizations += 1
-            du.data = inv * res
             step, new_rel = 1.0, math.inf
             while step > 1e-4:
                 trial.data = gf.vec - step * du
@@ -203,6 +210,27 @@ class HeatSolver:
             it += 1
         check_finite(gf.vec, f"heat solve at {where}")
         return StepInfo(max(it, 1), rel, True)
+
+
+    def _linearized_solve(self, state, res, du, where: str) -> None:
+        """Solve J du = res for the Newton step of the k(T) problem on a distributed mesh: J assembled at ``state``
+        (its preconditioner, registered on the form, is rebuilt with it), GMRES to the relative residual of the
+        CG solves (J is not symmetric: k'(T) grad T . grad dT)."""
+        f = self.f
+        if self._pre is None:
+            self._pre = Preconditioned(f.lhs, f.V, f.setup.order, vector=False, choice=self.preconditioner)
+        f.lhs.AssembleLinearization(state)
+        du[:] = 0.0
+        solver = ngs.krylovspace.GMResSolver(f.lhs.mat, self._pre.mat, freedofs=f.freedofs, tol=self._pcg.tol,
+                                             maxiter=self._pcg.maxit, restart=200)
+        solver.Solve(rhs=res, sol=du)
+        self.cg_iterations.append(solver.iterations)
+        r = solver.residuals
+        rel = r[-1] / max(r[0], 1e-300) if r else math.nan
+        if not rel <= self._pcg.tol:
+            raise SolverError(f"Newton for the k(T) heat problem at {where}: GMRES did not converge in "
+                              f"{solver.iterations} iterations (relative residual {rel:.3e}). Reduce the time step "
+                              "or check kappa(T) > 0.")
 
 
 def with_coupling(mat, coupling):

@@ -69,11 +69,16 @@ DIVERGENCE_FACTOR = 1e8
 """CG stops as diverged when the residual exceeds this factor times its reference."""
 
 
-def choose_solver(solver: str, ndof: int, dim: int, spd: bool = True) -> str:
+def choose_solver(solver: str, ndof: int, dim: int, spd: bool = True, distributed: bool = False) -> str:
     """'direct' or 'iterative' for ``solver`` in :data:`SOLVERS`: 'auto' is iterative above ``AUTO_DOFS[dim]``
-    dofs; a system that is not SPD (or has multipliers) is always direct."""
+    dofs; a system that is not SPD (or has multipliers) is always direct, except on a distributed mesh, where
+    everything is iterative (the caller solves a nonsymmetric system by GMRES)."""
     if solver not in SOLVERS:
         raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
+    if distributed:
+        if solver == "direct":
+            raise ValueError("solver 'direct' is not available on a distributed mesh (use 'auto' or 'iterative')")
+        return "iterative"
     if not spd:
         return "direct"
     if solver == "auto":
@@ -137,7 +142,8 @@ class Preconditioned:
         ``choice`` in :data:`PRECONDITIONERS` ("bddc" needs order >= 2)."""
         if choice not in PRECONDITIONERS:
             raise ValueError(f"preconditioner must be one of {PRECONDITIONERS}, got {choice!r}")
-        if choice == "bddc" and order < 2:
+        distributed = space.mesh.comm.size > 1
+        if choice == "bddc" and order < 2 and not distributed:
             raise ValueError("the BDDC preconditioner needs elements of order >= 2 (P1 has no interface dofs)")
         self.kind = ""
         self.form = form
@@ -149,11 +155,16 @@ class Preconditioned:
         self._p1 = None
         # BDDC with its vertex problem factored: asked for, or on a distributed mesh (the two-level injection and
         # h1amg of the vertex problem are serial)
-        bddc_only = space.mesh.comm.size > 1 or choice == "bddc"
+        bddc_only = distributed or choice == "bddc"
         if order == 2 and vector and space.mesh.dim == 3 and dirichlet is not None and not bddc_only:
             self.kind = "two_level_amg"
             self.pre = None
             self._dirichlet = list(dirichlet)
+        elif order == 1 and distributed:
+            # P1 has no interface dofs: BDDC's coarse problem is the whole (gathered, factored) problem, so CG takes
+            # one or two iterations; h1amg is serial
+            self.pre = ngs.Preconditioner(form, "bddc")
+            self.kind = "bddc_p1"
         elif order >= 2:
             vertex_wirebasket(space)
             if not vector and space.mesh.dim == 3 and not bddc_only:

@@ -21,9 +21,11 @@ def inverse(mat, freedofs, symmetric: bool, what: str = "linear solve", hint: st
 def check_finite(vec, what: str, hint: str = "") -> None:
     """Raise SolverError when a vector holds NaN or Inf (never let NaN reach the output)."""
     a = vec.FV().NumPy()
-    if not np.all(np.isfinite(a)):
-        bad = int(np.count_nonzero(~np.isfinite(a)))
-        raise SolverError(f"{what}: {bad} of {a.size} values are NaN or infinite. {hint}".strip())
+    bad = int(np.count_nonzero(~np.isfinite(a)))
+    if vec.comm is not None and vec.comm.size > 1:       # a distributed vector: every rank raises (or none)
+        bad = int(vec.comm.Sum(bad))
+    if bad:
+        raise SolverError(f"{what}: {bad} values are NaN or infinite. {hint}".strip())
 
 
 RESIDUAL_TOL = 1e-10

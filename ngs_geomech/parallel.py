@@ -1,0 +1,166 @@
+"""Distributed meshes (MPI): the few collective operations the package needs (builds no mesh, writes no file).
+
+A run under ``mpiexec -n N`` (N >= 2) works on a netgen distributed mesh: rank 0 meshes and sends the parts
+(``ngmesh.Distribute(comm)``), the other ranks receive them (``Mesh.Receive(comm)``); netgen keeps **no
+elements on rank 0**, so N ranks have N - 1 workers. Every rank then runs the same Python code on its part.
+The rules that keep the ranks in step (all checked on this machine with NGSolve 6.2 and mpich):
+
+* Element loops (``mesh.Elements``, ``mesh.Boundaries(...).Elements()``) see this rank's part only: a fact
+  about the whole mesh is gathered (:func:`allgather`) or reduced (:func:`allsum`, :func:`allmax`).
+* ``Integrate`` returns the global value on every rank; ``InnerProduct`` and ``Norm`` of NGSolve vectors are
+  global; ``vec.FV().NumPy()`` is the local part. An assembled linear form is *distributed* (a dof shared by
+  several ranks holds a part of its value on each); a GridFunction's vector is *cumulated* (every copy holds the
+  value). A sum over dofs takes the distributed vector's local entries (:func:`allsum`), or the cumulated one's
+  entries of the dofs this rank owns (:func:`owned`).
+* Point evaluation raises on a rank whose part does not hold the point (``mesh(p).nr == -1``):
+  :func:`point_values` evaluates where the part holds it and combines.
+* Every rank must take the same branch around a collective call (assembly, a solve, ``Integrate``): a decision
+  made from local data is reduced first.
+
+On a serial mesh every function here is the plain serial operation (no mpi4py needed).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+MPI_ENV = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS", "PMIX_RANK")
+"""Environment variables an MPI launcher (mpich's hydra, Open MPI, PMIx) sets in the processes it starts."""
+
+
+def launched_by_mpiexec() -> bool:
+    """True in a process started by ``mpiexec`` with more than one rank (read from the environment: no MPI
+    initialized)."""
+    for key in ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE"):
+        if key in os.environ:
+            return int(os.environ[key]) > 1
+    return "MPI_LOCALNRANKS" in os.environ or "PMIX_RANK" in os.environ
+
+
+def world():
+    """mpi4py's COMM_WORLD when this process is one of several MPI ranks, else None.
+
+    Raises RuntimeError when started by mpiexec with several ranks but mpi4py is missing (the ranks would
+    otherwise each run the whole job serially)."""
+    if not launched_by_mpiexec():
+        return None
+    try:
+        from mpi4py import MPI
+    except ImportError as exc:
+        raise RuntimeError("this process was started by mpiexec with several ranks, but mpi4py is not installed: "
+                           "pip install -e '.[mpi]'") from exc
+    comm = MPI.COMM_WORLD
+    return comm if comm.size > 1 else None
+
+
+def distributed(mesh) -> bool:
+    """Whether ``mesh`` is a part of a distributed mesh."""
+    return mesh.comm.size > 1
+
+
+def comm(mesh):
+    """The mesh's communicator as an mpi4py communicator (None on a serial mesh)."""
+    return mesh.comm.mpi4py if distributed(mesh) else None
+
+
+def is_root(mesh) -> bool:
+    """Rank 0 (the rank that writes files): always True on a serial mesh."""
+    return mesh.comm.rank == 0
+
+
+def allsum(mesh, value):
+    """The sum over the ranks of a number or array (the value itself on a serial mesh)."""
+    if not distributed(mesh):
+        return value
+    from mpi4py import MPI
+
+    if np.ndim(value) == 0:
+        return comm(mesh).allreduce(value.item() if isinstance(value, np.generic) else value, op=MPI.SUM)
+    arr = np.ascontiguousarray(value, dtype=float)
+    out = np.empty_like(arr)
+    comm(mesh).Allreduce(arr, out, op=MPI.SUM)
+    return out
+
+
+def allmax(mesh, value: float) -> float:
+    """The largest of a number over the ranks (ranks without data pass -inf)."""
+    if not distributed(mesh):
+        return value
+    from mpi4py import MPI
+
+    return comm(mesh).allreduce(value, op=MPI.MAX)
+
+
+def allmin(mesh, value: float) -> float:
+    """The smallest of a number over the ranks (ranks without data pass +inf)."""
+    if not distributed(mesh):
+        return value
+    from mpi4py import MPI
+
+    return comm(mesh).allreduce(value, op=MPI.MIN)
+
+
+def anyof(mesh, flag: bool) -> bool:
+    """True on every rank when ``flag`` is True on some rank."""
+    return bool(allmax(mesh, int(bool(flag))))
+
+
+def allgather(mesh, obj) -> list:
+    """``[obj of rank 0, obj of rank 1, ...]`` on every rank (``[obj]`` on a serial mesh)."""
+    return comm(mesh).allgather(obj) if distributed(mesh) else [obj]
+
+
+def gather(mesh, obj) -> list | None:
+    """The objects of all ranks on rank 0 (None on the others; ``[obj]`` on a serial mesh)."""
+    return comm(mesh).gather(obj, root=0) if distributed(mesh) else [obj]
+
+
+def concat(mesh, arr: np.ndarray, axis: int = 0) -> np.ndarray:
+    """The local arrays of all ranks joined along ``axis``, on every rank (the array on a serial mesh)."""
+    if not distributed(mesh):
+        return arr
+    parts = [np.asarray(a) for a in allgather(mesh, np.asarray(arr)) if np.asarray(a).size]
+    return np.concatenate(parts, axis=axis) if parts else np.asarray(arr)
+
+
+def owned(space) -> np.ndarray:
+    """Boolean mask of the local dofs this rank owns (each global dof owned by exactly one rank; all True on a
+    serial mesh): sums of cumulated vectors over ``owned`` entries count every dof once."""
+    if not distributed(space.mesh):
+        return np.ones(space.ndof, dtype=bool)
+    bits = space.ParallelDofs().MasterDofs()
+    return np.array([bits[i] for i in range(space.ndof)], dtype=bool) if space.ndof else np.zeros(0, dtype=bool)
+
+
+def point_values(mesh, cf, points: np.ndarray) -> np.ndarray:
+    """Values of ``cf`` at ``points`` (n x dim, m): array (n, components), NaN where no part holds the point.
+
+    Serial meshes evaluate directly (points outside the mesh give NaN); on a distributed mesh every rank
+    evaluates the points its part holds and the values are combined on every rank (a point on a part boundary
+    takes the value of the lowest rank holding it)."""
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    ncomp = cf.dim
+    vals = np.full((len(points), ncomp), np.nan)
+    if mesh.ne and len(points):
+        coords = [points[:, k] for k in range(mesh.dim)]
+        mips = mesh(*coords)
+        inside = np.asarray(mips["nr"]) >= 0
+        if inside.any():
+            sub = mesh(*[c[inside] for c in coords])
+            vals[inside] = np.asarray(cf(sub), dtype=float).reshape(int(inside.sum()), ncomp)
+    return first_valid(mesh, vals)
+
+
+def first_valid(mesh, vals: np.ndarray) -> np.ndarray:
+    """Combine per-rank arrays of point values with NaN where a rank's part does not hold the point: every
+    rank gets, per entry, the value of the lowest rank that has one (NaN when none has). Serial: ``vals``."""
+    if not distributed(mesh):
+        return vals
+    vals = np.asarray(vals, dtype=float)
+    out = np.full_like(vals, np.nan)
+    for other in allgather(mesh, vals):
+        fill = np.isnan(out) & ~np.isnan(other)
+        out[fill] = other[fill]
+    return out
