@@ -58,6 +58,7 @@ def main(argv: list[str] | None = None) -> int:
             parser.error("the following arguments are required: --out")
 
     from .api import list_builtin, run, validate_scene
+    from .parallel import world_rank
     try:
         if args.command == "list":
             for name, path in list_builtin().items():
@@ -78,10 +79,14 @@ def main(argv: list[str] | None = None) -> int:
                      threads=args.threads, resume=bool(args.resume))
         resumed = result.summary.get("resumed")
         note = f", resumed at step {resumed[-1]['step']} of {result.summary['steps']}" if resumed else ""
-        print(f"wrote {result.out} ({result.summary['wall_time_s']['total_s']:.1f} s{note})")
+        ranks = result.summary["mesh"].get("ranks")
+        note += f", {ranks} MPI ranks" if ranks else ""
+        if world_rank() == 0:
+            print(f"wrote {result.out} ({result.summary['wall_time_s']['total_s']:.1f} s{note})")
         return 0
     except GeomechError as exc:
-        print(f"ngs-geomech: error: {exc}", file=sys.stderr)
+        if world_rank() == 0:              # a distributed run raises it on every rank: said once
+            print(f"ngs-geomech: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
         what = str(exc) or "no output written"

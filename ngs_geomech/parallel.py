@@ -55,6 +55,12 @@ def world():
     return comm if comm.size > 1 else None
 
 
+def world_rank() -> int:
+    """This process's rank in a distributed run (0 otherwise): only rank 0 prints and writes shared files."""
+    comm = world()
+    return 0 if comm is None else comm.rank
+
+
 def distributed(mesh) -> bool:
     """Whether ``mesh`` is a part of a distributed mesh."""
     return mesh.comm.size > 1

@@ -105,11 +105,12 @@ class ProbeSet:
                 else:
                     v = parallel.allmin(self.mesh, float(vals.min()) if vals.size else math.inf)
             else:
-                if p.region:
-                    dx = ngs.dx(definedon=self.mesh.Materials(p.region))
-                else:
-                    dx = ngs.ds(definedon=self.mesh.Boundaries(p.boundary))
-                v = float(ngs.Integrate(self.w * cf * dx, self.mesh) / ngs.Integrate(self.w * dx, self.mesh))
+                # Integrate(cf, mesh, vb, definedon=...) is global on a distributed mesh (Integrate(cf * dx, mesh)
+                # is this rank's part only)
+                vb, where = ((ngs.VOL, self.mesh.Materials(p.region)) if p.region
+                             else (ngs.BND, self.mesh.Boundaries(p.boundary)))
+                v = float(ngs.Integrate(self.w * cf, self.mesh, vb, definedon=where)
+                          / ngs.Integrate(self.w, self.mesh, vb, definedon=where))
             if not math.isfinite(v):
                 raise ValueError(f"probe {p.name} is not finite at t = {t}")
             self.times[p.name].append(float(t))

@@ -1,0 +1,172 @@
+"""Distributed scene runs (issue 10): ``mpiexec -n 3 ngs-geomech run SCENE`` (3 ranks = 2 workers: netgen keeps no
+elements on rank 0) against the serial run of the same scene in this process, through the command line and the
+whole output pipeline:
+
+* ``heated_rock``: steady heat (anisotropic) + static thermal stresses, plane strain, P2, symmetry planes;
+* a transient thermal scene with a temperature-dependent conductivity (k(T): Newton with GMRES on the
+  distributed mesh) and Crank-Nicolson steps;
+* ``melting_block``: the Stefan problem (enthalpy form), a few steps;
+
+the probes of summary.json equal the serial ones to the solver tolerances; the output is complete (one VTK part
+per worker and time, a .pvd listing every part, figures, summary.json with the rank layout). Scenes the distributed
+run cannot do (contact interfaces) stop with an error naming the key before any output is written."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from ngs_geomech.api import run
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+THERMAL = """
+[scene]
+name = "warm_slab"
+dimension = "plane"
+
+[physics]
+thermal = "transient"
+
+[mesh]
+maxh = 0.15
+order = 2
+
+[[blocks]]
+name = "rock"
+shape = "rectangle"
+origin = [0.0, 0.0]
+size = [2.0, 1.0]
+boundaries = { left = "xmin", right = "xmax", bottom = "ymin", top = "ymax" }
+
+[materials.rock]
+conductivity = 2.5
+conductivity_temperature_coefficient = -0.002
+reference_temperature = 10.0
+rho_c = 2.2e6
+
+[boundary_conditions.left]
+temperature = "10 + 40 * tanh(t / (5 * day))"
+
+[boundary_conditions.right]
+temperature = 10.0
+
+[initial]
+temperature = 10.0
+
+[time]
+end = "20 day"
+dt = "2 day"
+
+[[output.probes]]
+name = "centre_T"
+quantity = "temperature"
+point = [0.3, 0.5]
+
+[[output.probes]]
+name = "mean_T"
+quantity = "temperature"
+region = "rock"
+statistic = "mean"
+
+[[output.probes]]
+name = "max_T_top"
+quantity = "temperature"
+boundary = "top"
+statistic = "max"
+"""
+
+
+def _mpiexec() -> str | None:
+    found = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or shutil.which("mpiexec")
+    if found is None:
+        return None
+    try:
+        import mpi4py  # noqa: F401
+    except ImportError:
+        return None
+    return found
+
+
+needs_mpi = pytest.mark.skipif(_mpiexec() is None, reason="mpiexec or mpi4py not installed")
+
+
+def _distributed(scene: str, out: Path, overrides: list[str]) -> subprocess.CompletedProcess:
+    cmd = [_mpiexec(), "-n", "3", sys.executable, "-m", "ngs_geomech.cli", "run", scene, "--out", str(out),
+           "--quiet", "--threads", "1"]
+    for o in overrides:
+        cmd += ["--set", o]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+
+
+def _compare(scene: str, tmp_path: Path, overrides: list[str], tol: float) -> tuple[dict, dict]:
+    out = tmp_path / "mpi"
+    proc = _distributed(scene, out, overrides)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert proc.stdout.count("wrote") == 1 and "3 MPI ranks" in proc.stdout      # said once, by rank 0
+    got = json.loads((out / "summary.json").read_text())
+    want = run(scene, None, overrides=overrides, progress=False).summary
+    assert got["mesh"]["ranks"] == 3
+    assert got["mesh"]["elements_per_rank"][0] == 0 and all(n > 0 for n in got["mesh"]["elements_per_rank"][1:])
+    for key in ("vertices", "elements", "dofs"):
+        assert got["mesh"][key] == want["mesh"][key], key
+    assert got["steps"] == want["steps"]
+    worst = 0.0
+    for name, series in want["probe_series"].items():
+        if name in ("time_s", "times_s"):
+            continue
+        mine = got["probe_series"][name]
+        assert len(mine) == len(series)
+        assert [a is None for a in mine] == [b is None for b in series], name     # front probes: no crossing yet
+        scale = max((abs(b) for b in series if b is not None), default=0.0) or 1.0
+        worst = max([worst] + [abs(a - b) / scale for a, b in zip(mine, series) if b is not None])
+    print(f"\n{scene}: {got['mesh']['dofs']} dofs on {got['mesh']['elements_per_rank']} elements per rank; "
+          f"max rel. difference of the probes to serial {worst:.1e}; wall {got['wall_time_s']['total_s']:.1f} s "
+          f"(serial {want['wall_time_s']['total_s'] if 'wall_time_s' in want else float('nan'):.1f} s)")
+    assert worst < tol
+    # complete output: each worker's part at every output time, one collection listing them all
+    name = got["scene"]["scene"]["name"]
+    pvd = (out / f"{name}.pvd").read_text()
+    for rank in (1, 2):
+        parts = sorted(out.glob(f"{name}*_proc{rank}.vtu"))
+        assert parts and all(f'file="{p.name}"' in pvd for p in parts)
+    assert not list(out.glob(".*tmp*")) and not list(tmp_path.glob(".mpi.partial-*"))
+    return got, want
+
+
+@needs_mpi
+def test_thermoelastic_scene_two_workers_equal_serial(tmp_path):
+    got, _ = _compare("heated_rock", tmp_path, [], 1e-8)
+    figs = {p.name for p in (tmp_path / "mpi" / "figures").glob("*.png")}
+    assert {"temperature.png", "von_mises.png", "principal_stress.png"} <= figs
+
+
+@needs_mpi
+def test_transient_nonlinear_thermal_scene_two_workers_equal_serial(tmp_path):
+    scene = tmp_path / "warm_slab.toml"
+    scene.write_text(THERMAL)
+    got, want = _compare(str(scene), tmp_path, [], 1e-8)
+    assert got["newton_iterations_max"] >= 2                  # k(T): Newton steps (GMRES on the distributed mesh)
+    assert got["probe_series"]["centre_T"][-1] > 15.0        # the heat went in
+
+
+@needs_mpi
+def test_stefan_scene_two_workers_equal_serial(tmp_path):
+    got, want = _compare("melting_block", tmp_path, ["time.end=30 day", "time.dt=5 day", "mesh.maxh=0.3"], 1e-6)
+    assert got["newton_iterations_max"] == want["newton_iterations_max"] >= 2
+    assert (tmp_path / "mpi" / "figures" / "phase_boundary.png").exists()
+
+
+@needs_mpi
+def test_contact_scene_refused_before_any_output(tmp_path):
+    out = tmp_path / "mpi"
+    proc = _distributed("fault_wedge", out, [])
+    assert proc.returncode != 0
+    assert proc.stderr.count("ngs-geomech: error:") == 1
+    assert "interfaces[0]" in proc.stderr and "distributed runs" in proc.stderr
+    assert not out.exists() and not list(tmp_path.glob(".mpi.partial-*"))
