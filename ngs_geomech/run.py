@@ -13,6 +13,13 @@ and after any step ending 5 minutes of wall time after the last checkpoint), and
 step fails or the run is interrupted (Ctrl-C). A killed, failed or interrupted run that holds a checkpoint
 leaves its staging directory behind (``out`` itself is untouched); ``run_scene(..., resume=True)`` (the
 command line's ``--resume``) continues it from its last checkpoint and commits ``out`` at the end as usual.
+
+Distributed runs (``mpiexec -n N``, N >= 2; :mod:`ngs_geomech.parallel`): every rank runs this module on its part
+of the mesh (rank 0 meshes and distributes, keeping no elements); what a distributed run cannot do is refused first
+(:func:`~ngs_geomech.scene.validate.distributed_problems`). Rank 0 creates, commits or removes the staging
+directory, prints the progress and writes summary.json, figures and line series; every rank with elements writes
+its VTK parts; values that need the whole mesh (probes, mesh counts, figure data) are gathered collectively, so
+every rank takes every output branch. No checkpoints are written.
 """
 
 from __future__ import annotations
@@ -98,6 +105,8 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
         cp = _checkpoint_to_resume(scene, out)
     if threads:
         ngs.SetNumThreads(threads)
+    elif comm is not None:
+        ngs.SetNumThreads(1)                    # one thread per rank unless asked (ranks x threads <= cores)
     root = comm is None or comm.rank == 0
     staging = None
     if out is not None:
@@ -283,9 +292,10 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         if vtk:
             vtk.write(t)
         if boundary_series is not None:
-            iso = stefan.phase_boundary()
-            boundary_series.write(t, iso.points, iso.segments,
-                                  {"temperature": iso.interpolate(vertex_values(T))})
+            iso = stefan.phase_boundary()            # collective on a distributed mesh (so is vertex_values)
+            temperature = iso.interpolate(vertex_values(T))
+            if comm is None or comm.rank == 0:
+                boundary_series.write(t, iso.points, iso.segments, {"temperature": temperature})
         for spec, res in zip(mech.contacts if lines else [], mech.contact_output.latest if lines else []):
             lines[spec.name].write(t, np.column_stack([res[c] for c in "xyz" if c in res]), spec.cells,
                                    {k: res[k] for k in ("pressure", "traction", "traction_t1", "traction_t2", "gap",
@@ -499,7 +509,8 @@ def _coupled_step(scene: Scene, a: float, b: float, where: str, heat, solver, st
         coupling.set_rate(dt)
         u_now = mech.forms.gf.vec.FV().NumPy().copy()
         if prev is not None:
-            dT, du = relative_change(T_now, prev[0]), relative_change(u_now, prev[1])
+            m = mech.forms.mesh
+            dT, du = relative_change(T_now, prev[0], m), relative_change(u_now, prev[1], m)
         if ph.coupling == "staggered" or (prev is not None and dT <= ph.coupling_tolerance
                                           and du <= ph.coupling_tolerance):
             break
@@ -512,7 +523,7 @@ def _coupled_step(scene: Scene, a: float, b: float, where: str, heat, solver, st
     history["newton_iterations"].append(info.iterations)
     c = history["coupling"]
     c["passes"].append(p + 1)
-    c["deformation_heat"].append(float(dt * np.sum(load)))
+    c["deformation_heat"].append(dt * coupling.power())
     c["change_T"].append(dT)
     c["change_u"].append(du)
     c["conductivity_factor"].append(factors)

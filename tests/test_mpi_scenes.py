@@ -4,7 +4,9 @@ whole output pipeline:
 
 * ``heated_rock``: steady heat (anisotropic) + static thermal stresses, plane strain, P2, symmetry planes;
 * a transient thermal scene with a temperature-dependent conductivity (k(T): Newton with GMRES on the
-  distributed mesh) and Crank-Nicolson steps;
+  distributed mesh), a curved inclusion (P2, the parts curved with the geometry) and Crank-Nicolson steps;
+* the same with thermal stresses (hardening lambda law, secant method) and deformation heating, iterated in each
+  step (problem (P_c) without contact);
 * ``melting_block``: the Stefan problem (enthalpy form), a few steps;
 
 the probes of summary.json equal the serial ones to the solver tolerances; the output is complete (one VTK part
@@ -44,6 +46,21 @@ origin = [0.0, 0.0]
 size = [2.0, 1.0]
 boundaries = { left = "xmin", right = "xmax", bottom = "ymin", top = "ymax" }
 
+[[blocks]]
+name = "lens"                  # a curved inclusion: the distributed mesh is curved with the geometry as well
+shape = "circle"
+center = [1.0, 0.5]
+radius = 0.25
+
+[[interfaces]]
+name = "lens_wall"
+blocks = ["rock", "lens"]
+type = "glued"
+
+[materials.lens]
+conductivity = 6.0
+rho_c = 2.0e6
+
 [materials.rock]
 conductivity = 2.5
 conductivity_temperature_coefficient = -0.002
@@ -75,11 +92,43 @@ region = "rock"
 statistic = "mean"
 
 [[output.probes]]
+name = "lens_mean_T"
+quantity = "temperature"
+region = "lens"
+statistic = "mean"
+
+[[output.probes]]
 name = "max_T_top"
 quantity = "temperature"
 boundary = "top"
 statistic = "max"
 """
+
+
+COUPLED = THERMAL.replace('thermal = "transient"', 'thermal = "transient"\nmechanics = "static"\n'
+                          'plane_model = "plane_strain"\ncoupling = "iterated"').replace(
+    'rho_c = 2.2e6\n', 'rho_c = 2.2e6\ndensity = 2600.0\nyoungs_modulus = 50e9\npoisson_ratio = 0.25\n'
+    'thermal_expansion = 8e-6\nstress_free_temperature = 10.0\nrheology_lambda = 1.3\n').replace(
+    'rho_c = 2.0e6\n', 'rho_c = 2.0e6\ndensity = 2600.0\nyoungs_modulus = 30e9\npoisson_ratio = 0.25\n'
+    'thermal_expansion = 8e-6\nstress_free_temperature = 10.0\nrheology_lambda = 1.3\n').replace(
+    '[boundary_conditions.right]\ntemperature = 10.0', '[boundary_conditions.right]\ntemperature = 10.0\n'
+    'symmetry = true\n\n[boundary_conditions.bottom]\nsymmetry = true') + """
+[mechanics]
+nonlinear_solver = "secant"
+
+[[output.probes]]
+name = "max_von_mises"
+quantity = "von_mises"
+region = "rock"
+statistic = "max"
+
+[[output.probes]]
+name = "corner_uy"
+quantity = "displacement_y"
+point = [0.1, 0.95]
+"""
+"""The warm slab with thermal stresses (hardening lambda law, secant method) and deformation heating, iterated
+within each step (problem (P_c) without contact)."""
 
 
 def _mpiexec() -> str | None:
@@ -153,6 +202,20 @@ def test_transient_nonlinear_thermal_scene_two_workers_equal_serial(tmp_path):
     got, want = _compare(str(scene), tmp_path, [], 1e-8)
     assert got["newton_iterations_max"] >= 2                  # k(T): Newton steps (GMRES on the distributed mesh)
     assert got["probe_series"]["centre_T"][-1] > 15.0        # the heat went in
+
+
+@needs_mpi
+def test_coupled_thermoelastic_scene_two_workers_equal_serial(tmp_path):
+    scene = tmp_path / "warm_slab_coupled.toml"
+    scene.write_text(COUPLED)
+    got, want = _compare(str(scene), tmp_path, ["time.end=8 day", "mesh.maxh=0.25"], 1e-7)
+    c, w = got["coupling"], want["coupling"]
+    print(f"coupling passes per step {c['passes_per_step']} (serial {w['passes_per_step']}), deformation heat "
+          f"{c['deformation_heat_total']:.6e} (serial {w['deformation_heat_total']:.6e}) J/m")
+    assert c["passes_per_step"] == w["passes_per_step"] and c["passes_per_step"]["max"] >= 2
+    assert c["deformation_heat_total"] == pytest.approx(w["deformation_heat_total"], rel=1e-7)
+    assert abs(w["deformation_heat_total"]) > 0
+    assert got["probe_series"]["max_von_mises"][-1] > 1e6
 
 
 @needs_mpi

@@ -55,6 +55,9 @@ def _distributed_mesh(geo: GeometryModel, settings: MeshSettings, comm):
             raise SceneError(*error)
         mesh = ngs.Mesh(ngm.Mesh.Receive(comm))
     if settings.order > 1:
+        # the parts arrive without the geometry: curving without it leaves curved boundaries straight (measured:
+        # the repository_3d canister's volume 3.995 instead of 4.155 m^3)
+        mesh.ngmesh.SetGeometry(geo.occ_geometry())
         mesh.Curve(settings.order)
     return mesh
 

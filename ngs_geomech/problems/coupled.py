@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import ngsolve as ngs
 import numpy as np
 
+from .. import parallel
 from ..errors import SolverError
 
 KELVIN = 273.15
@@ -98,16 +99,38 @@ class DeformationHeating:
     def vector(self):
         """The assembled source vector over ``space`` (NGSolve vector; W per metre of depth in 2D, W in 3D)."""
         self.lf.Assemble()
-        if not np.all(np.isfinite(self.lf.vec.FV().NumPy())):
+        if parallel.anyof(self.space.mesh, not np.all(np.isfinite(self.lf.vec.FV().NumPy()))):
             raise SolverError("deformation heating: the source is not finite (the displacement rate is NaN or "
                               "infinite); check the mechanics of the previous step")
         return self.lf.vec
 
     def load(self) -> np.ndarray:
-        """:meth:`vector` as a numpy copy (zeros while the rate is zero)."""
+        """:meth:`vector` as a numpy copy (zeros while the rate is zero); on a distributed mesh cumulated (every
+        copy of a shared dof holds its whole value: what the Stefan solver's nodal loads are)."""
         if self._zero:
             return np.zeros(self.space.ndof)
-        return self.vector().FV().NumPy().copy()
+        vec = self.vector()
+        if not parallel.distributed(self.space.mesh):
+            return vec.FV().NumPy().copy()
+        tmp = vec.CreateVector()
+        tmp.data = vec
+        tmp.Cumulate()
+        return tmp.FV().NumPy().copy()
+
+    def power(self) -> float:
+        """The total deformation-heating power of the last :meth:`vector` (W per metre of depth in 2D, W in 3D),
+        summed over all ranks of a distributed mesh."""
+        if self._zero:
+            return 0.0
+        vec = self.lf.vec
+        arr = vec.FV().NumPy()
+        if not parallel.distributed(self.space.mesh):
+            return float(np.sum(arr))
+        # a solve that added the vector to its right-hand side may have cumulated it (NGSolve changes the parallel
+        # status of operands): then each shared dof is counted by its owner only
+        if vec.GetParallelStatus() == ngs.la.PARALLEL_STATUS.CUMULATED:
+            arr = arr[parallel.owned(self.space)]
+        return float(parallel.allsum(self.space.mesh, float(np.sum(arr))))
 
     def capture(self) -> dict:
         return {"coupling/rate": np.array(self.rate.vec.FV().NumPy())}
@@ -117,9 +140,17 @@ class DeformationHeating:
         self._zero = not np.any(arrays["coupling/rate"])
 
 
-def relative_change(new: np.ndarray, old: np.ndarray) -> float:
+def relative_change(new: np.ndarray, old: np.ndarray, mesh=None) -> float:
     """Max |new - old| / max(range of new, 1e-3 max |new|, tiny): relative to the field's variation, or to its
-    size when it is (nearly) uniform."""
+    size when it is (nearly) uniform. ``mesh`` (distributed): the arrays are this rank's part, the maxima global."""
+    if mesh is not None and parallel.distributed(mesh):
+        hi = parallel.allmax(mesh, float(np.max(new)) if new.size else -math.inf)
+        lo = parallel.allmin(mesh, float(np.min(new)) if new.size else math.inf)
+        d = parallel.allmax(mesh, float(np.max(np.abs(new - old))) if new.size else 0.0)
+        if hi < lo:
+            return 0.0
+        scale = max(hi - lo, max(abs(hi), abs(lo)) * 1e-3, 1e-300)
+        return d / scale if math.isfinite(d) else math.inf
     if new.size == 0:
         return 0.0
     scale = max(float(np.ptp(new)), float(np.max(np.abs(new))) * 1e-3, 1e-300)
