@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
             parser.error("the following arguments are required: --out")
 
     from .api import list_builtin, run, validate_scene
-    from .parallel import world_rank
+    from .parallel import world, world_rank
     try:
         if args.command == "list":
             for name, path in list_builtin().items():
@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
             print(_uncertainty_report(res, args.out))
             return 0
         result = run(args.scene, args.out, overrides=args.overrides, progress=not args.quiet,
-                     threads=args.threads, resume=bool(args.resume))
+                     threads=args.threads, resume=bool(args.resume), comm=world())
         resumed = result.summary.get("resumed")
         note = f", resumed at step {resumed[-1]['step']} of {result.summary['steps']}" if resumed else ""
         ranks = result.summary["mesh"].get("ranks")

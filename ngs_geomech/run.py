@@ -87,13 +87,16 @@ class RunResult:
 
 
 def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, threads: int | None = None,
-              geometry: GeometryModel | None = None, resume: bool = False) -> RunResult:
+              geometry: GeometryModel | None = None, resume: bool = False, comm=None) -> RunResult:
     """Run a scene. ``out=None`` writes nothing (for tests and studies). ``resume=True`` continues the
     interrupted run into ``out`` from its last checkpoint (:class:`ResumeError` when there is none, or when
-    the scene or the mesh differs from the checkpointed run's)."""
+    the scene or the mesh differs from the checkpointed run's). ``comm`` (an mpi4py communicator of several
+    ranks, every rank calling this): a distributed run (module docstring); None: serial, also inside an MPI job
+    whose ranks run separate scenes (``mpi4py.futures`` samples)."""
     timings: dict[str, float] = {}
     t0 = _time.perf_counter()
-    comm = parallel.world()                     # several MPI ranks: a distributed run (module docstring)
+    if comm is not None and comm.size < 2:
+        comm = None
     geo = geometry or validate(scene)
     if comm is not None:
         problems = distributed_problems(scene, resume)

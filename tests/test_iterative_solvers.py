@@ -150,6 +150,7 @@ def _mpi_available() -> bool:
 
 
 @pytest.mark.skipif(not _mpi_available(), reason="mpiexec or mpi4py not installed")
+@pytest.mark.xdist_group("mpi")
 def test_two_workers_equal_serial(tmp_path):
     """netgen's distributed mesh keeps no elements on rank 0: 3 ranks = 2 workers. The distributed heat and
     thermal-stress solutions equal the serial ones at the sample points to the CG tolerance."""

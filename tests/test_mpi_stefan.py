@@ -47,6 +47,7 @@ def _case():
 
 
 @pytest.mark.skipif(_mpiexec() is None, reason="mpiexec or mpi4py not installed")
+@pytest.mark.xdist_group("mpi")
 def test_stefan_two_workers_equal_serial(tmp_path):
     out = tmp_path / "stefan_mpi.json"
     proc = subprocess.run([_mpiexec(), "-n", "3", sys.executable, str(CASE), str(out), *PRECONDITIONERS],

@@ -150,6 +150,7 @@ def _mpiexec():
 
 
 @pytest.mark.skipif(_mpiexec() is None, reason="mpiexec or mpi4py not installed")
+@pytest.mark.xdist_group("mpi")
 def test_mpi_executor_equals_serial(tmp_path):
     cmd = [_mpiexec(), "-n", "3", sys.executable, "-m", "mpi4py.futures", "-m", "ngs_geomech.cli", "uncertain",
            str(SLAB), "--out", str(tmp_path / "m"), "--executor", "mpi", "--quiet", "--no-figures"]
