@@ -147,8 +147,8 @@ in_mpi_group = pytest.mark.xdist_group("mpi")   # one MPI job at a time (--dist 
                                                 # the 2 cores; two jobs at once made each several times slower
 
 
-def _distributed(scene: str, out: Path, overrides: list[str]) -> subprocess.CompletedProcess:
-    cmd = [_mpiexec(), "-n", "3", sys.executable, "-m", "ngs_geomech.cli", "run", scene, "--out", str(out),
+def _distributed(scene: str, out: Path, overrides: list[str], ranks: int = 3) -> subprocess.CompletedProcess:
+    cmd = [_mpiexec(), "-n", str(ranks), sys.executable, "-m", "ngs_geomech.cli", "run", scene, "--out", str(out),
            "--quiet", "--threads", "1"]
     for o in overrides:
         cmd += ["--set", o]
@@ -227,7 +227,7 @@ def test_coupled_thermoelastic_scene_two_workers_equal_serial(tmp_path):
 @needs_mpi
 @in_mpi_group
 def test_stefan_scene_two_workers_equal_serial(tmp_path):
-    got, want = _compare("melting_block", tmp_path, ["time.end=30 day", "time.dt=5 day", "mesh.maxh=0.3"], 1e-6)
+    got, want = _compare("melting_block", tmp_path, ["time.end=20 day", "time.dt=5 day", "mesh.maxh=0.3"], 1e-6)
     assert got["newton_iterations_max"] == want["newton_iterations_max"] >= 2
     assert (tmp_path / "mpi" / "figures" / "phase_boundary.png").exists()
 
@@ -235,9 +235,25 @@ def test_stefan_scene_two_workers_equal_serial(tmp_path):
 @needs_mpi
 @in_mpi_group
 def test_contact_scene_refused_before_any_output(tmp_path):
+    """Through the command line (2 ranks: the refusal comes before any mesh is made or distributed)."""
     out = tmp_path / "mpi"
-    proc = _distributed("fault_wedge", out, [])
+    proc = _distributed("fault_wedge", out, [], ranks=2)
     assert proc.returncode != 0
     assert proc.stderr.count("ngs-geomech: error:") == 1
     assert "interfaces[0]" in proc.stderr and "distributed runs" in proc.stderr
     assert not out.exists() and not list(tmp_path.glob(".mpi.partial-*"))
+
+
+def test_distributed_problems_name_the_keys():
+    """What a distributed run refuses, checked in-process (no MPI needed)."""
+    from ngs_geomech.scene.parse import load_scene
+    from ngs_geomech.scene.validate import distributed_problems
+
+    assert distributed_problems(load_scene("heated_rock")) == []
+    assert distributed_problems(load_scene("melting_block")) == []
+    items = {p.item for p in distributed_problems(load_scene("fault_wedge"), resume=True)}
+    assert "interfaces[0] (fault).type" in items or any(i.startswith("interfaces[0]") for i in items)
+    assert "--resume" in items
+    items = {p.item for p in distributed_problems(load_scene(
+        "heated_rock", ["solver.linear=direct", "mechanics.nested_levels=1", "physics.mechanics=dynamic"]))}
+    assert {"solver.linear", "mechanics.nested_levels", "physics.mechanics"} <= items
