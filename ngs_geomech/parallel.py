@@ -7,8 +7,9 @@ The rules that keep the ranks in step (all checked on this machine with NGSolve 
 
 * Element loops (``mesh.Elements``, ``mesh.Boundaries(...).Elements()``) see this rank's part only: a fact
   about the whole mesh is gathered (:func:`allgather`) or reduced (:func:`allsum`, :func:`allmax`).
-* ``Integrate`` returns the global value on every rank; ``InnerProduct`` and ``Norm`` of NGSolve vectors are
-  global; ``vec.FV().NumPy()`` is the local part. An assembled linear form is *distributed* (a dof shared by
+* ``Integrate(cf, mesh, VOL|BND, definedon=...)`` returns the global value on every rank, but
+  ``Integrate(cf * dx, mesh)`` only this rank's part (silently); ``InnerProduct`` and ``Norm`` of NGSolve vectors
+  are global; ``vec.FV().NumPy()`` is the local part. An assembled linear form is *distributed* (a dof shared by
   several ranks holds a part of its value on each); a GridFunction's vector is *cumulated* (every copy holds the
   value). A sum over dofs takes the distributed vector's local entries (:func:`allsum`), or the cumulated one's
   entries of the dofs this rank owns (:func:`owned`).
@@ -26,13 +27,10 @@ import os
 
 import numpy as np
 
-MPI_ENV = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS", "PMIX_RANK")
-"""Environment variables an MPI launcher (mpich's hydra, Open MPI, PMIx) sets in the processes it starts."""
-
 
 def launched_by_mpiexec() -> bool:
-    """True in a process started by ``mpiexec`` with more than one rank (read from the environment: no MPI
-    initialized)."""
+    """True in a process started by ``mpiexec`` with more than one rank, read from what the launcher (mpich's
+    hydra, Open MPI, PMIx) puts into the environment: no MPI is initialized."""
     for key in ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE"):
         if key in os.environ:
             return int(os.environ[key]) > 1
@@ -69,11 +67,6 @@ def distributed(mesh) -> bool:
 def comm(mesh):
     """The mesh's communicator as an mpi4py communicator (None on a serial mesh)."""
     return mesh.comm.mpi4py if distributed(mesh) else None
-
-
-def is_root(mesh) -> bool:
-    """Rank 0 (the rank that writes files): always True on a serial mesh."""
-    return mesh.comm.rank == 0
 
 
 def allsum(mesh, value):
@@ -116,11 +109,6 @@ def anyof(mesh, flag: bool) -> bool:
 def allgather(mesh, obj) -> list:
     """``[obj of rank 0, obj of rank 1, ...]`` on every rank (``[obj]`` on a serial mesh)."""
     return comm(mesh).allgather(obj) if distributed(mesh) else [obj]
-
-
-def gather(mesh, obj) -> list | None:
-    """The objects of all ranks on rank 0 (None on the others; ``[obj]`` on a serial mesh)."""
-    return comm(mesh).gather(obj, root=0) if distributed(mesh) else [obj]
 
 
 def concat(mesh, arr: np.ndarray, axis: int = 0) -> np.ndarray:

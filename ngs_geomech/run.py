@@ -820,7 +820,7 @@ def _figures(scene: Scene, mesh, T, probes: ProbeSet, directory: Path, mech=None
     only the rank with ``draw`` draws and writes."""
     if not scene.output.figures:
         return
-    figures = _figure_module(draw)
+    figures = _Drawing(draw)
     if adaptive is not None:
         steps = adaptive.result.steps
         if draw:
@@ -953,21 +953,15 @@ def _vertex_average(mesh, cf) -> np.ndarray:
     return vertex_values(g)
 
 
-class _NoDraw:
-    """Stands for the figure modules on the ranks of a distributed run that do not draw."""
+class _Drawing:
+    """The drawing functions of a run (:mod:`~ngs_geomech.io.figures` and the principal-stress crosses), or, on the
+    ranks of a distributed run that do not draw, functions that do nothing."""
+
+    def __init__(self, draw: bool):
+        self.draw = draw
 
     def __getattr__(self, name):
-        return lambda *args, **kwargs: None
-
-
-def _figure_module(draw: bool):
-    """The drawing functions: :mod:`~ngs_geomech.io.figures` plus the principal-stress crosses, or no-ops."""
-    if not draw:
-        return _NoDraw()
-
-    class _Draw:
-        def __getattr__(self, name):
-            if name == "principal_stress_crosses":
-                return stress_figures.principal_stress_crosses
-            return getattr(figures, name)
-    return _Draw()
+        if not self.draw:
+            return lambda *args, **kwargs: None
+        return stress_figures.principal_stress_crosses if name == "principal_stress_crosses" else \
+            getattr(figures, name)
