@@ -124,8 +124,7 @@ def owned(space) -> np.ndarray:
     serial mesh): sums of cumulated vectors over ``owned`` entries count every dof once."""
     if not distributed(space.mesh):
         return np.ones(space.ndof, dtype=bool)
-    bits = space.ParallelDofs().MasterDofs()
-    return np.array([bits[i] for i in range(space.ndof)], dtype=bool) if space.ndof else np.zeros(0, dtype=bool)
+    return np.array(list(space.ParallelDofs().MasterDofs()), dtype=bool).reshape(space.ndof)
 
 
 def point_values(mesh, cf, points: np.ndarray) -> np.ndarray:

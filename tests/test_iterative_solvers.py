@@ -6,7 +6,6 @@ mpi4py are there)."""
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -14,6 +13,7 @@ from pathlib import Path
 import ngsolve as ngs
 import numpy as np
 import pytest
+from mpi_cases.launch import mpiexec, needs_mpi, one_mpi_job
 
 from ngs_geomech.errors import SceneError, SolverError
 from ngs_geomech.geometry.mesh import make_mesh
@@ -139,24 +139,13 @@ def test_automatic_choice():
     assert small["solver_heat"] == small["solver_elastic"] == "direct"
 
 
-def _mpi_available() -> bool:
-    if shutil.which("mpiexec", path=str(Path(sys.executable).parent)) is None and shutil.which("mpiexec") is None:
-        return False
-    try:
-        import mpi4py  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-@pytest.mark.skipif(not _mpi_available(), reason="mpiexec or mpi4py not installed")
-@pytest.mark.xdist_group("mpi")
+@needs_mpi
+@one_mpi_job
 def test_two_workers_equal_serial(tmp_path):
     """netgen's distributed mesh keeps no elements on rank 0: 3 ranks = 2 workers. The distributed heat and
     thermal-stress solutions equal the serial ones at the sample points to the CG tolerance."""
-    mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or shutil.which("mpiexec")
     out = tmp_path / "mpi.json"
-    proc = subprocess.run([mpiexec, "-n", "3", sys.executable, str(ROOT / "studies" / "scaling" / "mpi_box.py"),
+    proc = subprocess.run([mpiexec(), "-n", "3", sys.executable, str(ROOT / "studies" / "scaling" / "mpi_box.py"),
                            "0.3", "2", str(out)], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     data = json.loads(out.read_text())

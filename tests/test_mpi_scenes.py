@@ -16,12 +16,12 @@ run cannot do (contact interfaces) stop with an error naming the key before any 
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from mpi_cases.launch import mpiexec, needs_mpi, one_mpi_job
 
 from ngs_geomech.api import run
 
@@ -131,24 +131,8 @@ point = [0.1, 0.95]
 within each step (problem (P_c) without contact)."""
 
 
-def _mpiexec() -> str | None:
-    found = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or shutil.which("mpiexec")
-    if found is None:
-        return None
-    try:
-        import mpi4py  # noqa: F401
-    except ImportError:
-        return None
-    return found
-
-
-needs_mpi = pytest.mark.skipif(_mpiexec() is None, reason="mpiexec or mpi4py not installed")
-in_mpi_group = pytest.mark.xdist_group("mpi")   # one MPI job at a time (--dist loadgroup): 3 ranks already fill
-                                                # the 2 cores; two jobs at once made each several times slower
-
-
 def _distributed(scene: str, out: Path, overrides: list[str], ranks: int = 3) -> subprocess.CompletedProcess:
-    cmd = [_mpiexec(), "-n", str(ranks), sys.executable, "-m", "ngs_geomech.cli", "run", scene, "--out", str(out),
+    cmd = [mpiexec(), "-n", str(ranks), sys.executable, "-m", "ngs_geomech.cli", "run", scene, "--out", str(out),
            "--quiet", "--threads", "1"]
     for o in overrides:
         cmd += ["--set", o]
@@ -191,7 +175,7 @@ def _compare(scene: str, tmp_path: Path, overrides: list[str], tol: float) -> tu
 
 
 @needs_mpi
-@in_mpi_group
+@one_mpi_job
 def test_thermoelastic_scene_two_workers_equal_serial(tmp_path):
     got, _ = _compare("heated_rock", tmp_path, ["mesh.maxh=4"], 1e-8)
     figs = {p.name for p in (tmp_path / "mpi" / "figures").glob("*.png")}
@@ -199,7 +183,7 @@ def test_thermoelastic_scene_two_workers_equal_serial(tmp_path):
 
 
 @needs_mpi
-@in_mpi_group
+@one_mpi_job
 def test_transient_nonlinear_thermal_scene_two_workers_equal_serial(tmp_path):
     scene = tmp_path / "warm_slab.toml"
     scene.write_text(THERMAL)
@@ -210,7 +194,7 @@ def test_transient_nonlinear_thermal_scene_two_workers_equal_serial(tmp_path):
 
 @pytest.mark.slow          # 19 s alone, 40-70 s beside the suite's other worker (MPI ranks poll): on demand
 @needs_mpi
-@in_mpi_group
+@one_mpi_job
 def test_coupled_thermoelastic_scene_two_workers_equal_serial(tmp_path):
     scene = tmp_path / "warm_slab_coupled.toml"
     scene.write_text(COUPLED)
@@ -225,7 +209,7 @@ def test_coupled_thermoelastic_scene_two_workers_equal_serial(tmp_path):
 
 
 @needs_mpi
-@in_mpi_group
+@one_mpi_job
 def test_stefan_scene_two_workers_equal_serial(tmp_path):
     got, want = _compare("melting_block", tmp_path, ["time.end=20 day", "time.dt=5 day", "mesh.maxh=0.3"], 1e-6)
     assert got["newton_iterations_max"] == want["newton_iterations_max"] >= 2
@@ -233,7 +217,7 @@ def test_stefan_scene_two_workers_equal_serial(tmp_path):
 
 
 @needs_mpi
-@in_mpi_group
+@one_mpi_job
 def test_contact_scene_refused_before_any_output(tmp_path):
     """Through the command line (2 ranks: the refusal comes before any mesh is made or distributed)."""
     out = tmp_path / "mpi"

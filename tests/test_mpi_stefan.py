@@ -9,13 +9,13 @@ steps). A contact-interface scene is refused on the distributed mesh with a clea
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from mpi_cases.launch import mpiexec, needs_mpi, one_mpi_job
 
 from ngs_geomech.verification.scaling import max_rel_difference
 
@@ -24,17 +24,6 @@ pytestmark = pytest.mark.usefixtures("one_thread")
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "tests" / "mpi_cases" / "stefan_case.py"
 PRECONDITIONERS = ("jacobi", "bddc")
-
-
-def _mpiexec() -> str | None:
-    found = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or shutil.which("mpiexec")
-    if found is None:
-        return None
-    try:
-        import mpi4py  # noqa: F401
-    except ImportError:
-        return None
-    return found
 
 
 def _case():
@@ -46,11 +35,11 @@ def _case():
     return mod
 
 
-@pytest.mark.skipif(_mpiexec() is None, reason="mpiexec or mpi4py not installed")
-@pytest.mark.xdist_group("mpi")
+@needs_mpi
+@one_mpi_job
 def test_stefan_two_workers_equal_serial(tmp_path):
     out = tmp_path / "stefan_mpi.json"
-    proc = subprocess.run([_mpiexec(), "-n", "3", sys.executable, str(CASE), str(out), *PRECONDITIONERS],
+    proc = subprocess.run([mpiexec(), "-n", "3", sys.executable, str(CASE), str(out), *PRECONDITIONERS],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     runs = json.loads(out.read_text())

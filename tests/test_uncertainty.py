@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -16,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from mpi_cases.launch import mpiexec, needs_mpi, one_mpi_job
 
 from ngs_geomech.errors import ResumeError, SceneError
 from ngs_geomech.uncertainty import samples as samples_module
@@ -140,19 +140,10 @@ def test_process_pool_equals_serial(tmp_path):
     assert a["samples"]["total"] == b["samples"]["total"]
 
 
-def _mpiexec():
-    exe = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or shutil.which("mpiexec")
-    try:
-        import mpi4py  # noqa: F401
-    except ImportError:
-        return None
-    return exe
-
-
-@pytest.mark.skipif(_mpiexec() is None, reason="mpiexec or mpi4py not installed")
-@pytest.mark.xdist_group("mpi")
+@needs_mpi
+@one_mpi_job
 def test_mpi_executor_equals_serial(tmp_path):
-    cmd = [_mpiexec(), "-n", "3", sys.executable, "-m", "mpi4py.futures", "-m", "ngs_geomech.cli", "uncertain",
+    cmd = [mpiexec(), "-n", "3", sys.executable, "-m", "mpi4py.futures", "-m", "ngs_geomech.cli", "uncertain",
            str(SLAB), "--out", str(tmp_path / "m"), "--executor", "mpi", "--quiet", "--no-figures"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=240)
     assert proc.returncode == 0, proc.stderr

@@ -32,10 +32,10 @@ def mesh_arrays(mesh) -> MeshArrays:
     parts = parallel.allgather(mesh, (local.points, local.triangles, local.tri_region, local.outline))
     offsets = np.cumsum([0] + [len(p[0]) for p in parts])
     used = [(p, o) for p, o in zip(parts, offsets) if len(p[0])]
-    return MeshArrays(points=np.concatenate([p[0] for p, _ in used]).reshape(-1, local.points.shape[1] or 2),
+    return MeshArrays(points=np.concatenate([p[0] for p, _ in used]),
                       triangles=np.concatenate([p[1].reshape(-1, 3) + o for p, o in used]).astype(int),
                       tri_region=np.concatenate([p[2] for p, _ in used]).astype(int), regions=local.regions,
-                      outline=np.concatenate([p[3].reshape(-1, 2, p[0].shape[1]) for p, _ in used]))
+                      outline=np.concatenate([p[3].reshape(-1, 2, 2) for p, _ in used]))
 
 
 def _local_arrays(mesh) -> MeshArrays:

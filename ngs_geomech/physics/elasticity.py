@@ -558,6 +558,14 @@ class ElasticForms:
             return [f"{name} of body {'+'.join(fb.regions)}" for fb in self.floating_bodies() for name in fb.names]
         return self._unheld_whole_mesh()
 
+    def _body_modes(self, regions) -> dict:
+        """The rigid motions of the body made of ``regions`` (:func:`_rigid_modes`), rotations about its centroid
+        (global integrals: the same on every rank of a distributed mesh)."""
+        where = self.mesh.Materials(regions_regex(set(regions)))
+        vol = ngs.Integrate(ngs.CoefficientFunction(1.0), self.mesh, definedon=where)
+        c = np.array([ngs.Integrate(cx, self.mesh, definedon=where) / vol for cx in (ngs.x, ngs.y, ngs.z)[:self.dim]])
+        return _rigid_modes(self.setup.model, self.dim, c)
+
     def _unheld_distributed(self) -> list[str]:
         """:meth:`unheld_rigid_motions` on a distributed mesh: the bodies are the groups of regions sharing a node
         (:func:`_region_groups`), and each body's constraint matrix A (rows on this rank's constrained dofs and
@@ -568,10 +576,7 @@ class ElasticForms:
         g = ngs.GridFunction(self.V)
         out = []
         for regions in groups:
-            where = mesh.Materials(regions_regex(set(regions)))
-            vol = ngs.Integrate(ngs.CoefficientFunction(1.0), mesh, definedon=where)
-            c = np.array([ngs.Integrate(cx, mesh, definedon=where) / vol for cx in (ngs.x, ngs.y, ngs.z)[:dim]])
-            modes = _rigid_modes(self.setup.model, dim, c)
+            modes = self._body_modes(regions)
             mask = np.zeros(self.V.ndof, dtype=bool)
             for el in mesh.Elements(ngs.VOL):
                 if el.mat in regions:
@@ -646,11 +651,7 @@ class ElasticForms:
             body_els = [el for el in els if labels[el.vertices[0].nr] == b]
             dofs = np.unique([d for el in body_els for d in self.V.GetDofNrs(el) if d >= 0])
             regions = sorted({el.mat for el in body_els})
-            where = self.mesh.Materials(regions_regex(set(regions)))
-            vol = ngs.Integrate(ngs.CoefficientFunction(1.0), self.mesh, definedon=where)
-            c = np.array([ngs.Integrate(cx, self.mesh, definedon=where) / vol
-                          for cx in (ngs.x, ngs.y, ngs.z)[:dim]])    # the centroid (moments about it)
-            modes = _rigid_modes(self.setup.model, dim, c)
+            modes = self._body_modes(regions)
             vecs, cons = [], []
             bfixed = dofs[fixed[dofs]]
             for comps in modes.values():

@@ -85,6 +85,7 @@ class DeformationHeating:
         self.lf = ngs.LinearForm(space)
         self.lf += weight * self.source * v * dx
         self._zero = True
+        self._owned = None                     # distributed meshes: the dofs this rank owns (power), once
 
     def start_step(self) -> None:
         """Remember u^n (the displacement at the start of the step)."""
@@ -129,7 +130,9 @@ class DeformationHeating:
         # a solve that added the vector to its right-hand side may have cumulated it (NGSolve changes the parallel
         # status of operands): then each shared dof is counted by its owner only
         if vec.GetParallelStatus() == ngs.la.PARALLEL_STATUS.CUMULATED:
-            arr = arr[parallel.owned(self.space)]
+            if self._owned is None:
+                self._owned = parallel.owned(self.space)
+            arr = arr[self._owned]
         return float(parallel.allsum(self.space.mesh, float(np.sum(arr))))
 
     def capture(self) -> dict:
@@ -143,14 +146,15 @@ class DeformationHeating:
 def relative_change(new: np.ndarray, old: np.ndarray, mesh=None) -> float:
     """Max |new - old| / max(range of new, 1e-3 max |new|, tiny): relative to the field's variation, or to its
     size when it is (nearly) uniform. ``mesh`` (distributed): the arrays are this rank's part, the maxima global."""
-    if mesh is not None and parallel.distributed(mesh):
-        hi = parallel.allmax(mesh, float(np.max(new)) if new.size else -math.inf)
-        lo = parallel.allmin(mesh, float(np.min(new)) if new.size else math.inf)
-        d = parallel.allmax(mesh, float(np.max(np.abs(new - old))) if new.size else 0.0)
-        if hi < lo:
-            return 0.0
-        scale = max(hi - lo, max(abs(hi), abs(lo)) * 1e-3, 1e-300)
-        return d / scale if math.isfinite(d) else math.inf
+    some = new.size > 0
+    hi, lo = (float(np.max(new)), float(np.min(new))) if some else (-math.inf, math.inf)
+    d = float(np.max(np.abs(new - old))) if some else 0.0
+    if mesh is not None:                     # the same on every rank (the plain values on a serial mesh)
+        hi, lo, d = parallel.allmax(mesh, hi), parallel.allmin(mesh, lo), parallel.allmax(mesh, d)
+    if hi < lo:                              # no values anywhere
+        return 0.0
+    scale = max(hi - lo, max(abs(hi), abs(lo)) * 1e-3, 1e-300)
+    return d / scale if math.isfinite(d) else math.inf
     if new.size == 0:
         return 0.0
     scale = max(float(np.ptp(new)), float(np.max(np.abs(new))) * 1e-3, 1e-300)

@@ -650,7 +650,8 @@ class _ColumnJacobian:
 class _JacobiPreconditioner(ngs.BaseMatrix):
     """x -> D^-1 x on the Krylov unknowns, 0 elsewhere, on NGSolve parallel vectors: the input is cumulated
     first (any status accepted), ``inverse`` (cumulated: the global diagonal's inverse, 0 outside the
-    unknowns) is applied entrywise, the output is cumulated."""
+    unknowns) is applied entrywise, the output is cumulated. (NGSolve's Python ParallelMatrix has no
+    ``CreateSmoother``, and its "local" preconditioner needs an assembled form: M's values are written directly.)"""
 
     def __init__(self, inverse: np.ndarray, prototype):
         super().__init__()
