@@ -16,7 +16,6 @@ k_phase(T) = k_phase (1 + b (T - T_ref)), the Kirchhoff variable theta piecewise
 from __future__ import annotations
 
 import functools
-import hashlib
 import math
 
 import numpy as np
@@ -116,10 +115,12 @@ def test_transient_melting_energy_and_convergence():
 
 
 # -- 3. b = 0 unchanged ---------------------------------------------------------------------------------------------
-def test_b_zero_is_bit_identical_to_before():
-    """The two-phase Neumann strip (h = 0.05, dt = 0.01 s, t = 0.05 -> 0.5 s) with b = 0: final enthalpies,
-    iterations and factorizations as recorded with the solver before the temperature-dependent law (commit
-    7862e7e); an explicit b = 0 is the same material."""
+def test_b_zero_is_unchanged():
+    """The two-phase Neumann strip (h = 0.05, dt = 0.01 s, t = 0.05 -> 0.5 s) with b = 0: iterations and
+    factorizations as recorded with the solver before the temperature-dependent law (commit 7862e7e), final
+    enthalpies as recorded; an explicit b = 0 is the same material. The enthalpies were compared bit for bit (a
+    sha256 of the array) until a fresh environment (numpy 2.4.6, scipy 1.17.1, 2026-11-26) changed their last bits
+    (the same iterations and factorizations): they are now compared to 1e-12 relative."""
     p = st.TWO_PHASE
     assert sk.with_law(p.material, 0.0) == p.material
     mesh = st.strip_mesh(p.domain_length(0.5), 0.1, 0.05)
@@ -130,12 +131,15 @@ def test_b_zero_is_bit_identical_to_before():
     solver.set_initial_enthalpy(st.initial_enthalpy(forms, p, 0.05))
     for a, b in schedule(0.05, 0.5, 0.01):
         solver.step(a, b)
-    digest = hashlib.sha256(solver.e.tobytes()).hexdigest()
-    print(f"\nb = 0: {forms.n} nodes, sum e {float(solver.e.sum())!r}, sha256 {digest[:16]}..., iterations "
-          f"{sum(solver.iterations)}, factorizations {solver.factorizations}")
+    e = solver.e
+    print(f"\nb = 0: {forms.n} nodes, sum e {float(e.sum())!r}, |e| {float(np.linalg.norm(e))!r}, sum |e| "
+          f"{float(np.abs(e).sum())!r}, iterations {sum(solver.iterations)}, factorizations {solver.factorizations}")
     assert forms.n == 215
     assert sum(solver.iterations) == 55 and solver.factorizations == 1
-    assert digest == "4386b18a0b5bfee76b5d4884a31a438569e88adee908a485ad0afe5c1b805060"
+    assert float(e.sum()) == pytest.approx(-175.5320905197912, rel=1e-12)
+    assert float(np.linalg.norm(e)) == pytest.approx(22.552411029044798, rel=1e-12)
+    assert float(np.abs(e).sum()) == pytest.approx(309.78416183868364, rel=1e-12)
+    assert (float(e.min()), float(e.max())) == (-1.5, 3.0)
 
 
 def test_guard_names_the_law_and_the_region():
