@@ -31,8 +31,8 @@ the cores the spinning BLAS threads made UMFPACK up to 10 x slower.
 
 Targets (issue 4, section 8): at most 15 Newton iterations at every level (``target_newton_iterations_met``);
 time ratio at most 2 frictionless and 3 with friction at the finest level (``target_time_ratio_*_met``).
-The study measures, it does not gate: the solver misses the time targets by factors 10 - 16 (frictionless)
-and 3.5 - 6 (Coulomb), below.
+The study measures, it does not gate: the solver misses the time targets by factors 5.6 (frictionless) and
+2.9 (Coulomb) at the finest level, below (d).
 
 Command: ``python studies/contact_performance/run.py --level 1 --out out/contact_performance``
 (writes ``results.json``; prints the tables). Levels: 0 Hertz k = 0 ... 3 (up to 13k dofs), blocks h = 0.16,
@@ -98,16 +98,43 @@ step of a load or time history, the next secant iteration):
         0.01  148478      7    3     9.62  0.856   11.2 |        1    1    1.6
     Uzawa steps at h = 0.16, 0.08, 0.04: 80, 110, 206 (0.37, 1.32, 9.18 s).
 
-A cold solve is dominated by the active-set iterations of the Hertz contact zone, which shrinks geometrically
-from the first guess (186, 143, 115, 99, 90, 85, 83, 82, 81 nodes at 41k dofs): each big change is a new UMFPACK
-factorization of the saddle-point system (1.1 - 1.5 x a sparsecholesky factorization of K, its solves 2 x),
+(d) the current ContactSolver (2026-11-26): symmetric saddle-point matrices factored through their quasi-definite
+companion by sparse Cholesky (the solver module docstring; frictionless and Tresca throughout, Coulomb until a
+node slips), the pattern built as K embedded plus the multiplier entries (CreateSparseMatrix instead of
+CreateFromCOO: 0.08 s instead of 1.4 s at 140k dofs). Level 1, one thread; the commit before it (fda2e30) run
+just before on the same machine gave ratios 17.8 (Hertz) and 10.4 (blocks) at the finest levels, warm 2.9 / 1.7.
+The same iterations, p0 errors, stick/slip sets and Uzawa figures:
+
+    Hertz  k    dofs  Newton fact  contact    lin  ratio | w: Newton fact  ratio
+           0    1068      6    2     0.04  0.004   10.4 |        1    1    3.1
+           1    1988      7    2     0.06  0.007    9.3 |        1    1    2.3
+           2    4692      8    3     0.17  0.018    9.5 |        1    1    1.8
+           3   13086      9    4     0.60  0.060   10.0 |        1    1    1.5
+           4   41062     11    6     2.90  0.277   10.5 |        1    1    1.2
+           5  139844     12    7    14.99  1.327   11.3 |        3    2    2.8
+    blocks h    dofs  Newton fact  contact    lin  ratio | w: Newton fact  ratio
+        0.16     678      3    2     0.02  0.002    9.1 |        1    1    5.3
+        0.08    2434      5    2     0.07  0.009    7.6 |        1    1    3.0
+        0.04    9558      7    2     0.37  0.042    8.9 |        1    1    2.2
+        0.02   37250      7    3     1.84  0.232    7.9 |        1    1    2.0
+        0.01  148478      7    3    11.88  1.346    8.8 |        1    1    1.7
+
+  Where the finest cold Hertz solve's time goes now (profile of a warm start from the k = 3 sets, 2.9 s: 1.26 s
+  the one Cholesky factorization, 0.9 s nine solves, 0.4 s pattern, the rest numpy): the cold solve's 7
+  factorizations (8.8 s) remain the cost. At the blocks' h = 0.02 (7 iterations, 3 factorizations): the switch
+  from the penalty rows to the exact rows changes every active row (52 changes), and the two factorizations
+  after it carry Coulomb slip rows, which have no symmetric companion (UMFPACK).
+
+With (a) - (c), a cold solve is dominated by the active-set iterations of the Hertz contact zone, which shrinks
+geometrically from the first guess (186, 143, 115, 99, 90, 85, 83, 82, 81 nodes at 41k dofs): each big change is a
+new UMFPACK factorization of the saddle-point system (1.1 - 1.5 x a sparsecholesky factorization of K, its solves 2 x),
 the small ones are Woodbury updates. A warm solve takes one factorization: ratio 1.6 - 3.
 
 Headline: hertz_p0_rel_error 2.8e-3 (flat in h: the model error of a finite cylinder against the half-space
 closed form dominates), hertz_newton_iterations_max 12 (one more per refinement, 6 ... 12),
-friction_newton_iterations_max 7, time_ratio_frictionless 31 (a) / 21 (b) / 18.8 (c) (target 2; warm 3.0),
-time_ratio_coulomb 19 (a) / 11 (b) / 11.2 (c) (target 3; warm 1.6), uzawa_iterations_finest 385 (h = 0.02, 37k
-dofs; steps ~ h^-0.9 on the two finest Uzawa meshes). A level 1 run with (a) the same hour gave the
+friction_newton_iterations_max 7, time_ratio_frictionless 31 (a) / 21 (b) / 18.8 (c) / 11.3 (d) (target 2; warm
+2.8), time_ratio_coulomb 19 (a) / 11 (b) / 11.2 (c) / 8.8 (d) (target 3; warm 1.7), uzawa_iterations_finest 385
+(h = 0.02, 37k dofs; steps ~ h^-0.9 on the two finest Uzawa meshes). A level 1 run with (a) the same hour gave the
 finest-level figures within 5 % (ratios 31.9 and 18.1;
 the millisecond timings of the coarse levels vary more). At the finest level one contact iteration costs 2.5
 (Hertz) and 2.7 (blocks) sparsecholesky solves of K with (a), and the solve per factorization 3.0 and 3.5 with

@@ -1,0 +1,108 @@
+"""The linear algebra of the contact solver (ngs_geomech.solvers.contact): a symmetric saddle-point matrix is
+factored through its symmetric quasi-definite companion by sparse Cholesky, the refinement with the exact
+residual makes the solve that of the exact system, and a non-symmetric one (Coulomb slip rows, a non-symmetric
+bulk K) is factored by UMFPACK. Every case is compared with the all-UMFPACK solve (``quasi_definite=False``);
+differences are printed (pytest -s)."""
+
+from __future__ import annotations
+
+import functools
+
+import ngsolve as ngs
+import numpy as np
+import pytest
+
+import ngs_geomech.solvers.contact as sc
+from ngs_geomech.verification import contact_problems as cp
+
+
+class _Keep:
+    """A solver factory that keeps the solver it built (for its history)."""
+
+    def __init__(self, **kw):
+        self.kw = kw
+        self.solver = None
+
+    def __call__(self, interfaces, **kw):
+        self.solver = sc.ContactSolver(interfaces, **kw, **self.kw)
+        return self.solver
+
+
+def _rel(a, b) -> float:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return float(np.max(np.abs(a - b)) / max(float(np.max(np.abs(b))), 1e-300))
+
+
+def test_hertz_quasi_definite_equals_umfpack(one_thread):
+    """Frictionless, a floating cylinder: every factorization is the Cholesky one, same iterations and answer."""
+    qd, umf = _Keep(), _Keep(quasi_definite=False)
+    h = 0.1 * cp.R_HERTZ / 50
+    r1 = cp.hertz(h, 2, solver_factory=qd, return_state=True)
+    r0 = cp.hertz(h, 2, solver_factory=umf, return_state=True)
+    i1, i0 = qd.solver.infos[-1], umf.solver.infos[-1]
+    du = _rel(r1["state"]["u"], r0["state"]["u"])
+    dp = _rel(r1["p"], r0["p"])
+    print(f"\nHertz P2: u differs by {du:.1e}, lam_n by {dp:.1e}; Cholesky {i1.cholesky_factorizations} of "
+          f"{i1.factorizations} factorizations, {i1.iterations} iterations (UMFPACK: {i0.factorizations}, "
+          f"{i0.iterations}); wall {i1.wall_s:.3f} s vs {i0.wall_s:.3f} s")
+    assert i1.iterations == i0.iterations
+    assert i1.cholesky_factorizations == i1.factorizations >= 1
+    assert i0.cholesky_factorizations == 0
+    assert du < 1e-9 and dp < 1e-9
+    assert r1["force_balance"] < 1e-8 and r1["max_penetration"] < 1e-12
+
+
+@pytest.mark.parametrize("law,push,cholesky", [("tresca", "traction", "all"), ("tresca", "displacement", "all"),
+                                               ("coulomb", "traction", "some"), ("coulomb", "displacement", "some")])
+def test_friction_quasi_definite_equals_umfpack(one_thread, law, push, cholesky):
+    """Tresca's slip rows fix lam_t alone (the companion leaves their columns out): Cholesky throughout. Coulomb's
+    slip rows couple lam_t to lam_n: such a matrix has no companion and goes to UMFPACK when it is factored (the
+    penalty start is symmetric; a few changed slip rows are Woodbury updates of the last factorization)."""
+    qd, umf = _Keep(), _Keep(quasi_definite=False)
+    r1 = cp.friction_block(push, law=law, ratio=0.5, order=2, solver_factory=qd)
+    r0 = cp.friction_block(push, law=law, ratio=0.5, order=2, solver_factory=umf)
+    i1 = r1["info"]
+    du, dn, dt = _rel(r1["u"], r0["u"]), _rel(r1["lam_n"], r0["lam_n"]), _rel(r1["lam_t"], r0["lam_t"])
+    print(f"\n{law} block, {push} push: u {du:.1e}, lam_n {dn:.1e}, lam_t {dt:.1e}; Cholesky "
+          f"{i1.cholesky_factorizations} of {i1.factorizations}; {r1['stick']} stick, {r1['slip']} slip")
+    assert du < 1e-9 and dn < 1e-9 and dt < 1e-9
+    assert (r1["stick"], r1["slip"]) == (r0["stick"], r0["slip"])
+    assert r1["slip"] > 0 or push == "traction"
+    if cholesky == "all":
+        assert i1.cholesky_factorizations == i1.factorizations >= 1
+    else:       # the penalty start is symmetric; later slip rows are Woodbury row updates or UMFPACK
+        assert i1.cholesky_factorizations >= 1
+
+
+def test_weak_companion_falls_back_to_the_exact_factorization(one_thread, monkeypatch):
+    """A companion far from the matrix (the exact rows' diagonal -w / (c x 1e-3): a penalty weaker than the
+    body) does not converge in the refinement steps allowed: the solve factors the matrix itself (UMFPACK) and
+    gives the same answer."""
+    ref = cp.friction_block("traction", law="tresca", ratio=0.5, order=2,
+                            solver_factory=_Keep(quasi_definite=False))
+    monkeypatch.setattr(sc, "QUASI_DEFINITE", 1e-3)
+    r = cp.friction_block("traction", law="tresca", ratio=0.5, order=2, solver_factory=_Keep())
+    i = r["info"]
+    du = _rel(r["u"], ref["u"])
+    print(f"\nweak companion: Cholesky {i.cholesky_factorizations}, all {i.factorizations} factorizations; "
+          f"u differs by {du:.1e}")
+    assert i.factorizations > i.cholesky_factorizations >= 1
+    assert du < 1e-9
+
+
+def test_symmetry_check_of_the_bulk_matrix():
+    rows, cols = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
+    sym = ngs.la.SparseMatrixd.CreateFromCOO(rows, cols, np.array([2.0, -1.0, -1.0, 2.0]), 2, 2)
+    non = ngs.la.SparseMatrixd.CreateFromCOO(rows, cols, np.array([2.0, -1.0, -0.5, 2.0]), 2, 2)
+    assert sc._is_symmetric(sym)
+    assert not sc._is_symmetric(non)
+
+
+def test_non_symmetric_bulk_goes_to_umfpack(one_thread, monkeypatch):
+    """With K reported non-symmetric (e.g. a tangent of a non-symmetric law) no companion is factored."""
+    monkeypatch.setattr(sc, "_is_symmetric", lambda matrix: False)
+    keep = _Keep()
+    r = cp.hertz(0.1 * cp.R_HERTZ / 50, 2, solver_factory=functools.partial(keep))
+    i = keep.solver.infos[-1]
+    assert i.cholesky_factorizations == 0 and i.factorizations >= 1
+    assert r["force_balance"] < 1e-8
