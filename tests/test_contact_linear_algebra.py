@@ -106,3 +106,22 @@ def test_non_symmetric_bulk_goes_to_umfpack(one_thread, monkeypatch):
     i = keep.solver.infos[-1]
     assert i.cholesky_factorizations == 0 and i.factorizations >= 1
     assert r["force_balance"] < 1e-8
+
+
+def test_companion_with_a_zero_pivot_falls_back(one_thread, monkeypatch):
+    """A companion whose Cholesky solve is not finite (a zero pivot: K singular beyond the known floating bodies)
+    is replaced by the UMFPACK factorization of the matrix: the answer is unchanged, nothing non-finite escapes."""
+    ref = cp.friction_block("traction", law="tresca", ratio=0.5, order=2, solver_factory=_Keep(quasi_definite=False))
+    real = sc._Fresh.apply
+
+    def poisoned(self, r, dx):
+        ok = real(self, r, dx)
+        if not self.exact:
+            dx.FV().NumPy()[0] = np.nan
+        return ok
+    monkeypatch.setattr(sc._Fresh, "apply", poisoned)
+    r = cp.friction_block("traction", law="tresca", ratio=0.5, order=2, solver_factory=_Keep())
+    i = r["info"]
+    print(f"\nzero pivot: {i.cholesky_factorizations} Cholesky, {i.factorizations} factorizations")
+    assert i.factorizations > i.cholesky_factorizations >= 1
+    assert np.all(np.isfinite(r["u"])) and _rel(r["u"], ref["u"]) < 1e-9

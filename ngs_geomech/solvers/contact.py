@@ -537,6 +537,11 @@ class ContactSolver:
                 if not step.apply(r, dx):        # the reused factorization did not converge: factor now
                     factored, step = factor()
                     step.apply(r, dx)
+                if not step.exact and not np.all(np.isfinite(dx.FV().NumPy())):
+                    # a companion's Cholesky without pivoting met a zero pivot (K singular beyond the known
+                    # floating bodies): UMFPACK factors the matrix itself, or names the singularity
+                    factored, step = factor(exact=True)
+                    step.apply(r, dx)
                 xv.data += dx
                 if not len(reg_dofs) and step.exact:
                     break
