@@ -496,7 +496,7 @@ class ContactSolver:
                 else:
                     inv = inverse(mat, freedofs, False, f"{what}, iteration {it_nr}", hint_unheld)
                 info.factorizations += 1
-                zeroed = pattern.zero_columns(ifs, sym) if sym is not None else None
+                zeroed = pattern.zero_columns(sym) if sym is not None else None
                 return (inv, vals.copy(), {}, zeroed), _Fresh(inv, exact=sym is None)
 
             step = None
@@ -505,7 +505,7 @@ class ContactSolver:
                 if not len(rows):                    # the factored matrix itself
                     step = _Fresh(factored[0], exact=factored[3] is None)
                 elif (len([j for j in rows if int(j) not in factored[2]]) <= self.reuse_rows
-                      and (factored[3] is None or not pattern.enters(ifs, rows, factored[3]))):
+                      and (factored[3] is None or not pattern.enters(rows, factored[3]))):
                     step = _Reuse(mat, factored[0], rows, factored[2], info, exact=factored[3] is None)
             if step is None:
                 factored, step = factor()
@@ -1068,7 +1068,7 @@ class _Pattern:
                 np.logical_or.at(out, self.rows[mir], values[mir] != 0.0)
         return out
 
-    def zero_columns(self, ifs: list, sym: np.ndarray) -> np.ndarray:
+    def zero_columns(self, sym: np.ndarray) -> np.ndarray:
         """Bool over the unknowns: the multiplier rows whose column the companion ``sym`` left out."""
         rows = np.zeros(self.N, dtype=bool)
         for seg in self.segments:
@@ -1076,7 +1076,7 @@ class _Pattern:
                 rows[self.rows[seg["mirror"]]] = True
         return rows & ~self._coupled(sym)
 
-    def enters(self, ifs: list, rows: np.ndarray, zeroed: np.ndarray) -> bool:
+    def enters(self, rows: np.ndarray, zeroed: np.ndarray) -> bool:
         """Whether one of the changed ``rows`` now couples to u while the factored companion left its column out
         (a node newly in contact or sticking): a Woodbury update of that factorization would be singular."""
         rows = np.asarray(rows, dtype=np.int64)
