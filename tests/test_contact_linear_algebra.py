@@ -125,3 +125,25 @@ def test_companion_with_a_zero_pivot_falls_back(one_thread, monkeypatch):
     print(f"\nzero pivot: {i.cholesky_factorizations} Cholesky, {i.factorizations} factorizations")
     assert i.factorizations > i.cholesky_factorizations >= 1
     assert np.all(np.isfinite(r["u"])) and _rel(r["u"], ref["u"]) < 1e-9
+
+
+def test_warm_solve_with_entering_nodes_reuses_the_companion(one_thread):
+    """A warm Hertz solve at 1.5 x the load: the zone grows, so nodes enter the contact. The companion's
+    factorization of the first iteration is reused with the entering nodes' rows and columns (Woodbury,
+    :class:`_Reuse`) instead of factoring anew; the answer equals the all-UMFPACK warm solve."""
+    out = {}
+    for name, kw in (("qd", {}), ("umf", {"quasi_definite": False})):
+        keep = _Keep(**kw)
+        r = cp.hertz(0.1 * cp.R_HERTZ / 50, 2, solver_factory=keep, return_system=True)
+        s = r["system"]
+        u, info = keep.solver.solve(s["matrix"], 1.5 * np.asarray(s["rhs"]), s["free"], s["x0"], "warm")
+        out[name] = (u, keep.solver.multipliers[0][0], info, r["ndof"])
+    (u1, p1, i1, _), (u0, p0, i0, _) = out["qd"], out["umf"]
+    grown = int(np.count_nonzero(p1 > 0))
+    du, dp = _rel(u1, u0), _rel(p1, p0)
+    print(f"\nwarm Hertz at 1.5 P: {grown} nodes in contact, {i1.iterations} iterations, {i1.factorizations} "
+          f"factorizations ({i1.cholesky_factorizations} Cholesky), {i1.woodbury_columns} Woodbury columns; "
+          f"u differs from UMFPACK by {du:.1e}, lam_n by {dp:.1e}")
+    assert i1.iterations == i0.iterations >= 2
+    assert i1.factorizations == 1 and i1.woodbury_columns > 0
+    assert du < 1e-9 and dp < 1e-9

@@ -61,10 +61,10 @@ multipliers left out, the exact rows' zero diagonal -w / (c x QUASI_DEFINITE)) b
 (LDL^T without pivoting, which every symmetric quasi-definite matrix admits), and the solve is refined with the
 exact residual (the companion's solve is the matrix's to ~1e-8; one more step to round-off); other matrices by
 UMFPACK. Measured at 140k dofs (P2 Hertz, one thread): 1.17 - 1.26 s per factorization and 0.08 - 0.09 s per
-solve, against 1.9 s and 0.18 s with UMFPACK. A Woodbury update of a companion's factorization is not used for a
-node that enters the contact or starts sticking (its column was left out: the update would be singular); the
-matrix is factored anew. The saddle-point pattern is the sum of K embedded and the multiplier entries
-(CreateSparseMatrix, 0.08 s at 140k dofs; CreateFromCOO of the whole took 1.2 - 1.4 s).
+solve, against 1.9 s and 0.18 s with UMFPACK. A Woodbury update of a companion's factorization also adds the
+columns of the nodes that entered the contact or started sticking since (the companion left them out:
+:class:`_Reuse`), one more solve per such node. The saddle-point pattern is the sum of K embedded and the
+multiplier entries (CreateSparseMatrix, 0.08 s at 140k dofs; CreateFromCOO of the whole took 1.2 - 1.4 s).
 
 Units: u m, multipliers Pa (nodal values of the contact pressure and tangential traction).
 """
@@ -427,8 +427,12 @@ class ContactSolver:
         # the first phase (and the whole solve of method 'penalty'); a solve that starts from the sets of a
         # converged one (the next secant iteration, the next time) starts with the exact constraints: the
         # penalty phase moved those good sets away and back (measured: 7 instead of 3 factorizations per
-        # secant iteration on a wedge on a Coulomb fault)
-        penalty = self.method == "penalty" or not self._converged
+        # secant iteration on a wedge on a Coulomb fault). Without friction a cold solve starts with the exact
+        # constraints too: the penalty phase let the floating Hertz cylinder sink onto ~2x its contact zone and
+        # then the switch to the exact rows changed every active row (k = 4, 41k dofs: 11 iterations and 6
+        # factorizations with the penalty start, 9 and 5 without)
+        penalty = self.method == "penalty" or (not self._converged
+                                               and any(law.kind != "frictionless" for _, law in self.items))
         # one pattern for all solves with the same K sparsity (a time series, the secant loop): building it
         # (CreateFromCOO) cost as much as a factorization (0.22 s at 41k dofs)
         pattern = self._pattern
@@ -504,9 +508,14 @@ class ContactSolver:
                 rows = pattern.changed_rows(factored[1])
                 if not len(rows):                    # the factored matrix itself
                     step = _Fresh(factored[0], exact=factored[3] is None)
-                elif (len([j for j in rows if int(j) not in factored[2]]) <= self.reuse_rows
-                      and (factored[3] is None or not pattern.enters(rows, factored[3]))):
-                    step = _Reuse(mat, factored[0], rows, factored[2], info, exact=factored[3] is None)
+                else:
+                    # a companion's factorization: the columns it left out of the nodes now in contact or sticking
+                    cols = [] if factored[3] is None else [int(j) for j in pattern.entering(rows, factored[3])]
+                    new = (len([j for j in rows if int(j) not in factored[2]])
+                           + len([j for j in cols if ("col", j) not in factored[2]]))
+                    if new <= self.reuse_rows:
+                        step = _Reuse(mat, factored[0], rows, factored[2], info, exact=factored[3] is None,
+                                      columns={j: pattern.column(j) for j in cols})
             if step is None:
                 factored, step = factor()
             xv = mat.CreateColVector()
@@ -1010,6 +1019,8 @@ class _Pattern:
         self.order = np.rint(stored).astype(np.int64) - 1
         self.matrix = mat
         self.rows = R
+        self.cols = C
+        self._columns = None
 
     @staticmethod
     def _shifted(n: int, kr, kc, kv, reg_dofs, eps: float) -> np.ndarray:
@@ -1060,13 +1071,25 @@ class _Pattern:
         return v
 
     def _coupled(self, values: np.ndarray) -> np.ndarray:
-        """Bool over the unknowns: the multiplier rows whose -B entries are not all zero in ``values``."""
+        """Bool over the unknowns: the multiplier rows that do not fix their multiplier alone in ``values`` (a -B
+        entry or a Coulomb coupling not zero)."""
         out = np.zeros(self.N, dtype=bool)
         for seg in self.segments:
-            if seg["mirror"] is not None:
-                mir = seg["mirror"]
-                np.logical_or.at(out, self.rows[mir], values[mir] != 0.0)
+            for key in ("mirror", "couple"):
+                if seg.get(key) is not None:
+                    sel = seg[key] if key == "mirror" else _span(seg[key])
+                    np.logical_or.at(out, self.rows[sel], values[sel] != 0.0)
         return out
+
+    def column(self, j: int) -> tuple[np.ndarray, np.ndarray]:
+        """The entries of the matrix's column of multiplier ``j`` in the equilibrium rows: (row indices, values)."""
+        if self._columns is None:
+            sel = np.concatenate([_span(seg["cols"]) for seg in self.segments] or [np.zeros(0, dtype=np.int64)])
+            order = np.argsort(self.cols[sel], kind="stable")
+            self._columns = (sel[order], self.cols[sel][order])
+        sel, col = self._columns
+        lo, hi = np.searchsorted(col, j), np.searchsorted(col, j, side="right")
+        return self.rows[sel[lo:hi]], self.values[sel[lo:hi]]
 
     def zero_columns(self, sym: np.ndarray) -> np.ndarray:
         """Bool over the unknowns: the multiplier rows whose column the companion ``sym`` left out."""
@@ -1076,11 +1099,11 @@ class _Pattern:
                 rows[self.rows[seg["mirror"]]] = True
         return rows & ~self._coupled(sym)
 
-    def enters(self, rows: np.ndarray, zeroed: np.ndarray) -> bool:
-        """Whether one of the changed ``rows`` now couples to u while the factored companion left its column out
-        (a node newly in contact or sticking): a Woodbury update of that factorization would be singular."""
+    def entering(self, rows: np.ndarray, zeroed: np.ndarray) -> np.ndarray:
+        """Of the changed ``rows``, those whose multiplier is no longer fixed while the factored companion left
+        its column out (a node newly in contact or sticking): a Woodbury update must add their columns too."""
         rows = np.asarray(rows, dtype=np.int64)
-        return bool(np.any(zeroed[rows] & self._coupled(self.values)[rows]))
+        return rows[zeroed[rows] & self._coupled(self.values)[rows]]
 
 
 def _span(sl: slice) -> np.ndarray:
@@ -1122,27 +1145,48 @@ class _Reuse:
         x = y - Z t,    (N Z) t = N y - E^T b,
 
     a dense system of the size of ``rows``. A solve costs about a tenth of a factorization at 100k dofs in 2D,
-    so this pays for a few changed rows. (GMRES right preconditioned by M0^-1 converges in as many steps in
+    so this pays for a few changed rows.
+
+    When M0 is a quasi-definite companion (:meth:`_Pattern.symmetric`), the nodes that entered the contact or
+    started sticking since also have their columns C_J (the -B^T entries in the equilibrium rows, left out of M0)
+    added: M = M0 + U V^T with U = [E, C_J], V^T = [[N - O], [E_J^T]]. With Z = M0^-1 U (Z_C: one more solve per
+    such node) and O Z = [I, 0] (C_J has no entries in the multiplier rows), Woodbury gives
+
+        x = y - Z t,    (I + V^T Z) t = [N y - E^T b; y_J],
+
+    which is the formula above when J is empty. (GMRES right preconditioned by M0^-1 converges in as many steps in
     exact arithmetic, but the unknowns mix metres and pascals and its Krylov vectors lost the rank structure
     to round-off: it did not converge at all.)"""
 
     usable = True
 
-    def __init__(self, mat, inv, rows: np.ndarray, cache: dict, info, exact: bool = True):
+    def __init__(self, mat, inv, rows: np.ndarray, cache: dict, info, exact: bool = True, columns=None):
         self.mat, self.inv, self.rows, self.info = mat, inv, rows, info
         self.exact = exact
         self._v = mat.CreateColVector()
         self._w = mat.CreateColVector()
+        columns = columns or {}
         missing = [int(j) for j in rows if int(j) not in cache]
         for j in missing:
             self._v.FV().NumPy()[:] = 0.0
             self._v.FV().NumPy()[j] = 1.0
             self._w.data = inv * self._v
             cache[j] = np.array(self._w.FV().NumPy())
-        info.woodbury_columns += len(missing)
-        self.Z = np.column_stack([cache[int(j)] for j in rows])
-        MZ = np.column_stack([self._rows_of_M(self.Z[:, k]) for k in range(len(rows))])
-        self.NZ = MZ
+        missing_c = [j for j in columns if ("col", j) not in cache]
+        for j in missing_c:
+            idx, val = columns[j]
+            self._v.FV().NumPy()[:] = 0.0
+            self._v.FV().NumPy()[idx] = val
+            self._w.data = inv * self._v
+            cache[("col", j)] = np.array(self._w.FV().NumPy())
+        info.woodbury_columns += len(missing) + len(missing_c)
+        self.J = np.array(sorted(columns), dtype=np.int64)
+        self.Z = np.column_stack([cache[int(j)] for j in rows] + [cache[("col", int(j))] for j in self.J])
+        NZ = np.column_stack([self._rows_of_M(self.Z[:, k]) for k in range(self.Z.shape[1])])
+        # I + V^T Z with V^T = [[N - O], [E_J^T]] (module docstring of the class): O Z = [I, 0]
+        k = len(rows)
+        top = NZ - np.hstack([np.eye(k), np.zeros((k, len(self.J)))])
+        self.W = np.eye(self.Z.shape[1]) + np.vstack([top, self.Z[self.J]])
 
     def _rows_of_M(self, v: np.ndarray) -> np.ndarray:
         self._v.FV().NumPy()[:] = v
@@ -1155,7 +1199,7 @@ class _Reuse:
         self._w.data = self.inv * self._v
         y = np.array(self._w.FV().NumPy())
         try:
-            t = np.linalg.solve(self.NZ, self._rows_of_M(y) - b[self.rows])
+            t = np.linalg.solve(self.W, np.concatenate([self._rows_of_M(y) - b[self.rows], y[self.J]]))
         except np.linalg.LinAlgError:
             self.usable = False
             return False
