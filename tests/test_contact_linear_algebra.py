@@ -147,3 +147,26 @@ def test_warm_solve_with_entering_nodes_reuses_the_companion(one_thread):
     assert i1.iterations == i0.iterations >= 2
     assert i1.factorizations == 1 and i1.woodbury_columns > 0
     assert du < 1e-9 and dp < 1e-9
+
+
+def test_failed_exact_start_is_solved_from_the_penalty_start(one_thread, monkeypatch):
+    """A cold 2D solve starts with the exact constraints; when that fails (here: its first factorization is made to
+    fail), the solve starts again with the penalty phase and gives the same answer."""
+    ref = cp.hertz(0.1 * cp.R_HERTZ / 50, 2, solver_factory=_Keep(), return_state=True)
+    real = sc.inverse
+    calls = []
+
+    def failing_once(mat, freedofs, symmetric, what="", hint=""):
+        calls.append(what)
+        if len(calls) == 1:
+            raise sc.SolverError(f"{what}: the factorization failed (made to fail by the test)")
+        return real(mat, freedofs, symmetric, what, hint)
+    monkeypatch.setattr(sc, "inverse", failing_once)
+    keep = _Keep()
+    r = cp.hertz(0.1 * cp.R_HERTZ / 50, 2, solver_factory=keep, return_state=True)
+    i = keep.solver.infos[-1]
+    du = _rel(r["state"]["u"], ref["state"]["u"])
+    print(f"\nexact start failed: solved from the penalty start in {i.iterations} iterations "
+          f"({i.penalty_iterations} penalty); u differs by {du:.1e}")
+    assert i.exact_start_failed and i.penalty_iterations > 0
+    assert du < 1e-9 and r["force_balance"] < 1e-8

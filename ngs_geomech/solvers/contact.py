@@ -143,6 +143,8 @@ class ContactInfo:
     penalty_iterations: int = 0
     unheld_sets: int = 0
     reused_solves: int = 0
+    exact_start_failed: bool = False
+    """A cold solve whose exact start failed and that was solved again from the penalty start."""
     cholesky_factorizations: int = 0
     """Of ``factorizations``: the symmetric quasi-definite companions factored by sparse Cholesky."""
     woodbury_columns: int = 0
@@ -286,6 +288,8 @@ class ContactSolver:
         self._state: list[_Interface] | None = None
         self._pattern: _Pattern | None = None
         self._converged = False
+        self._penalty_start = False      # a cold solve from the penalty start (after a failed exact start)
+        self._exact_cold = False         # the last solve started cold with the exact constraints
         self.multipliers: list[tuple[np.ndarray, np.ndarray]] = []
 
     def _interfaces(self, ndof: int) -> list[_Interface]:
@@ -298,14 +302,15 @@ class ContactSolver:
         return self._state
 
     def cold_start(self) -> None:
-        """Forget the sets of the last solve (or of :meth:`warm_start`): the next solve begins with the penalty
-        phase, as the first one does."""
+        """Forget the sets of the last solve (or of :meth:`warm_start`): the next solve begins as the first one
+        does, from the nodes touching first (with the exact constraints; the penalty phase for 3D friction or
+        when the exact start fails)."""
         self._state, self._pattern, self._converged = None, None, False
 
     def warm_start(self, ndof: int, sets: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> None:
         """Start the next solve from given nodal sets, one (active, stick, slip) triple of bool arrays per
         interface (e.g. transferred from the solution on a coarser mesh): the solve then begins with the exact
-        constraints of these sets, as after a converged solve, instead of the penalty phase. ``ndof``: the size
+        constraints of these sets, as after a converged solve, instead of the nodes touching first. ``ndof``: the size
         of the displacement vector X."""
         ifs = self._interfaces(ndof)
         if len(sets) != len(ifs):
@@ -323,11 +328,27 @@ class ContactSolver:
         When the active-set iteration cycles on a problem with Coulomb interfaces, Coulomb friction is solved
         again as a fixed point of Tresca problems (:meth:`_coulomb_by_tresca`)."""
         try:
-            return self._solve(matrix, rhs, free, x0, where)
+            return self._solve_cold(matrix, rhs, free, x0, where)
         except _Cycling as exc:
             if not any(law.kind == "coulomb" for _, law in self.items):
                 raise SolverError(str(exc)) from None
             return self._coulomb_by_tresca(matrix, rhs, free, x0, where, str(exc))
+
+    def _solve_cold(self, matrix, rhs, free, x0, where: str) -> tuple[np.ndarray, ContactInfo]:
+        """:meth:`_solve`; a cold solve that started with the exact constraints (2D) and failed (a singular first
+        matrix, sets that do not hold a body, cycling) is solved again from the penalty start."""
+        try:
+            return self._solve(matrix, rhs, free, x0, where)
+        except SolverError:
+            if not self._exact_cold:
+                raise
+            self._state, self._converged, self._penalty_start = None, False, True
+            try:
+                out = self._solve(matrix, rhs, free, x0, where)
+            finally:
+                self._penalty_start = False
+            out[1].exact_start_failed = True
+            return out
 
     def _coulomb_by_tresca(self, matrix, rhs, free, x0, where: str, why: str) -> tuple[np.ndarray, ContactInfo]:
         """Coulomb friction as the fixed point of Tresca problems with the slip bound g = F_c p from the last
@@ -427,12 +448,15 @@ class ContactSolver:
         # the first phase (and the whole solve of method 'penalty'); a solve that starts from the sets of a
         # converged one (the next secant iteration, the next time) starts with the exact constraints: the
         # penalty phase moved those good sets away and back (measured: 7 instead of 3 factorizations per
-        # secant iteration on a wedge on a Coulomb fault). Without friction a cold solve starts with the exact
-        # constraints too: the penalty phase let the floating Hertz cylinder sink onto ~2x its contact zone and
-        # then the switch to the exact rows changed every active row (k = 4, 41k dofs: 11 iterations and 6
-        # factorizations with the penalty start, 9 and 5 without)
-        penalty = self.method == "penalty" or (not self._converged
-                                               and any(law.kind != "frictionless" for _, law in self.items))
+        # secant iteration on a wedge on a Coulomb fault). In 2D a cold solve starts with the exact constraints
+        # too: the penalty phase let the floating Hertz cylinder sink onto ~2x its contact zone and then the
+        # switch to the exact rows changed every active row (k = 4, 41k dofs: 11 iterations and 6
+        # factorizations with the penalty start, 9 and 5 without; Coulomb blocks at h = 0.02: 7 / 3 and 5 / 2).
+        # A 3D frictional interface keeps the penalty start: from the first-touch nodes with exact stick rows
+        # the block tests' first matrix was singular
+        penalty = self.method == "penalty" or (not self._converged and (
+            self._penalty_start or any(it.dim3 and it.law.kind != "frictionless" for it in ifs)))
+        self._exact_cold = not penalty and not self._converged
         # one pattern for all solves with the same K sparsity (a time series, the secant loop): building it
         # (CreateFromCOO) cost as much as a factorization (0.22 s at 41k dofs)
         pattern = self._pattern
