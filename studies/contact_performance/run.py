@@ -31,8 +31,8 @@ the cores the spinning BLAS threads made UMFPACK up to 10 x slower.
 
 Targets (issue 4, section 8): at most 15 Newton iterations at every level (``target_newton_iterations_met``);
 time ratio at most 2 frictionless and 3 with friction at the finest level (``target_time_ratio_*_met``).
-The study measures, it does not gate: the solver misses the time targets by factors 5.6 (frictionless) and
-2.9 (Coulomb) at the finest level, below (d).
+The study measures, it does not gate: the solver misses the time targets by factors 4.8 (frictionless) and
+1.4 - 1.8 (Coulomb) at the finest level, below (d).
 
 Command: ``python studies/contact_performance/run.py --level 1 --out out/contact_performance``
 (writes ``results.json``; prints the tables). Levels: 0 Hertz k = 0 ... 3 (up to 13k dofs), blocks h = 0.16,
@@ -98,32 +98,35 @@ step of a load or time history, the next secant iteration):
         0.01  148478      7    3     9.62  0.856   11.2 |        1    1    1.6
     Uzawa steps at h = 0.16, 0.08, 0.04: 80, 110, 206 (0.37, 1.32, 9.18 s).
 
-(d) the current ContactSolver (2026-11-26): symmetric saddle-point matrices factored through their quasi-definite
-companion by sparse Cholesky (the solver module docstring; frictionless and Tresca throughout, Coulomb until a
-node slips), the pattern built as K embedded plus the multiplier entries (CreateSparseMatrix instead of
-CreateFromCOO: 0.08 s instead of 1.4 s at 140k dofs). Level 1, one thread; the commit before it (fda2e30) run
-just before on the same machine gave ratios 17.8 (Hertz) and 10.4 (blocks) at the finest levels, warm 2.9 / 1.7.
-The same iterations, p0 errors, stick/slip sets and Uzawa figures:
+(d) the current ContactSolver (2026-11-26), three changes (the solver module docstring): symmetric saddle-point
+matrices factored through their quasi-definite companion by sparse Cholesky (frictionless and Tresca throughout,
+Coulomb until a node slips; Woodbury updates of it add the columns of entering nodes); the pattern built as K
+embedded plus the multiplier entries (CreateSparseMatrix: 0.08 s instead of 1.4 s at 140k dofs); 2D cold solves
+start with the exact constraints instead of the penalty phase (which let the floating cylinder sink onto twice its
+zone, and whose switch to the exact rows changed every active row). Level 1, one thread, the machine otherwise
+idle. Same p0 errors, stick/slip sets and Uzawa figures; fewer iterations:
 
     Hertz  k    dofs  Newton fact  contact    lin  ratio | w: Newton fact  ratio
-           0    1068      6    2     0.04  0.004   10.4 |        1    1    3.1
-           1    1988      7    2     0.06  0.007    9.3 |        1    1    2.3
-           2    4692      8    3     0.17  0.018    9.5 |        1    1    1.8
-           3   13086      9    4     0.60  0.060   10.0 |        1    1    1.5
-           4   41062     11    6     2.90  0.277   10.5 |        1    1    1.2
-           5  139844     12    7    14.99  1.327   11.3 |        3    2    2.8
+           0    1068      5    2     0.03  0.004    9.3 |        1    1    3.1
+           1    1988      6    2     0.06  0.007    8.6 |        1    1    2.4
+           2    4692      7    2     0.16  0.018    8.7 |        1    1    2.2
+           3   13086      8    3     0.57  0.061    9.3 |        1    1    1.5
+           4   41062      9    5     2.56  0.270    9.5 |        1    1    1.4
+           5  139844     11    6    14.82  1.544    9.6 |        3    1    2.2
     blocks h    dofs  Newton fact  contact    lin  ratio | w: Newton fact  ratio
-        0.16     678      3    2     0.02  0.002    9.1 |        1    1    5.3
-        0.08    2434      5    2     0.07  0.009    7.6 |        1    1    3.0
-        0.04    9558      7    2     0.37  0.042    8.9 |        1    1    2.2
-        0.02   37250      7    3     1.84  0.232    7.9 |        1    1    2.0
-        0.01  148478      7    3    11.88  1.346    8.8 |        1    1    1.7
+        0.16     678      2    1     0.02  0.002    6.8 |        1    1    5.0
+        0.08    2434      3    1     0.04  0.009    4.5 |        1    1    3.0
+        0.04    9558      4    1     0.21  0.043    4.8 |        1    1    2.2
+        0.02   37250      5    2     1.82  0.349    5.2 |        1    1    1.9
+        0.01  148478      5    2     9.22  2.182    4.2 |        1    1    1.5
 
-  Where the finest cold Hertz solve's time goes now (profile of a warm start from the k = 3 sets, 2.9 s: 1.26 s
-  the one Cholesky factorization, 0.9 s nine solves, 0.4 s pattern, the rest numpy): the cold solve's 7
-  factorizations (8.8 s) remain the cost. At the blocks' h = 0.02 (7 iterations, 3 factorizations): the switch
-  from the penalty rows to the exact rows changes every active row (52 changes), and the two factorizations
-  after it carry Coulomb slip rows, which have no symmetric companion (UMFPACK).
+  The same code run before (level 1, same day) gave 10.2 and 5.4 at the finest levels (the blocks' "lin" varies
+  from 1.35 to 2.2 s between runs on this machine); the commit before the session's changes (fda2e30), run the same
+  day, gave 17.8 and 10.4 (warm 2.9 and 1.7). Where the time goes now: the cold Hertz solve's 6 factorizations
+  (the active set still shrinks geometrically from the first-touch solution, 181, 140, 114, 98, 89, 85, 82, 81 at
+  41k dofs; each factorization 1.2 - 1.3 s, a Cholesky solve 0.085 s); at the blocks' finest level one Cholesky
+  and one UMFPACK factorization (the slip rows of the second have no symmetric companion), 15 Woodbury columns with
+  UMFPACK solves (0.18 s each: 2.7 s) and the refinement solves.
 
 With (a) - (c), a cold solve is dominated by the active-set iterations of the Hertz contact zone, which shrinks
 geometrically from the first guess (186, 143, 115, 99, 90, 85, 83, 82, 81 nodes at 41k dofs): each big change is a
@@ -131,9 +134,10 @@ new UMFPACK factorization of the saddle-point system (1.1 - 1.5 x a sparsecholes
 the small ones are Woodbury updates. A warm solve takes one factorization: ratio 1.6 - 3.
 
 Headline: hertz_p0_rel_error 2.8e-3 (flat in h: the model error of a finite cylinder against the half-space
-closed form dominates), hertz_newton_iterations_max 12 (one more per refinement, 6 ... 12),
-friction_newton_iterations_max 7, time_ratio_frictionless 31 (a) / 21 (b) / 18.8 (c) / 11.3 (d) (target 2; warm
-2.8), time_ratio_coulomb 19 (a) / 11 (b) / 11.2 (c) / 8.8 (d) (target 3; warm 1.7), uzawa_iterations_finest 385
+closed form dominates), hertz_newton_iterations_max 12 (one more per refinement, 6 ... 12; 5 ... 11 with (d)),
+friction_newton_iterations_max 7 (5 with (d)), time_ratio_frictionless 31 (a) / 21 (b) / 18.8 (c) / 9.6 (d)
+(target 2; warm 2.2), time_ratio_coulomb 19 (a) / 11 (b) / 11.2 (c) / 4.2 - 5.4 (d) (target 3; warm 1.5),
+uzawa_iterations_finest 385
 (h = 0.02, 37k dofs; steps ~ h^-0.9 on the two finest Uzawa meshes). A level 1 run with (a) the same hour gave the
 finest-level figures within 5 % (ratios 31.9 and 18.1;
 the millisecond timings of the coarse levels vary more). At the finest level one contact iteration costs 2.5
