@@ -408,6 +408,7 @@ class ContactSolver:
 
     def _solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str = "") -> tuple[np.ndarray, ContactInfo]:
         tic = time.perf_counter()
+        self._exact_cold = False
         n = len(x0)
         ifs = self._interfaces(n)
         freef = np.asarray(free, dtype=float)
