@@ -107,7 +107,10 @@ def test_coupled_run_resumes_after_a_failed_step(tmp_path, monkeypatch):
     a = json.loads((tmp_path / "REF" / "summary.json").read_text())
     b = json.loads((tmp_path / "DIR" / "summary.json").read_text())
     da, db = a["coupling"]["deformation_heat_per_step"], b["coupling"]["deformation_heat_per_step"]
-    assert np.allclose(da, db, rtol=1e-10, atol=0)
+    # two uninterrupted runs of this scene differ by up to 1.9e-10 in the deformation heat of a step (measured
+    # 2026-11-26 with this code and with fda2e30: round-off of the threaded assembly, amplified by u_t of a slow
+    # motion), so 1e-10 failed at random
+    assert np.allclose(da, db, rtol=1e-9, atol=0)
     ea, eb = ref.stefan.solver.e, res.stefan.solver.e
     ua, ub = ref.mechanics.forms.gf.vec.FV().NumPy(), res.mechanics.forms.gf.vec.FV().NumPy()
     print(f"\nresumed at step 12 of 20: |e - e_ref|/|e_ref| {np.linalg.norm(eb - ea) / np.linalg.norm(ea):.1e}, "
