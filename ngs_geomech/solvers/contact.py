@@ -477,6 +477,26 @@ class ContactSolver:
         hint_unheld = "a body is not held by its supports and the nodes in contact now"
         bulk_symmetric = self.quasi_definite and _is_symmetric(matrix)
         what = f"contact solve{' at ' + where if where else ''}"
+        it_nr = 0
+
+        def factor(exact: bool = False):
+            """Factor the current matrix: its symmetric quasi-definite companion by sparse Cholesky when it
+            has one (:meth:`_Pattern.symmetric`; the refinement below makes the solve exact), else (or
+            with ``exact``) the matrix itself by UMFPACK."""
+            sym = None if (exact or not bulk_symmetric) else pattern.symmetric(ifs)
+            if sym is not None:
+                pattern.update(sym)
+                try:
+                    inv = inverse(mat, freedofs, True, f"{what}, iteration {it_nr}", hint_unheld)
+                finally:
+                    pattern.update()
+                info.cholesky_factorizations += 1
+            else:
+                inv = inverse(mat, freedofs, False, f"{what}, iteration {it_nr}", hint_unheld)
+            info.factorizations += 1
+            zeroed = pattern.zero_columns(sym) if sym is not None else None
+            return (inv, pattern.values.copy(), {}, zeroed), _Fresh(inv, exact=sym is None)
+
         for it_nr in range(1, self.maxit + 1):
             b = np.zeros(N)
             b[:n] = f
@@ -510,23 +530,6 @@ class ContactSolver:
                 x[ot:ot + it.m] = np.where(stick | coulomb_slip, x[ot:ot + it.m], fixed_t)
             pattern.update()
 
-            def factor(exact: bool = False):
-                """Factor the current matrix: its symmetric quasi-definite companion by sparse Cholesky when it
-                has one (:meth:`_Pattern.symmetric`; the refinement below makes the solve exact), else (or
-                with ``exact``) the matrix itself by UMFPACK."""
-                sym = None if (exact or not bulk_symmetric) else pattern.symmetric(ifs)
-                if sym is not None:
-                    pattern.update(sym)
-                    try:
-                        inv = inverse(mat, freedofs, True, f"{what}, iteration {it_nr}", hint_unheld)
-                    finally:
-                        pattern.update()
-                    info.cholesky_factorizations += 1
-                else:
-                    inv = inverse(mat, freedofs, False, f"{what}, iteration {it_nr}", hint_unheld)
-                info.factorizations += 1
-                zeroed = pattern.zero_columns(sym) if sym is not None else None
-                return (inv, vals.copy(), {}, zeroed), _Fresh(inv, exact=sym is None)
 
             step = None
             if factored is not None:
@@ -587,7 +590,7 @@ class ContactSolver:
                     # 1/4 goes to the exact factorization (leaving a Coulomb coupling out of the companion and
                     # refining was tried: at the blocks' h = 0.01 the contraction was above 1/4, a third
                     # factorization followed)
-                    change = _relative_change(dx.FV().NumPy(), xv.FV().NumPy(), n, freemask, rigid)
+                    change = _relative_change(dx.FV().NumPy(), xv.FV().NumPy(), n, freemask)
                     q = change / last_change if math.isfinite(last_change) and last_change > 0 else math.inf
                     last_change = change
                     if not (q < 1.0 and change * q / (1.0 - q) <= 1e-12):
@@ -603,8 +606,7 @@ class ContactSolver:
                 # shift (1e-10) when the sets hold the bodies: one of 1e-6 leaves an error of ~1e-16 (a third
                 # solve, needed with the threshold 1e-10, cost 10 % of a warm solve)
                 d = dx.FV().NumPy()[:n]
-                if rigid.shape[1]:
-                    d = d - rigid @ np.linalg.lstsq(rigid, d, rcond=None)[0]
+                d = d - rigid @ np.linalg.lstsq(rigid, d, rcond=None)[0]
                 if float(np.linalg.norm(d)) <= 1e-6 * max(float(np.linalg.norm(xv.FV().NumPy()[:n])), 1e-300):
                     if not rigid.shape[1]:
                         break
@@ -1149,12 +1151,9 @@ class _Pattern:
         return rows[zeroed[rows] & self._coupled(self.values)[rows]]
 
 
-def _relative_change(dx: np.ndarray, x: np.ndarray, n: int, freemask: np.ndarray, rigid: np.ndarray) -> float:
-    """The larger of the relative corrections of u (without its rigid-motion part) and of the free multipliers."""
-    d = dx[:n]
-    if rigid.shape[1]:
-        d = d - rigid @ np.linalg.lstsq(rigid, d, rcond=None)[0]
-    du = float(np.linalg.norm(d)) / max(float(np.linalg.norm(x[:n])), 1e-300)
+def _relative_change(dx: np.ndarray, x: np.ndarray, n: int, freemask: np.ndarray) -> float:
+    """The larger of the relative corrections of u and of the free multipliers."""
+    du = float(np.linalg.norm(dx[:n])) / max(float(np.linalg.norm(x[:n])), 1e-300)
     lam = freemask[n:]
     dl = float(np.linalg.norm(dx[n:][lam])) / max(float(np.linalg.norm(x[n:][lam])), 1e-300)
     return max(du, dl)
