@@ -66,10 +66,12 @@ from .scene.model import Scene
 from .scene.schema import to_dict
 from .scene.validate import distributed_problems, stefan_scene, validate
 from .solvers.contact import ContactSolver, nodal_modulus
+from .solvers.contact_krylov import AUTO_DOFS as CONTACT_AUTO_DOFS
 from .solvers.contact_uzawa import UzawaSolver
 from .solvers.elastic import ElasticSolver
 from .solvers.elastic_contact import ElasticContactSolver
 from .solvers.heat import HeatSolver
+from .solvers.iterative import choose_solver
 from .units import YEAR, format_time
 
 
@@ -711,7 +713,14 @@ class _Mechanics:
             if any(c.settings.method == "uzawa" for c in self.contacts):     # validated: then all are
                 csolver = UzawaSolver(items, modulus=modulus, floating=floating)
             else:                                # 'penalty' interfaces keep their penalty rows (ContactLaw)
-                csolver = ContactSolver(items, modulus=modulus, floating=floating)
+                sv = scene.solver
+                # the Newton steps by GMRES (contact_krylov): 'auto' above contact_krylov.AUTO_DOFS; the mixed
+                # formulation (X is not V) keeps the direct solves
+                linear = choose_solver(sv.linear, self.forms.X.ndof, mesh.dim, spd=self.forms.X is self.forms.V,
+                                       auto_dofs=CONTACT_AUTO_DOFS)
+                csolver = ContactSolver(items, modulus=modulus, floating=floating, linear=linear,
+                                        space=self.forms.V, linear_tol=sv.tolerance,
+                                        linear_maxit=sv.max_iterations)
             relax = ms.secant_relaxation if ms.secant_relaxation is not None and ms.secant_relaxation <= 1 else None
             self.solver = ElasticContactSolver(self.forms, csolver, tol=ms.tolerance, maxit=ms.max_iterations,
                                                relaxation=relax)

@@ -117,6 +117,8 @@ class ContactOutput:
                                   "units": self.units}
         infos = solver.contact_infos[-1] if solver.contact_infos else []
         entry["contact_iterations"] = [i.iterations for i in infos]
+        entry["linear"] = getattr(solver.contact, "linear", "direct")
+        entry["gmres_max"] = max((g for i in infos for g in getattr(i, "gmres_iterations", [])), default=0)
         self.history.append(entry)
 
     def _resultant(self, bt: np.ndarray, dofs: np.ndarray) -> np.ndarray:
@@ -135,6 +137,9 @@ class ContactOutput:
                                     max(v["max_tangential_displacement_m"] for v in over)}
         return {"contact": {"interfaces": interfaces, "force_balance": last.get("force_balance", {}),
                             "iterations_per_solve": [sum(h["contact_iterations"]) for h in self.history],
+                            "linear_solver": last.get("linear", "direct"),
+                            "gmres_max_per_solve": ([h["gmres_max"] for h in self.history]
+                                                    if last.get("linear") == "iterative" else None),
                             "history": [{"time_s": h["time_s"], "imbalance_rel": h["force_balance"]["imbalance_rel"],
                                          **{name: {"normal_force": v["normal_force"],
                                                    "tangential_force": v["tangential_force"],

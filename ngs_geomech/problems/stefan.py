@@ -46,8 +46,13 @@ from ..physics.stefan import (
     vertex_rules,
 )
 from ..scene.model import Scene
+from ..solvers.iterative import choose_solver
 from ..solvers.stefan import StefanSolver
 from .heat import initial_temperature, pressure_coefficients, region_measure, source_function
+
+AUTO_NODES = {2: 1_000_000, 3: 200_000}
+"""Nodes above which ``solver.linear = "auto"`` solves the serial Stefan Newton steps by GMRES with h1amg instead of
+SuperLU with low-rank updates (per mesh dimension; measured in the StefanRun docstring)."""
 
 MAX_HALVINGS = 6
 """A Stefan step whose Newton iteration fails is split in halves at most this often (dt / 64)."""
@@ -114,15 +119,17 @@ def _nodal(mesh, cf) -> np.ndarray:
 
 class StefanRun:
     """The Stefan problem of a run: forms, solver, output fields and the histories a summary and a checkpoint
-    need. ``regions`` are the phase-change regions (scene order). ``krylov_preconditioner`` ("bddc" or "jacobi"):
-    the preconditioner of the Newton steps' GMRES on a distributed mesh (:mod:`ngs_geomech.solvers.stefan`; not
-    used on a serial mesh)."""
+    need. ``regions`` are the phase-change regions (scene order). The Newton steps are solved by GMRES on a
+    distributed mesh and, serially, when ``solver.linear`` chooses "iterative" (above :data:`AUTO_NODES` nodes for
+    "auto"); ``krylov_preconditioner`` ("bddc", "h1amg" or "jacobi", None: BDDC distributed, h1amg serial) is
+    then their preconditioner (:mod:`ngs_geomech.solvers.stefan`)."""
 
-    def __init__(self, scene: Scene, mesh, geo: GeometryModel | None = None, krylov_preconditioner: str = "bddc"):
+    def __init__(self, scene: Scene, mesh, geo: GeometryModel | None = None, krylov_preconditioner: str | None = None):
         self.scene = scene
         self.mesh = mesh
         self.forms = f = StefanForms(mesh, stefan_setup(scene, mesh, geo))
-        self.solver = StefanSolver(f, krylov_preconditioner=krylov_preconditioner)
+        linear = choose_solver(scene.solver.linear, f.n, mesh.dim, distributed=f.distributed, auto_dofs=AUTO_NODES)
+        self.solver = StefanSolver(f, krylov_preconditioner=krylov_preconditioner, linear=linear)
         self.regions = [n for n, m in scene.materials.items() if has_phase_change(m)]
         self.latent = {r: f.setup.materials[r].latent_heat for r in self.regions}
         self.group = {r: next(g for g, names in enumerate(f.group_regions) if r in names) for r in self.regions}

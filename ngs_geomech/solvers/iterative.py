@@ -27,9 +27,11 @@ matrices):
   the supports, not on h).
 
 ``choose_solver`` resolves ``solver="auto"``: direct below :data:`AUTO_DOFS` (per dimension), iterative above.
-Only systems with an SPD matrix and no Lagrange multipliers take the iterative path; saddle-point systems (contact
-multipliers, oblique symmetry multipliers, mixed pressures, the mortar coupling of heat across contact interfaces)
-and the unsymmetric Newton matrices (k(T) heat, the primal-dual elastic tangent) stay direct.
+Only systems with an SPD matrix and no Lagrange multipliers take the CG path here; the contact Newton steps (saddle
+points with the contact multipliers) take GMRES with the augmented-Lagrangian AMG preconditioner of
+:mod:`.contact_krylov` when ``choose_solver`` says iterative; the other saddle-point systems (oblique symmetry
+multipliers, mixed pressures, the mortar coupling of heat across contact interfaces) and the unsymmetric Newton
+matrices (k(T) heat, the primal-dual elastic tangent) stay direct in serial runs.
 """
 
 from __future__ import annotations
@@ -69,10 +71,11 @@ DIVERGENCE_FACTOR = 1e8
 """CG stops as diverged when the residual exceeds this factor times its reference."""
 
 
-def choose_solver(solver: str, ndof: int, dim: int, spd: bool = True, distributed: bool = False) -> str:
+def choose_solver(solver: str, ndof: int, dim: int, spd: bool = True, distributed: bool = False,
+                  auto_dofs: dict | None = None) -> str:
     """'direct' or 'iterative' for ``solver`` in :data:`SOLVERS`: 'auto' is iterative above ``AUTO_DOFS[dim]``
-    dofs; a system that is not SPD (or has multipliers) is always direct, except on a distributed mesh, where
-    everything is iterative (the caller solves a nonsymmetric system by GMRES)."""
+    dofs (or ``auto_dofs[dim]``); a system that is not SPD (or has multipliers) is always direct, except on a
+    distributed mesh, where everything is iterative (the caller solves a nonsymmetric system by GMRES)."""
     if solver not in SOLVERS:
         raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
     if distributed:
@@ -82,7 +85,8 @@ def choose_solver(solver: str, ndof: int, dim: int, spd: bool = True, distribute
     if not spd:
         return "direct"
     if solver == "auto":
-        return "iterative" if ndof > AUTO_DOFS.get(dim, AUTO_DOFS[3]) else "direct"
+        table = auto_dofs or AUTO_DOFS
+        return "iterative" if ndof > table.get(dim, table[3]) else "direct"
     return solver
 
 

@@ -712,7 +712,7 @@ class _KrylovJacobian:
     ``residuals`` the true relative residual of each (:meth:`_check`). ``corrections`` stays 0.
     """
 
-    PRECONDITIONERS = ("jacobi", "bddc")
+    PRECONDITIONERS = ("jacobi", "bddc", "h1amg")
     REBUILD_ITERATIONS = 30
     """BDDC: the preconditioner is built again for the next solve after a solve needing more GMRES iterations."""
     REBUILD_DT = 1.25
@@ -755,7 +755,7 @@ class _KrylovJacobian:
         self._bddc = None
         self._bddc_key = None                         # (dt, forms version) of the BDDC built
         self._rebuild = True
-        if preconditioner == "bddc":
+        if preconditioner in ("bddc", "h1amg"):
             self._bddc_form()
 
     def _bddc_form(self) -> None:
@@ -772,7 +772,9 @@ class _KrylovJacobian:
             form += indicator * self._kappa[g] * ngs.grad(u) * ngs.grad(v) * ngs.dx
         form += self._c * u * v * ngs.dx(intrules=f.rules)
         self._pform = form
-        self._bddc = ngs.Preconditioner(form, "bddc")
+        # "h1amg" (serial meshes: NGSolve's AMG is serial) on the same form; BDDC's P1 coarse problem is the whole
+        # form, factored
+        self._bddc = ngs.Preconditioner(form, "h1amg" if self.preconditioner == "h1amg" else "bddc")
 
     def _build_bddc(self, mc: np.ndarray, wd: np.ndarray, on: np.ndarray, diag: np.ndarray, dt: float) -> None:
         """Assemble the BDDC form with the current nodal coefficients (the coarse problem is factored: counted in
@@ -911,13 +913,15 @@ class StefanSolver:
     ``e`` holds the nodal enthalpy (J/m^3); set it with :meth:`set_initial`. ``tol`` is relative to the
     enthalpy scale, ``maxit`` the largest number of Newton iterations per step, ``max_changed`` the number of
     changed nodes after which the Newton matrix is factored again (default: see :class:`_ColumnJacobian`).
-    On a distributed mesh (MPI) the Newton steps are solved by GMRES (:class:`_KrylovJacobian`, module docstring)
-    with ``krylov_preconditioner`` "bddc" (default) or "jacobi"; ``max_changed`` is not used there. Every method
-    that steps or sets the state is then collective (every rank calls it).
+    On a distributed mesh (MPI), and on a serial one with ``linear="iterative"``, the Newton steps are solved by
+    GMRES (:class:`_KrylovJacobian`, module docstring) with ``krylov_preconditioner`` "bddc" (the distributed
+    default), "h1amg" (the serial default: NGSolve's AMG on the same symmetric form, serial only) or "jacobi";
+    ``max_changed`` is not used there. On a distributed mesh every method that steps or sets the state is
+    collective (every rank calls it).
     """
 
     def __init__(self, forms: StefanForms, tol: float = 1e-10, maxit: int = 25, predictor: bool = True,
-                 max_changed: int | None = None, krylov_preconditioner: str = "bddc"):
+                 max_changed: int | None = None, krylov_preconditioner: str | None = None, linear: str = "direct"):
         self.f = forms
         self.tol = tol
         self.maxit = maxit
@@ -926,8 +930,15 @@ class StefanSolver:
         self._last_change = None          # (e_new - e_old)/dt of the last step
         self.distributed = forms.distributed
         """Distributed mesh (MPI): the Newton steps are solved by :class:`_KrylovJacobian` (module docstring)."""
-        self.jac = (_KrylovJacobian(forms, preconditioner=krylov_preconditioner) if self.distributed
-                    else _ColumnJacobian(forms, max_changed))
+        if linear not in ("direct", "iterative"):
+            raise ValueError(f"the Stefan solver's linear solver must be 'direct' or 'iterative', got {linear!r}")
+        self.linear = "iterative" if self.distributed else linear
+        """'iterative': the Newton steps by GMRES (:class:`_KrylovJacobian`; always on a distributed mesh)."""
+        if self.linear == "iterative":
+            pre = krylov_preconditioner or ("bddc" if self.distributed else "h1amg")
+            self.jac = _KrylovJacobian(forms, preconditioner=pre)
+        else:
+            self.jac = _ColumnJacobian(forms, max_changed)
         self.iterations: list[int] = []
         self._state = None                # (e, NodalState of e) of the last step's end
         self._dirichlet_static = all(getattr(_time_function(v), "time_dependent", True) is False

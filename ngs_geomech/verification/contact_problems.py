@@ -13,6 +13,10 @@ by :class:`ngs_geomech.solvers.contact.ContactSolver` on the operators of :mod:`
 * :func:`two_blocks_coulomb`: two elastic blocks (non-matching meshes, the upper one held by the contact alone)
   with Coulomb friction under a top pressure and a side push below the friction capacity: a slip zone
   between stick zones (a benchmark problem, no closed form).
+* :func:`punch_3d`: a 3D elastic punch (its own non-matching mesh, held by the contact alone) pressed on a
+  block and pushed sideways below the friction capacity: stick and slip zones in 3D, for the direct and the
+  iterative (GMRES) Newton steps of the contact solver (no closed form; force balances and the agreement of
+  the two solvers are checked).
 * :func:`cattaneo`: Cattaneo-Mindlin partial slip (verification.md section 3): an elastic half cylinder
   pressed on an elastic block of the same material (non-matching meshes, Coulomb friction mu) by P and pushed
   sideways by Q < mu P in one static step: the stick-zone half width c against c/a = sqrt(1 - Q/(mu P)) and
@@ -264,7 +268,7 @@ def patch_test(p: float = 1e6, *, h_lower: float = 0.1, h_upper: float = 0.07, o
 def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio: float = 0.7,
                        p_top: float = 5e6, L: float = 1.0, H: float = 0.5, h_ratio: float = 0.7,
                        E: float = 10e9, nu: float = 0.25, solver_factory=None,
-                       return_system: bool = False) -> dict:
+                       return_system: bool = False, linear: str = "direct") -> dict:
     """Two elastic blocks with Coulomb friction, plane strain: a lower block [0, L] x [-H, 0] fixed at its base
     (u = 0 on y = -H) and an upper block [0, L] x [0, H] on it, meshed independently (non-matching meshes,
     sizes ``h`` below and ``h_ratio`` x ``h`` above, as :func:`patch_test`). The upper block is held by the
@@ -285,7 +289,9 @@ def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio
     with ``return_system`` also "system" (:func:`_system_dict`). ``solver_factory(interfaces, modulus=,
     floating=)`` builds the solver (default :class:`ContactSolver`; e.g.
     :class:`ngs_geomech.solvers.contact_uzawa.UzawaSolver`: then "iterations" counts its outer steps and
-    "inner_iterations" the active set iterations of its frictionless subproblems, 0 for ContactSolver)."""
+    "inner_iterations" the active set iterations of its frictionless subproblems, 0 for ContactSolver).
+    ``linear``: the default solver's Newton-step solver ("direct" or "iterative": GMRES, then the result also has
+    "gmres", the iterations per Newton-step solve, and "u", "lam_n", "lam_t")."""
     mesh = _stacked_blocks(L, H, -H, h, h_ratio * h, order,
                            {"lower": ("lower_side", "lower_side"), "upper": ("left", "right")})
     props = _props(E, nu, ["lower", "upper"])
@@ -297,8 +303,11 @@ def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio
     forms, K, f, free, x0 = _system(mesh, setup)
     floating = forms.floating_bodies()
     op = contact_operator_2d(mesh, forms.V, "blocks", "upper_bottom", "lower_top", axisymmetric=False)
-    solver = (solver_factory or ContactSolver)([(op, ContactLaw("coulomb", friction=friction))],
-                                               modulus=nodal_modulus(props), floating=floating)
+    items = [(op, ContactLaw("coulomb", friction=friction))]
+    if solver_factory is None:
+        solver = ContactSolver(items, modulus=nodal_modulus(props), floating=floating, linear=linear, space=forms.V)
+    else:
+        solver = solver_factory(items, modulus=nodal_modulus(props), floating=floating)
     u, info = solver.solve(K, f, free, x0, "two blocks")
     lam_n, lam_t = solver.multipliers[0]
     normal, tangential = float(np.dot(op.weight, lam_n)), float(np.dot(op.weight, lam_t))
@@ -309,10 +318,77 @@ def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio
            "friction_force": tangential, "normal_force": normal, "applied": applied, "load": p_top * L,
            "force_balance_n": abs(normal - p_top * L) / (p_top * L),
            "force_balance_t": abs(abs(tangential) - applied) / applied,
-           "max_penetration": info.max_penetration, "info": info}
+           "max_penetration": info.max_penetration, "info": info,
+           "gmres": list(getattr(info, "gmres_iterations", [])), "u": u, "lam_n": lam_n, "lam_t": lam_t}
     if return_system:
         out["system"] = _system_dict(K, f, free, x0, floating)
     return out
+
+
+def punch_3d(h: float, order: int = 1, *, law: str = "coulomb", friction: float = 0.3, g_c: float = 1e6,
+             ratio: float = 0.7, p_top: float = 5e6, E: float = 10e9, nu: float = 0.25, h_ratio: float = 0.7,
+             linear: str = "direct", linear_tol: float | None = None, linear_maxit: int = 3000) -> dict:
+    """A punch [0.2, 0.8]^2 x [0, 0.3] (m) on a block [0, 1]^2 x [-0.5, 0] fixed at its base (u = 0 on z = -0.5),
+    meshed independently (sizes ``h`` and ``h_ratio`` x ``h``: non-matching), contact on the punch's bottom
+    (its multipliers) against the block's top. The punch is held by the contact alone: the pressure ``p_top`` on
+    its top and, on its x = 0.2 side, a uniform traction along x with the resultant Q = ``ratio`` x the friction
+    capacity (Coulomb F_c p_top A, Tresca g_c A, A = 0.36 m^2; frictionless: no push, so the punch's horizontal
+    translations and rotation about z are held by nothing and fixed by the solver's shift). The push and its
+    moment give a slip zone under the pushed side and a stick zone behind it. ``linear``: the contact solver's
+    Newton-step solver ("direct" or "iterative").
+
+    Returns {"ndof", "nodes" (multiplier nodes), "iterations", "factorizations", "gmres" (GMRES iterations per
+    Newton-step solve), "wall_s", "active", "stick", "slip", "normal_force" (int lam_n dA, N), "load"
+    (p_top A), "friction_force" (x component of the friction force on the punch, N), "applied" (Q),
+    "force_balance_n", "force_balance_t" (relative), "max_penetration", "u", "lam_n", "lam_t", "info"}."""
+    from netgen.occ import Box, Z
+
+    from ..physics.contact3d import contact_operator_3d
+
+    lower = Box(Pnt(0, 0, -0.5), Pnt(1, 1, 0))
+    upper = Box(Pnt(0.2, 0.2, 0), Pnt(0.8, 0.8, 0.3))
+    lower.faces.Min(Z).name = "base"
+    lower.faces.Max(Z).name = "block_top"
+    upper.faces.Min(Z).name = "punch_bottom"
+    upper.faces.Max(Z).name = "punch_top"
+    upper.faces.Min(X).name = "punch_left"
+    lower.solids.name, upper.solids.name = "block", "punch"
+    lower.solids.maxh, upper.solids.maxh = h, h_ratio * h
+    mesh = ngs.Mesh(OCCGeometry(Compound([lower, upper])).GenerateMesh(maxh=h))
+    mesh.Curve(order)
+    props = _props(E, nu, ["block", "punch"])
+    setup = ElasticSetup(props=props, model="3d", order=order)
+    setup.dirichlet["base"] = [expression_function(0.0)] * 3
+    setup.pressure["punch_top"] = expression_function(p_top)
+    area = 0.36
+    capacity = {"coulomb": friction * p_top * area, "tresca": g_c * area, "frictionless": 0.0}[law]
+    applied = ratio * capacity
+    if applied:
+        setup.traction["punch_left"] = [expression_function(applied / (0.6 * 0.3)), expression_function(0.0),
+                                        expression_function(0.0)]
+    forms, K, f, free, x0 = _system(mesh, setup)
+    floating = forms.floating_bodies()
+    op = contact_operator_3d(mesh, forms.V, "punch", "punch_bottom", "block_top")
+    claw = {"coulomb": lambda: ContactLaw("coulomb", friction=friction),
+            "tresca": lambda: ContactLaw("tresca", slip_bound=g_c), "frictionless": ContactLaw}[law]()
+    solver = ContactSolver([(op, claw)], modulus=nodal_modulus(props), floating=floating, linear=linear,
+                           space=forms.V, linear_tol=linear_tol, linear_maxit=linear_maxit)
+    u, info = solver.solve(K, f, free, x0, "3D punch")
+    lam_n, lam_t = solver.multipliers[0]
+    n = op.Bn.shape[1]
+    normal = float(np.dot(op.weight, lam_n))
+    # the friction force on the punch along x: Bt^T lam_t1 + Bt2^T lam_t2 on the punch's x translation
+    ex = _translation(forms, (1.0, 0.0, 0.0))[:n]
+    punch = np.abs(floating[0].modes[:n, 0]) > 0 if floating else np.ones(n, dtype=bool)
+    ft = op.Bt.T @ lam_t[:, 0] + op.Bt2.T @ lam_t[:, 1]
+    fx = float((ex * punch) @ ft)
+    return {"ndof": int(forms.X.ndof), "nodes": int(op.size), "iterations": info.iterations,
+            "factorizations": info.factorizations, "gmres": list(info.gmres_iterations), "wall_s": info.wall_s,
+            "active": info.active[-1], "stick": info.stick[-1], "slip": info.slip[-1], "normal_force": normal,
+            "load": p_top * area, "friction_force": fx, "applied": applied,
+            "force_balance_n": abs(normal - p_top * area) / (p_top * area),
+            "force_balance_t": abs(abs(fx) - applied) / applied if applied else 0.0,
+            "max_penetration": info.max_penetration, "u": u, "lam_n": lam_n, "lam_t": lam_t, "info": info}
 
 
 def cattaneo(h_contact: float, order: int = 1, *, Q_ratio: float = 0.5, friction: float = 0.3,

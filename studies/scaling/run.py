@@ -71,6 +71,9 @@ from ngs_geomech.solvers.iterative import AUTO_DOFS
 from ngs_geomech.verification.scaling import max_rel_difference
 from ngs_geomech.verification.study import metrics_lines, study_cli, study_main
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from contact_steps import contact_table, run_contact  # noqa: E402  (studies/scaling/contact_steps.py)
+
 STUDY = "scaling"
 HERE = Path(__file__).resolve().parent
 LEVELS = {
@@ -211,9 +214,12 @@ def run(level: int) -> tuple[dict, dict]:
         if mpi["serial_1thread_bddc_s"] is not None:
             metrics["mpi_speedup_2_ranks_same_preconditioner"] = mpi["serial_1thread_bddc_s"] / mpi["mpi_2workers_s"]
         metrics["mpi_max_rel_difference"] = mpi["max_rel_difference"]
-    timing = {"total_s": time.perf_counter() - t_start}
+    tic = time.perf_counter()
+    contact = run_contact(level)
+    metrics.update(contact["metrics"])
+    timing = {"total_s": time.perf_counter() - t_start, "contact_s": time.perf_counter() - tic}
     result = {"study": STUDY, "level": level, "metrics": metrics, "convergence": [], "rows": rows, "mpi": mpi,
-              "timing_s": timing}
+              "contact": contact, "timing_s": timing}
     return result, {}
 
 
@@ -245,6 +251,8 @@ def table(result: dict) -> list[str]:
                      f"{m['cg_serial']} / MPI {m['cg_mpi']}, max rel. difference {m['max_rel_difference']:.1e}")
     else:
         lines.append("MPI: mpiexec or mpi4py not installed (pip install mpi4py mpich)")
+    if result.get("contact"):
+        lines += contact_table(result["contact"])
     return lines
 
 
