@@ -50,9 +50,14 @@ from ..solvers.iterative import choose_solver
 from ..solvers.stefan import StefanSolver
 from .heat import initial_temperature, pressure_coefficients, region_measure, source_function
 
-AUTO_NODES = {2: 1_000_000, 3: 200_000}
+AUTO_NODES = {2: 1_000_000, 3: 5_000}
 """Nodes above which ``solver.linear = "auto"`` solves the serial Stefan Newton steps by GMRES with h1amg instead of
-SuperLU with low-rank updates (per mesh dimension; measured in the StefanRun docstring)."""
+SuperLU with low-rank updates (per mesh dimension). Measured 2026-11-26, one thread, ``melting_block`` made 3D
+(6 x 2 x 4 m, the lens 1.25 x 1 x 0.4 m, 20 days in 15 steps, whole runs): direct / GMRES 2.7 / 4.7 s at 2k nodes,
+67 / 17.6 s at 7k (SuperLU factors the 3D Newton matrix 14 times, 3.9 s each), > 420 s (stopped) / 38 s at 13k;
+GMRES 234 s at 46k. GMRES iterations per solve, max: 13 / 18 / 19 / 24 at 2k / 7k / 13k / 46k nodes. In 2D SuperLU
+stays far ahead (13 x faster at 12k nodes on the Neumann strip, :mod:`ngs_geomech.solvers.stefan`): the 2D value
+keeps the direct path (not measured up to it)."""
 
 MAX_HALVINGS = 6
 """A Stefan step whose Newton iteration fails is split in halves at most this often (dt / 64)."""

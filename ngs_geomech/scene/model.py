@@ -385,15 +385,17 @@ class MechanicsSettings:
 
 @dataclass(frozen=True, kw_only=True)
 class SolverSettings:
-    """``[solver]``: the linear solver of the heat and elasticity systems and of the contact Newton steps (GMRES
-    with an augmented-Lagrangian AMG preconditioner, :mod:`ngs_geomech.solvers.contact_krylov`; the mortar heat
-    coupling, serial Stefan steps, dynamic contact and the mixed formulation always solve directly)."""
+    """``[solver]``: the linear solver of the heat and elasticity systems and of the contact and Stefan Newton steps
+    (GMRES with an augmented-Lagrangian AMG preconditioner, :mod:`ngs_geomech.solvers.contact_krylov`; GMRES with
+    h1amg, :mod:`ngs_geomech.solvers.stefan`); the mortar heat coupling, dynamic contact and the mixed formulation
+    always solve directly."""
 
     linear: str = field(one_of("auto", "direct", "iterative"), "auto",
                         doc="'direct' (sparse Cholesky / UMFPACK), 'iterative' (CG with BDDC for order >= 2, two-level "
                             "AMG for 3D P2 elasticity, AMG for P1; contact Newton steps by GMRES with an augmented-"
                             "Lagrangian AMG preconditioner) or 'auto' (iterative above 60k unknowns per system in 3D, "
-                            "1M in 2D; contact Newton steps above 20k displacement dofs in 3D)")
+                            "1M in 2D; contact Newton steps above 20k displacement dofs in 3D, Stefan Newton steps "
+                            "above 5k nodes in 3D)")
     tolerance: float = field(number, 1e-10, doc="relative residual of the iterative solver")
     max_iterations: int = field(integer, 2000, doc="iteration limit of the iterative solver")
     preconditioner: str = field(one_of("auto", "bddc"), "auto",

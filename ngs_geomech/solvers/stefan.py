@@ -121,6 +121,13 @@ probes left out) gave the serial summary's melted volumes and heats to 5e-13 rel
 interfaces (the mortar penalty: refused by :class:`StefanForms`), the smeared :class:`ApparentHeatCapacitySolver`,
 and the SuperLU-specific options (``max_changed``, window mode).
 
+Serial meshes with ``linear="iterative"`` (the scene's ``solver.linear``; "auto" above
+:data:`ngs_geomech.problems.stefan.AUTO_NODES`) take the same :class:`_KrylovJacobian` with NGSolve's ``h1amg`` on
+the same symmetric form instead of BDDC (whose P1 coarse problem is the whole form, factored). Measured on the
+two-phase Neumann strip (tests/test_stefan_iterative.py): the same Newton iterations and temperatures to 4e-14;
+GMRES 13 - 14 per solve at 1k nodes, 14 - 16 at 4k; 0.17 s per step against 0.013 s with SuperLU at 12k nodes
+(2D, one thread): in 2D the direct path stays faster.
+
 Smeared variant (:class:`ApparentHeatCapacitySolver`): the apparent heat capacity method with the capacity
 lagged, m C_app(T_old)(T - T_old)/dt + A(T) = F with C_app = C + L/(2 delta) for |T - Theta_R| < delta, solved by
 Newton's method for the Kirchhoff kink of A (one linear solve when k_s = k_l), with the same linear algebra (its

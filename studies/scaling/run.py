@@ -17,6 +17,15 @@ MPI (when ``mpiexec`` and mpi4py are installed: ``pip install mpi4py mpich``, wh
 difference of T and u at 63 sample points between the distributed and the serial solution (relative to the
 largest value of each field).
 
+Contact (``contact_steps.py``, every level): the contact Newton steps by GMRES with the augmented-Lagrangian AMG
+preconditioner against the direct solves on the 3D Coulomb punch (P1 h = 0.2 at level 0; P1 to h = 0.05 and P2 to
+h = 0.1 at level 1; level 2 adds P1 h = 0.025 and P2 h = 0.05 without the direct solve): GMRES iterations per Newton
+step (``contact_gmres_max_p1``, ``contact_gmres_max_p2`` and their finest / coarsest ratios), the time against the
+direct solves (``contact_direct_over_iterative_time_p*``, largest size with both) and ``contact_max_rel_difference``.
+Measured 2026-11-26 (one thread; the table in :mod:`ngs_geomech.solvers.contact_krylov`): P1 GMRES max 41 / 43 /
+52 / 90 at 663 / 3.5k / 19k / 121k dofs, P2 54 / 51 / 99 at 3.8k / 22k / 130k; direct / GMRES time 4.3 at 19k P1
+(60 / 13.9 s), 1.3 at 22k P2, 5.9 at 130k P2 (399 / 67.5 s); same stick / slip sets, differences <= 7e-10.
+
 Command: ``python studies/scaling/run.py --level 0 --out out/scaling`` (level 0: 2 sizes up to 9.9k dofs,
 ~20 s; level 1: up to ~0.4M dofs, ~8 min; level 2: up to ~1.5M dofs, on demand, ~22 min).
 
