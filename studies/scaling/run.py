@@ -26,8 +26,9 @@ Measured 2026-11-26 (one thread; the table in :mod:`ngs_geomech.solvers.contact_
 52 / 90 at 663 / 3.5k / 19k / 121k dofs, P2 54 / 51 / 99 at 3.8k / 22k / 130k; direct / GMRES time 4.3 at 19k P1
 (60 / 13.9 s), 1.3 at 22k P2, 5.9 at 130k P2 (399 / 67.5 s); same stick / slip sets, differences <= 7e-10.
 
-Command: ``python studies/scaling/run.py --level 0 --out out/scaling`` (level 0: 2 sizes up to 9.9k dofs,
-~20 s; level 1: up to ~0.4M dofs, ~8 min; level 2: up to ~1.5M dofs, on demand, ~22 min).
+Command: ``python studies/scaling/run.py --level 0 --out out/scaling`` (level 0: 2 sizes up to 9.9k dofs
+and the P1 punch, 11 s; level 1: up to ~0.4M dofs and the contact table to 22k dofs, ~10 min; level 2: up to ~1.5M
+dofs and the contact table to 130k dofs, on demand, ~35 min).
 
 Measured (level 2, 2026-11-25, 1281 s in all; 2 NGSolve threads; the faster of two runs per size and
 preconditioner, the other in brackets; direct only up to DIRECT_MAX; "auto" with AUTO_DOFS[3] = 60k per system).
@@ -59,7 +60,9 @@ preconditioner, the other in brackets; direct only up to DIRECT_MAX; "auto" with
     at 1.15M (96M entries, 156 ms): its vectors (2.6 MB -> 9.2 MB each) no longer stay in the 32 MB L3 cache.
 Level 0 as it was (23 s): 2.5k / 9.9k / 15k dofs, iterative 0.13 / 0.32 / 0.54 s, direct 0.19 / 0.49 / 0.92 s, BDDC
 at 15k 0.45 s. Since 2026-11-26 level 0 runs 2.5k and 9.9k dofs, BDDC at 9.9k (20 s alone), for the default test
-suite's 10-minute limit.
+suite's 10-minute limit; since the contact table joined it (the same day; the suite took 633 s, this study 96 s of
+it under the suite's load), level 0 runs neither BDDC nor the MPI comparison (tests/test_iterative_solvers.py
+compares 2 workers with serial on the same box).
 """
 
 from __future__ import annotations
@@ -86,14 +89,14 @@ from contact_steps import contact_table, run_contact  # noqa: E402  (studies/sca
 STUDY = "scaling"
 HERE = Path(__file__).resolve().parent
 LEVELS = {
-    0: {"maxh": (0.3, 0.2), "mpi_maxh": 0.2, "repeats": 1, "bddc_maxh": (0.2,), "mpi_bddc": False},
+    0: {"maxh": (0.3, 0.2), "mpi_maxh": None, "repeats": 1, "bddc_maxh": (), "mpi_bddc": False},
     1: {"maxh": (0.2, 0.15, 0.1, 0.07, 0.05), "mpi_maxh": 0.07, "repeats": 2, "bddc_maxh": None, "mpi_bddc": True},
     2: {"maxh": (0.15, 0.1, 0.07, 0.05, 0.04, 0.035), "mpi_maxh": 0.04, "repeats": 2, "bddc_maxh": None,
         "mpi_bddc": True},
 }
-"""Mesh sizes (m) of the P2 box per level, the size of the MPI comparison, the runs of each iterative solver per
-size (the faster is reported: the other jobs on the shared machine only ever add time; the same 1.5M-dof solve
-took 58 s in one run and 79 s in another; all times are kept in the rows), the sizes also solved with
+"""Mesh sizes (m) of the P2 box per level, the size of the MPI comparison (None: none), the runs of each iterative
+solver per size (the faster is reported: the other jobs on the shared machine only ever add time; the same 1.5M-dof
+solve took 58 s in one run and 79 s in another; all times are kept in the rows), the sizes also solved with
 ``preconditioner="bddc"`` (None: all) and whether the MPI size is also solved serially with BDDC (level 0 keeps
 the default test suite short: every worker is a new process)."""
 ORDER = 2
@@ -172,7 +175,7 @@ def run(level: int) -> tuple[dict, dict]:
                 row["auto_s"] = src[heat_auto]["heat_s"] + src[el_auto]["elastic_s"]
             rows.append(row)
         mpi = None
-        mpiexec = _mpiexec()
+        mpiexec = _mpiexec() if p["mpi_maxh"] is not None else None
         if mpiexec is not None:
             h = p["mpi_maxh"]
             serial = _run_worker(h, "iterative", 1, tmp)
@@ -258,6 +261,8 @@ def table(result: dict) -> list[str]:
                      + (f" (BDDC {bddc:.2f} s)" if bddc is not None else "") + ", 2 workers (BDDC) "
                      f"{m['mpi_2workers_s']:.2f} s (elements per rank {m['elements_per_rank']}), CG serial "
                      f"{m['cg_serial']} / MPI {m['cg_mpi']}, max rel. difference {m['max_rel_difference']:.1e}")
+    elif LEVELS[result["level"]]["mpi_maxh"] is None:
+        lines.append("MPI: not run at this level (tests/test_iterative_solvers.py compares 2 workers with serial)")
     else:
         lines.append("MPI: mpiexec or mpi4py not installed (pip install mpi4py mpich)")
     if result.get("contact"):
