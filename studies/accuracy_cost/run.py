@@ -59,6 +59,9 @@ Measured, level 0 (2 shared cores, another job running beside it: load ~3; one N
 the same alone; level 1 145 s, of it 43 s for the Stefan strip at h = 0.003125 m). Since 2026-11-26 level 0 runs
 the Stefan strip down to h = 0.0125 and dt = 0.0025 only (its Stefan section 49 -> 28 s, the level 103 -> 71 s
 alone, for the default test suite's 10-minute limit); the h = 0.00625 and dt = 0.00125 rows below are level 1's.
+Later the same day (the suite at 600 s with the new iterative-solver tests) level 0 went down to h = 0.025 and
+dt = 0.005 (Stefan section 33 -> 8 s, the level 80 -> 54 s alone); the h = 0.0125 and dt = 0.0025 rows are level 1's
+too.
 Per knob: the knob's value,
 dofs, wall (s), error; Hertz also "close" = p0_h / p0_closed - 1 (signed), "vs_ss" = |p0 / p0_ssn - 1| on the same
 mesh, "itera" = contact iterations; Stefan "newto" = Newton iterations per step, "mesh_" = mesh + forms (s, inside
@@ -327,8 +330,8 @@ LEVELS = {
         "corner_dofs": 8000, "hertz_k": {1: 5, 2: 4, 3: 3}, "hertz_hc": (1.0, 0.5, 0.25, 0.125, 0.0625),
         "hertz_dofs": {1: 15000, 2: 30000}, "hertz_penalty": (1e-2, 1e-1, 1.0, 10.0, 100.0, 1e3, 1e4),
         "hertz_ssn_aug": (1e-2, 1e-1, 1.0, 10.0, 100.0),
-        "stefan_h": (0.05, 0.025, 0.0125), "stefan_h_fixed_dt": 0.0025, "stefan_h_dt": 0.0125,
-        "stefan_dts": (0.04, 0.02, 0.01, 0.005, 0.0025), "stefan_tol_h": 0.0125, "stefan_tol_dt": 0.0025,
+        "stefan_h": (0.05, 0.025), "stefan_h_fixed_dt": 0.005, "stefan_h_dt": 0.025,
+        "stefan_dts": (0.04, 0.02, 0.01, 0.005), "stefan_tol_h": 0.025, "stefan_tol_dt": 0.005,
         "stefan_tols": (1e-1, 1e-2, 1e-3, 1e-10),
         "transient_dts": (0.2, 0.1, 0.05, 0.025, 0.0125), "lambda_h": 0.05, "lambda_fine": False,
         "lambda_tols": (1e-1, 1e-2, 1e-3, 1e-4, 1e-6, 1e-10),
@@ -338,8 +341,9 @@ LEVELS = {
 LEVELS[1] = {**LEVELS[0], "corner_h": LEVELS[0]["corner_h"] + (0.0078125,),
              "corner_h_p": LEVELS[0]["corner_h_p"] + (0.03125,), "corner_dofs": 60000,
              "hertz_k": {1: 6, 2: 5, 3: 4}, "hertz_hc": LEVELS[0]["hertz_hc"] + (0.03125,),
-             "hertz_dofs": {1: 60000, 2: 120000}, "stefan_h": LEVELS[0]["stefan_h"] + (0.00625, 0.003125),
-             "stefan_dts": LEVELS[0]["stefan_dts"] + (0.00125, 0.000625), "stefan_h_dt": 0.00625,
+             "hertz_dofs": {1: 60000, 2: 120000}, "stefan_h": LEVELS[0]["stefan_h"] + (0.0125, 0.00625, 0.003125),
+             "stefan_h_fixed_dt": 0.0025, "stefan_tol_h": 0.0125, "stefan_tol_dt": 0.0025,
+             "stefan_dts": LEVELS[0]["stefan_dts"] + (0.0025, 0.00125, 0.000625), "stefan_h_dt": 0.00625,
              "transient_dts": LEVELS[0]["transient_dts"] + (0.00625,), "lambda_fine": True,
              "growing_levels": (1, 2, 3, 4, 5), "growing_ref_level": 7, "growing_arc_k": (1, 2, 3, 4, 5),
              "growing_maxh": (0.1, 0.05, 0.025, 0.0125), "stefan_front_levels": (1, 2, 3, 4)}
