@@ -27,7 +27,8 @@ from ngs_geomech.solvers.elastic_contact import ElasticContactSolver
 from ngs_geomech.solvers.heat import HeatSolver
 from ngs_geomech.solvers.timesteps import schedule
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_checkpoint")]
 
 SETS = ["--set", "time.end='1 year'", "--set", "time.dt='5 day'", "--set", "time.dt_growth=1.0",
         "--set", "output.checkpoint_every=5", "--set", "output.figures=false"]

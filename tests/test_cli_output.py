@@ -26,7 +26,8 @@ from ngs_geomech.solvers.heat import HeatSolver
 GEOMETRIES = Path(__file__).resolve().parents[1] / "geometries"
 
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_cli_output")]
 
 
 def leftovers(parent: Path, name: str) -> list[Path]:

@@ -18,7 +18,8 @@ from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.solvers.stefan import StefanSolver
 from ngs_geomech.verification import coupled as cp
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_coupled")]
 
 
 @pytest.mark.parametrize("phase_change", [False, True])

@@ -14,7 +14,8 @@ from ngs_geomech.run import run_scene
 from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.verification.nonlinear_law import bar_scene
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_extremes")]
 
 _spec = importlib.util.spec_from_file_location(
     "study_extremes", Path(__file__).resolve().parents[1] / "studies" / "extremes" / "run.py")

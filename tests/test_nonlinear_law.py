@@ -16,7 +16,8 @@ from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.solvers.elastic import ElasticSolver
 from ngs_geomech.verification import nonlinear_law as nl
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_nonlinear_law")]
 
 HS = (0.1, 0.05)
 NEWTON_LAMS = (0.5, 0.75, 1.5, 2.0)

@@ -31,7 +31,8 @@ from ngs_geomech import api
 from ngs_geomech.units import YEAR
 from ngs_geomech.verification.point_source import canister_array_peak_rise
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_repository_3d")]
 
 # geometries/repository_3d.toml data
 K_ROCK, RHO_C_ROCK = 3.0, 2.16e6                  # W/(m K), J/(m^3 K)

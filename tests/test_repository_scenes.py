@@ -24,7 +24,8 @@ from ngs_geomech import api
 from ngs_geomech.io.stress_figures import principal_2d
 from ngs_geomech.verification.point_source import canister_array_peak_rise
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_repository_scenes")]
 
 YEAR = 365.25 * 86400.0
 

@@ -13,7 +13,8 @@ import pytest
 from ngs_geomech import api
 from ngs_geomech.io.stress_figures import principal_2d
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_scenarios")]
 
 YEAR = 365.25 * 86400.0
 

@@ -25,7 +25,8 @@ from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.scene.validate import validate
 from ngs_geomech.solvers.stefan import StefanSolver
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_stefan_interfaces")]
 
 H = 0.4
 

@@ -17,7 +17,8 @@ from ngs_geomech.solvers.stefan import StefanSolver, _ColumnJacobian
 from ngs_geomech.solvers.timesteps import schedule
 from ngs_geomech.verification import stefan as st
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_stefan_linear_algebra")]
 
 
 @pytest.fixture(scope="module")

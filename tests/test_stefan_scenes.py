@@ -27,7 +27,8 @@ from ngs_geomech.scene.validate import validate
 from ngs_geomech.solvers.stefan import StefanSolver
 from ngs_geomech.verification import stefan as st
 
-pytestmark = pytest.mark.usefixtures("one_thread")
+# one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
+pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_stefan_scenes")]
 
 NEUMANN = st.TWO_PHASE
 T_END = 0.5

@@ -62,7 +62,8 @@ Level 0 as it was (23 s): 2.5k / 9.9k / 15k dofs, iterative 0.13 / 0.32 / 0.54 s
 at 15k 0.45 s. Since 2026-11-26 level 0 runs 2.5k and 9.9k dofs, BDDC at 9.9k (20 s alone), for the default test
 suite's 10-minute limit; since the contact table joined it (the same day; the suite took 633 s, this study 96 s of
 it under the suite's load), level 0 runs neither BDDC nor the MPI comparison (tests/test_iterative_solvers.py
-compares 2 workers with serial on the same box).
+compares 2 workers with serial on the same box), and its workers run one NGSolve thread (two spinning threads per
+worker beside the suite's other jobs made it take 81 s there, 11 s alone).
 """
 
 from __future__ import annotations
@@ -89,7 +90,7 @@ from contact_steps import contact_table, run_contact  # noqa: E402  (studies/sca
 STUDY = "scaling"
 HERE = Path(__file__).resolve().parent
 LEVELS = {
-    0: {"maxh": (0.3, 0.2), "mpi_maxh": None, "repeats": 1, "bddc_maxh": (), "mpi_bddc": False},
+    0: {"maxh": (0.3, 0.2), "mpi_maxh": None, "repeats": 1, "bddc_maxh": (), "mpi_bddc": False, "threads": 1},
     1: {"maxh": (0.2, 0.15, 0.1, 0.07, 0.05), "mpi_maxh": 0.07, "repeats": 2, "bddc_maxh": None, "mpi_bddc": True},
     2: {"maxh": (0.15, 0.1, 0.07, 0.05, 0.04, 0.035), "mpi_maxh": 0.04, "repeats": 2, "bddc_maxh": None,
         "mpi_bddc": True},
@@ -144,17 +145,18 @@ def run(level: int) -> tuple[dict, dict]:
     if level not in LEVELS:
         raise ValueError(f"level must be one of {sorted(LEVELS)}, got {level}")
     p = LEVELS[level]
+    threads = p.get("threads", THREADS)
     t_start = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory() as tmpdir:
         tmp = Path(tmpdir)
         for maxh in p["maxh"]:
-            its = [_run_worker(maxh, "iterative", THREADS, tmp) for _ in range(p["repeats"])]
+            its = [_run_worker(maxh, "iterative", threads, tmp) for _ in range(p["repeats"])]
             with_bddc = p["bddc_maxh"] is None or maxh in p["bddc_maxh"]
-            bds = [_run_worker(maxh, "bddc", THREADS, tmp) for _ in range(p["repeats"])] if with_bddc else []
+            bds = [_run_worker(maxh, "bddc", threads, tmp) for _ in range(p["repeats"])] if with_bddc else []
             it = min(its, key=lambda w: w["solve_s"])
             bd = min(bds, key=lambda w: w["solve_s"]) if bds else None
-            d = _run_worker(maxh, "direct", THREADS, tmp) if it["dofs"] <= DIRECT_MAX else None
+            d = _run_worker(maxh, "direct", threads, tmp) if it["dofs"] <= DIRECT_MAX else None
             row = {"maxh": maxh, "dofs": it["dofs"], "dofs_heat": it["dofs_heat"], "dofs_elastic": it["dofs_elastic"],
                    "iterative_s": it["solve_s"], "iterative_heat_s": it["heat_s"],
                    "iterative_elastic_s": it["elastic_s"], "iterative_gib": it["peak_rss_gib"],
