@@ -719,7 +719,7 @@ class _Mechanics:
                 linear = choose_solver(sv.linear, self.forms.X.ndof, mesh.dim, spd=self.forms.X is self.forms.V,
                                        auto_dofs=CONTACT_AUTO_DOFS)
                 csolver = ContactSolver(items, modulus=modulus, floating=floating, linear=linear,
-                                        space=self.forms.V, linear_tol=sv.tolerance,
+                                        forms=self.forms, linear_tol=sv.tolerance,
                                         linear_maxit=sv.max_iterations)
             relax = ms.secant_relaxation if ms.secant_relaxation is not None and ms.secant_relaxation <= 1 else None
             self.solver = ElasticContactSolver(self.forms, csolver, tol=ms.tolerance, maxit=ms.max_iterations,

@@ -648,6 +648,19 @@ class ElasticForms:
             columns.append(col)
         return _free_combinations(np.array(columns, dtype=float).T, list(modes))[1]
 
+    def rigid_mode_vectors(self) -> np.ndarray:
+        """The rigid motions of the model (:func:`_rigid_modes`: axisymmetric the axial translation, plane 2
+        translations and the rotation, 3D 3 + 3; rotations about the vertices' centroid) as coefficient vectors of
+        V, one column each: e.g. the near-null space of an algebraic multigrid."""
+        pts = np.array([v.point for v in self.mesh.vertices], dtype=float)
+        center = tuple(pts.mean(axis=0)) + (0.0,) * (3 - pts.shape[1])
+        g = ngs.GridFunction(self.V)
+        cols = []
+        for comps in _rigid_modes(self.setup.model, self.dim, center).values():
+            g.Set(ngs.CoefficientFunction(comps))
+            cols.append(np.array(g.vec.FV().NumPy()))
+        return np.column_stack(cols)
+
     def floating_bodies(self) -> list[FloatingBody]:
         """The bodies (connected parts of the mesh: blocks joined by glued interfaces) with rigid motions the
         displacement and symmetry conditions do not hold: semi-coercive bodies that only contact can hold.

@@ -279,7 +279,7 @@ class ContactSolver:
 
     def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float,
                  maxit: int = 50, method: str = "ssn", floating=(), reuse_rows: int = 12,
-                 quasi_definite: bool = True, linear: str = "direct", space=None, linear_tol: float | None = None,
+                 quasi_definite: bool = True, linear: str = "direct", forms=None, linear_tol: float | None = None,
                  linear_maxit: int = 3000):
         """``floating``: the semi-coercive bodies (:meth:`ElasticForms.floating_bodies`): their load is
         checked for solvability before any factorization, and their free dofs get a tiny diagonal shift in the
@@ -290,18 +290,19 @@ class ContactSolver:
         ``quasi_definite``: factor the symmetric quasi-definite companion of a symmetric saddle-point matrix by
         sparse Cholesky (:meth:`_Pattern.symmetric`) instead of the matrix by UMFPACK (False: always UMFPACK).
         ``linear``: "direct" (the factorizations above) or "iterative": every Newton step by GMRES with the
-        augmented-Lagrangian AMG preconditioner of :mod:`.contact_krylov` (needs ``space``, the displacement
-        space, for the rigid motions of the AMG; ``linear_tol`` its relative tolerance, ``linear_maxit`` its
-        iteration limit per Newton step)."""
+        augmented-Lagrangian AMG preconditioner of :mod:`.contact_krylov` (needs ``forms``, the
+        :class:`ElasticForms` of the matrix, for the displacement space and the rigid motions of the AMG;
+        ``linear_tol`` its relative tolerance, ``linear_maxit`` its iteration limit per Newton step)."""
         if linear not in ("direct", "iterative"):
             raise ValueError(f"the contact solver's linear solver must be 'direct' or 'iterative', got {linear!r}")
-        if linear == "iterative" and space is None:
-            raise ValueError("the iterative contact solver needs the displacement space (space=)")
+        if linear == "iterative" and forms is None:
+            raise ValueError("the iterative contact solver needs the elastic forms (forms=): the displacement space "
+                             "and its rigid motions")
         self.linear = linear
-        self.space = space
+        self.forms = forms
         self.linear_tol = linear_tol
         self.linear_maxit = linear_maxit
-        self._modes = None                 # rigid_modes(space), for the iterative solver's AMG
+        self._modes = None                 # contact_krylov.near_null_space(forms), for the iterative solver's AMG
         self.items = interfaces
         self.modulus = float(modulus)
         self.maxit = maxit
@@ -502,7 +503,7 @@ class ContactSolver:
         freedofs = ngs.BitArray(freemask.tolist())
         factored = None      # (the inverse, the COO values it was computed from, cached solves, zero columns)
         hint_unheld = "a body is not held by its supports and the nodes in contact now"
-        bulk_symmetric = self.quasi_definite and _is_symmetric(matrix)
+        bulk_symmetric = self.linear == "direct" and self.quasi_definite and _is_symmetric(matrix)
         what = f"contact solve{' at ' + where if where else ''}"
         it_nr = 0
         krylov = self._krylov(n, N, ifs, freemask) if self.linear == "iterative" else None
@@ -822,12 +823,13 @@ class ContactSolver:
     def _krylov(self, n: int, N: int, ifs: list[_Interface], freemask: np.ndarray):
         """The GMRES solver of the Newton steps of this solve (:class:`.contact_krylov.SaddleKrylov`): row
         scales c, the augmented diagonals -w / c and the node blocks of the multipliers."""
-        from .contact_krylov import DEFAULT_TOL, SaddleKrylov, rigid_modes
+        from .contact_krylov import DEFAULT_TOL, SaddleKrylov, near_null_space
         if self._modes is None:
-            self._modes = rigid_modes(self.space)
+            self._modes = near_null_space(self.forms)
         modes, vertex, dim = self._modes
         if modes.shape[0] != n:
-            raise ValueError(f"the iterative contact solver's space has {modes.shape[0]} dofs, the matrix {n}")
+            raise ValueError(f"the iterative contact solver's displacement space has {modes.shape[0]} dofs, the matrix "
+                             f"{n} (the mixed formulation is solved directly)")
         scale = np.ones(N - n)
         aug = np.ones(N - n)
         blocks = []

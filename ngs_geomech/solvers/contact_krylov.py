@@ -57,6 +57,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
+from .iterative import vertex_dofs
 
 DEFAULT_TOL = 1e-10
 """Relative residual (scaled, Euclidean) at which GMRES stops."""
@@ -72,37 +73,14 @@ dimension). Measured on the 3D Coulomb punch (``studies/scaling``, one thread, 2
 direct solves stay cheap; the value is that of the other systems (:data:`.iterative.AUTO_DOFS`)."""
 
 
-def rigid_modes(space) -> tuple[np.ndarray, np.ndarray, int]:
-    """The rigid motions of a VectorH1 ``space`` as vectors of its dofs: (ndof x 3 in 2D, ndof x 6 in 3D) with the
-    translations and the rotations about the centroid of the vertices, on the vertex dofs (NGSolve's basis is
-    hierarchical: the vertex dofs of each component come first and are the P1 nodal values, so a linear field has
-    zero higher-order coefficients); the bool mask of the vertex dofs; the dimension."""
-    mesh = space.mesh
-    dim = mesh.dim
-    comps = list(space.components)
-    if len(comps) != dim:
-        raise ValueError(f"rigid_modes needs a vector space with {dim} components, got {len(comps)}")
-    nv = mesh.nv
-    xyz = np.array([v.point for v in mesh.vertices], dtype=float)[:, :dim]
-    xyz = xyz - xyz.mean(axis=0)
-    offsets = np.cumsum([0] + [c.ndof for c in comps])
-    ndof = int(offsets[-1])
-    nmodes = 3 if dim == 2 else 6
-    B = np.zeros((ndof, nmodes))
-    vertex = np.zeros(ndof, dtype=bool)
-    for k in range(dim):
-        idx = offsets[k] + np.arange(nv)
-        vertex[idx] = True
-        B[idx, k] = 1.0
-    if dim == 2:
-        B[offsets[0]:offsets[0] + nv, 2] = -xyz[:, 1]
-        B[offsets[1]:offsets[1] + nv, 2] = xyz[:, 0]
-    else:
-        x, y, z = xyz.T
-        for col, (a, b, ca, cb) in enumerate(((0, 1, -y, x), (1, 2, -z, y), (0, 2, z, -x)), start=3):
-            B[offsets[a]:offsets[a] + nv, col] = ca
-            B[offsets[b]:offsets[b] + nv, col] = cb
-    return B, vertex, dim
+def near_null_space(forms) -> tuple[np.ndarray, np.ndarray, int]:
+    """What the AMG needs of the elastic problem ``forms`` (:class:`ngs_geomech.physics.elasticity.ElasticForms`):
+    its rigid motions as vectors of V (:meth:`~ngs_geomech.physics.elasticity.ElasticForms.rigid_mode_vectors`),
+    the bool mask of V's vertex dofs (:func:`.iterative.vertex_dofs`) and the mesh dimension."""
+    V = forms.V
+    vertex = np.zeros(V.ndof, dtype=bool)
+    vertex[vertex_dofs(V, "iterative contact solver").ravel()] = True
+    return forms.rigid_mode_vectors(), vertex, V.mesh.dim
 
 
 @dataclass
@@ -122,7 +100,7 @@ class SaddleKrylov:
     multipliers excluded); ``row_scale``: c per multiplier row (Pa/m, N - n); ``diag_aug``: the -w / c that
     replaces a zero multiplier diagonal (N - n); ``node_blocks``: (m, b) index arrays into the multiplier
     unknowns (the rows of one node: normal, tangential), one per interface; ``modes``, ``vertex``, ``dim``: from
-    :func:`rigid_modes`."""
+    :func:`near_null_space`."""
 
     def __init__(self, n: int, free: np.ndarray, row_scale: np.ndarray, diag_aug: np.ndarray, node_blocks: list,
                  modes: np.ndarray, vertex: np.ndarray, dim: int, *, tol: float = DEFAULT_TOL,

@@ -90,6 +90,19 @@ def choose_solver(solver: str, ndof: int, dim: int, spd: bool = True, distribute
     return solver
 
 
+def vertex_dofs(space, what: str) -> np.ndarray:
+    """The dof numbers (components x nv) of the vertex dofs of a VectorH1 ``space``: NGSolve numbers each
+    component's dofs vertices first, so vertex i of component k is dof offset_k + i (checked on a sample; ``what``
+    names the caller in the error). With the hierarchical basis these dofs span P1."""
+    nv = space.mesh.nv
+    offsets = np.cumsum([0] + [c.ndof for c in space.components])
+    for comp in space.components:
+        for i in (0, nv // 2, nv - 1):
+            if tuple(comp.GetDofNrs(ngs.NodeId(ngs.VERTEX, i))) != (i,):
+                raise AssertionError(f"{what}: the vertex dofs are not numbered first")
+    return offsets[:-1, None] + np.arange(nv)[None, :]
+
+
 def vertex_wirebasket(space) -> int:
     """Make the vertex dofs the only wirebasket dofs of an H1 / VectorH1 ``space`` (NGSolve's 3D default adds the
     lowest-order edge dofs): the BDDC coarse problem becomes the vertex (P1) problem. Returns the number of edge
@@ -217,19 +230,14 @@ class Preconditioned:
         space, mesh = self._space, self._space.mesh
         if self._p1 is None:          # the P1 spaces, injections and edge-dof mask: fixed for the space
             nv = mesh.nv
-            offsets = np.cumsum([0] + [c.ndof for c in space.components])
+            vdofs = vertex_dofs(space, "two-level preconditioner")
             free = np.array(list(space.FreeDofs()), dtype=bool)
             self._p1 = []
-            for k, comp in enumerate(space.components):
-                # vertex i of the P2 component is its dof i (low-order dofs first), checked on a sample
-                for i in (0, nv // 2, nv - 1):
-                    if tuple(comp.GetDofNrs(ngs.NodeId(ngs.VERTEX, i))) != (i,):
-                        raise AssertionError("two-level preconditioner: the P2 vertex dofs are not numbered first")
+            for k in range(len(space.components)):
                 p1 = ngs.H1(mesh, order=1, dirichlet=self._dirichlet[k])
-                E = ngs.la.SparseMatrixd.CreateFromCOO(offsets[k] + np.arange(nv), np.arange(nv), np.ones(nv),
-                                                       space.ndof, p1.ndof)
+                E = ngs.la.SparseMatrixd.CreateFromCOO(vdofs[k], np.arange(nv), np.ones(nv), space.ndof, p1.ndof)
                 self._p1.append((p1, E))
-                free[offsets[k]:offsets[k] + nv] = False          # the vertex dofs belong to the P1 part
+                free[vdofs[k]] = False          # the vertex dofs belong to the P1 part
             self._edges = ngs.BitArray(free.tolist())
         if not self._aux:
             self._aux = [self._amg(p1, symmetric=True) for p1, _ in self._p1]

@@ -305,7 +305,7 @@ def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio
     op = contact_operator_2d(mesh, forms.V, "blocks", "upper_bottom", "lower_top", axisymmetric=False)
     items = [(op, ContactLaw("coulomb", friction=friction))]
     if solver_factory is None:
-        solver = ContactSolver(items, modulus=nodal_modulus(props), floating=floating, linear=linear, space=forms.V)
+        solver = ContactSolver(items, modulus=nodal_modulus(props), floating=floating, linear=linear, forms=forms)
     else:
         solver = solver_factory(items, modulus=nodal_modulus(props), floating=floating)
     u, info = solver.solve(K, f, free, x0, "two blocks")
@@ -372,7 +372,7 @@ def punch_3d(h: float, order: int = 1, *, law: str = "coulomb", friction: float 
     claw = {"coulomb": lambda: ContactLaw("coulomb", friction=friction),
             "tresca": lambda: ContactLaw("tresca", slip_bound=g_c), "frictionless": ContactLaw}[law]()
     solver = ContactSolver([(op, claw)], modulus=nodal_modulus(props), floating=floating, linear=linear,
-                           space=forms.V, linear_tol=linear_tol, linear_maxit=linear_maxit)
+                           forms=forms, linear_tol=linear_tol, linear_maxit=linear_maxit)
     u, info = solver.solve(K, f, free, x0, "3D punch")
     lam_n, lam_t = solver.multipliers[0]
     n = op.Bn.shape[1]
