@@ -718,6 +718,8 @@ class _Mechanics:
                 # formulation (X is not V) keeps the direct solves
                 linear = choose_solver(sv.linear, self.forms.X.ndof, mesh.dim, spd=self.forms.X is self.forms.V,
                                        auto_dofs=CONTACT_AUTO_DOFS)
+                if linear == "direct" and self.forms.X is self.forms.V:
+                    linear = "auto"        # a direct solve: condensed onto the contact surface where it applies
                 csolver = ContactSolver(items, modulus=modulus, floating=floating, linear=linear,
                                         forms=self.forms, linear_tol=sv.tolerance,
                                         linear_maxit=sv.max_iterations)

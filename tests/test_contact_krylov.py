@@ -90,7 +90,7 @@ def test_scene_takes_the_iterative_contact_solver():
 
 
 def test_bad_settings_and_gmres_failure():
-    with pytest.raises(ValueError, match="'direct' or 'iterative'"):
+    with pytest.raises(ValueError, match="'auto', 'direct', 'iterative' or 'condensed'"):
         ContactSolver([], modulus=1.0, linear="cg")
     with pytest.raises(ValueError, match="space"):
         ContactSolver([], modulus=1.0, linear="iterative")

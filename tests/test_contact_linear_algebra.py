@@ -17,10 +17,11 @@ from ngs_geomech.verification import contact_problems as cp
 
 
 class _Keep:
-    """A solver factory that keeps the solver it built (for its history)."""
+    """A solver factory that keeps the solver it built (for its history); the sparse direct path of the
+    saddle-point factorizations these tests are about (not the condensed default)."""
 
     def __init__(self, **kw):
-        self.kw = kw
+        self.kw = {"linear": "direct", **kw}
         self.solver = None
 
     def __call__(self, interfaces, **kw):

@@ -119,6 +119,8 @@ class ContactOutput:
         entry["contact_iterations"] = [i.iterations for i in infos]
         entry["linear"] = getattr(solver.contact, "linear", "direct")
         entry["gmres_max"] = max((g for i in infos for g in getattr(i, "gmres_iterations", [])), default=0)
+        entry["condensed_dofs"] = max((getattr(i, "condensed_dofs", 0) for i in infos), default=0)
+        entry["condensed_fallbacks"] = sum(bool(getattr(i, "condensed_fallback", False)) for i in infos)
         self.history.append(entry)
 
     def _resultant(self, bt: np.ndarray, dofs: np.ndarray) -> np.ndarray:
@@ -140,6 +142,10 @@ class ContactOutput:
                             "linear_solver": last.get("linear", "direct"),
                             "gmres_max_per_solve": ([h["gmres_max"] for h in self.history]
                                                     if last.get("linear") == "iterative" else None),
+                            "condensed_dofs_per_solve": ([h["condensed_dofs"] for h in self.history]
+                                                         if last.get("linear") == "condensed" else None),
+                            "condensed_fallbacks": (sum(h["condensed_fallbacks"] for h in self.history)
+                                                    if last.get("linear") == "condensed" else None),
                             "history": [{"time_s": h["time_s"], "imbalance_rel": h["force_balance"]["imbalance_rel"],
                                          **{name: {"normal_force": v["normal_force"],
                                                    "tangential_force": v["tangential_force"],

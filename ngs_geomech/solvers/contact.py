@@ -75,6 +75,16 @@ step grow slowly under refinement (3D Coulomb punch: P1 41 -> 90 from 663 to 121
 ``studies/scaling``). The slip rows of 3D friction then converge to 100 x the GMRES tolerance instead of
 NEWTON_TOL.
 
+Condensed solves (``linear="condensed"``, the default "auto" in 2D when PARDISO is installed): the problem is
+condensed onto the dofs of the contact nodes by one PARDISO factorization of K with their Schur complement S
+(:mod:`.contact_condensed`), and this solver then runs on the dense S (a numpy bulk): the same iteration, the
+pattern holding only the multiplier entries, each Newton step eliminating u against one Cholesky factorization of
+S (:class:`_DenseStep`: (D - R S^-1 C) lam = r_m - R S^-1 r_u over the rows coupled to u, the others through their
+own block). S is shifted by DENSE_SHIFT = 1e-7 of its mean diagonal on the floating bodies' dofs (on all dofs
+when none is declared: a time step's body on a foundation), not 1e-10: the elimination through S^-1 loses about
+the shift's inverse in relative accuracy (with 1e-10 the refinement of a floating Coulomb block stalled at a
+relative step error of 5e-7), and the refinement with the exact residual removes the shift as before.
+
 Units: u m, multipliers Pa (nodal values of the contact pressure and tangential traction).
 """
 
@@ -98,6 +108,7 @@ COULOMB_FIXED_POINT_MAXIT = 60
 NEWTON_TOL = 1e-11     # 3D slip rows: converged when max |lam_t - b z / |z|| <= NEWTON_TOL x the largest bound
 POLYGON = 16           # 3D solvability check: the friction disc |lam_t| <= b inside a regular 16-gon
 QUASI_DEFINITE = 1e8   # symmetric systems: the exact rows' zero diagonal -w / c becomes -w / (c x 1e8) when factored
+DENSE_SHIFT = 1e-7       # a dense bulk's relative shift (the sparse path's is 1e-10; module docstring of _DenseStep)
 INEXACT_REFINEMENTS = 6  # refinement steps with the quasi-definite factorization before factoring exactly
 
 
@@ -162,6 +173,12 @@ class ContactInfo:
     """linear="iterative": the GMRES iterations of every Newton-step solve (:mod:`.contact_krylov`)."""
     amg_setups: int = 0
     """linear="iterative": the AMG hierarchies built (one per solve; later Newton steps refresh its operators)."""
+    condensed_dofs: int = 0
+    """linear="condensed": the surface dofs of the condensed problem (:mod:`.contact_condensed`)."""
+    candidate_passes: int = 0
+    """linear="condensed": the candidate sets tried (1 when the first held every node in contact)."""
+    condensed_fallback: bool = False
+    """linear="condensed": the condensed path could not take the problem and the sparse direct path solved it."""
 
 
 class _Interface:
@@ -279,7 +296,7 @@ class ContactSolver:
 
     def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float,
                  maxit: int = 50, method: str = "ssn", floating=(), reuse_rows: int = 12,
-                 quasi_definite: bool = True, linear: str = "direct", forms=None, linear_tol: float | None = None,
+                 quasi_definite: bool = True, linear: str = "auto", forms=None, linear_tol: float | None = None,
                  linear_maxit: int = 3000):
         """``floating``: the semi-coercive bodies (:meth:`ElasticForms.floating_bodies`): their load is
         checked for solvability before any factorization, and their free dofs get a tiny diagonal shift in the
@@ -289,20 +306,32 @@ class ContactSolver:
         an old factorization is reused (Woodbury) instead of factoring anew; -1: always factor.
         ``quasi_definite``: factor the symmetric quasi-definite companion of a symmetric saddle-point matrix by
         sparse Cholesky (:meth:`_Pattern.symmetric`) instead of the matrix by UMFPACK (False: always UMFPACK).
-        ``linear``: "direct" (the factorizations above) or "iterative": every Newton step by GMRES with the
+        ``linear``: "direct" (the factorizations above), "condensed" (the problem condensed onto the contact
+        surface by one PARDISO factorization of K, :mod:`.contact_condensed`; 2D), "auto" (condensed in 2D when
+        PARDISO is installed, else direct) or "iterative": every Newton step by GMRES with the
         augmented-Lagrangian AMG preconditioner of :mod:`.contact_krylov` (needs ``forms``, the
         :class:`ElasticForms` of the matrix, for the displacement space and the rigid motions of the AMG;
         ``linear_tol`` its relative tolerance, ``linear_maxit`` its iteration limit per Newton step)."""
-        if linear not in ("direct", "iterative"):
-            raise ValueError(f"the contact solver's linear solver must be 'direct' or 'iterative', got {linear!r}")
+        if linear not in ("auto", "direct", "iterative", "condensed"):
+            raise ValueError(f"the contact solver's linear solver must be 'auto', 'direct', 'iterative' or "
+                             f"'condensed', got {linear!r}")
+        if linear == "condensed":
+            from . import pardiso
+            if not pardiso.available():
+                raise ValueError("the condensed contact solver needs oneMKL PARDISO: install the 'mkl' package")
         if linear == "iterative" and forms is None:
             raise ValueError("the iterative contact solver needs the elastic forms (forms=): the displacement space "
                              "and its rigid motions")
+        if linear == "auto":
+            from .contact_condensed import applicable
+            dim = 3 if any(op.Bt2 is not None for op, _ in interfaces) else 2
+            linear = "condensed" if applicable(dim) else "direct"
         self.linear = linear
         self.forms = forms
         self.linear_tol = linear_tol
         self.linear_maxit = linear_maxit
         self._modes = None                 # contact_krylov.near_null_space(forms), for the iterative solver's AMG
+        self._condensed = None             # contact_condensed.CondensedContact (linear="condensed")
         self.items = interfaces
         self.modulus = float(modulus)
         self.maxit = maxit
@@ -354,7 +383,23 @@ class ContactSolver:
         ``self.multipliers`` [(lam_n, lam_t)] (Pa).
 
         When the active-set iteration cycles on a problem with Coulomb interfaces, Coulomb friction is solved
-        again as a fixed point of Tresca problems (:meth:`_coulomb_by_tresca`)."""
+        again as a fixed point of Tresca problems (:meth:`_coulomb_by_tresca`).
+
+        ``linear="condensed"``: the problem condensed onto the contact surface (:mod:`.contact_condensed`); what it
+        cannot take goes to the sparse direct path below (``ContactInfo.condensed_fallback``)."""
+        if self.linear == "condensed" and not isinstance(matrix, np.ndarray):
+            from .contact_condensed import CondensedContact
+            if self._condensed is None:
+                self._condensed = CondensedContact(self)
+            out = self._condensed.solve(matrix, rhs, free, x0, where)
+            if out is not None:
+                return out
+            u, info = self._solve_any(matrix, rhs, free, x0, where)
+            info.condensed_fallback = True
+            return u, info
+        return self._solve_any(matrix, rhs, free, x0, where)
+
+    def _solve_any(self, matrix, rhs, free, x0, where: str) -> tuple[np.ndarray, ContactInfo]:
         try:
             return self._solve_cold(matrix, rhs, free, x0, where)
         except _Cycling as exc:
@@ -447,8 +492,15 @@ class ContactSolver:
             absB = abs(it.Bn[:, :n])
             it.keep = it.keep & ((absB @ freef) > 1e-10 * (absB @ np.ones(n)))
         N = n + sum(it.blocks * it.m for it in ifs)
-        kr, kc, kv = (np.asarray(a) for a in matrix.COO())
-        kr, kc = kr.astype(np.int64), kc.astype(np.int64)
+        # a dense bulk (numpy, the condensed problem of .contact_condensed): the pattern holds the multiplier
+        # entries only, the steps eliminate the multipliers against one Cholesky factorization of the bulk
+        dense = isinstance(matrix, np.ndarray)
+        if dense:
+            kr = kc = np.zeros(0, dtype=np.int64)
+            kv = np.zeros(0)
+        else:
+            kr, kc, kv = (np.asarray(a) for a in matrix.COO())
+            kr, kc = kr.astype(np.int64), kc.astype(np.int64)
         f = np.where(free, np.asarray(rhs, dtype=float), 0.0)   # (fixed dofs: their load is the support's)
         if not np.all(np.isfinite(f)):
             bad = int(np.count_nonzero(~np.isfinite(f)))
@@ -467,8 +519,18 @@ class ContactSolver:
                 mask |= np.any(np.abs(body.modes) > 0, axis=1)
             reg_dofs = np.where(mask & free)[0].astype(np.int64)
             diag = np.zeros(n)
-            np.add.at(diag, kr[kr == kc], kv[kr == kc])
-            eps = 1e-10 * float(np.mean(np.abs(diag[reg_dofs]))) if len(reg_dofs) else 0.0
+            if dense:
+                diag = np.diag(matrix).copy()
+            else:
+                np.add.at(diag, kr[kr == kc], kv[kr == kc])
+            eps = (DENSE_SHIFT if dense else 1e-10) * float(np.mean(np.abs(diag[reg_dofs]))) if len(reg_dofs) else 0.0
+        if dense and not len(reg_dofs):
+            # a dense bulk is eliminated by itself (_DenseStep): a rigid motion held only by the contact rows and
+            # not declared floating (a time step's matrix of a body on a foundation) would make S singular, so S
+            # gets the shift everywhere, and the refinement with the exact residual removes it as for the
+            # floating bodies
+            reg_dofs = np.where(free)[0].astype(np.int64)
+            eps = DENSE_SHIFT * float(np.mean(np.abs(np.diag(matrix)[reg_dofs]))) if len(reg_dofs) else 0.0
         rigid = np.hstack([bd.modes[:n] for bd in self.floating]) if self.floating else np.zeros((n, 0))
         x = np.zeros(N)
         x[:n] = x0
@@ -492,8 +554,14 @@ class ContactSolver:
         if pattern is not None and pattern.matches(N, kr, kc):
             pattern.set_bulk(n, kv, reg_dofs, eps)
         else:
-            pattern = self._pattern = _Pattern(n, N, kr, kc, kv, reg_dofs, eps, ifs, bulk=matrix)
+            pattern = self._pattern = _Pattern(n, N, kr, kc, kv, reg_dofs, eps, ifs, bulk=None if dense else matrix)
         mat = pattern.matrix
+        bulk = None
+        if dense:
+            shifted = np.array(matrix, dtype=float)
+            shifted[reg_dofs, reg_dofs] += eps
+            bulk = _DenseBulk(shifted, f"contact solve{' at ' + where if where else ''}")
+            mat = _DenseOperator(pattern.matrix, shifted)
         # the free unknowns are the same at every iteration: a fixed multiplier (open node, Tresca slip) has
         # an identity row, so consecutive matrices differ only in the rows of the nodes whose state changed
         freemask = np.zeros(N, dtype=bool)
@@ -503,7 +571,7 @@ class ContactSolver:
         freedofs = ngs.BitArray(freemask.tolist())
         factored = None      # (the inverse, the COO values it was computed from, cached solves, zero columns)
         hint_unheld = "a body is not held by its supports and the nodes in contact now"
-        bulk_symmetric = self.linear == "direct" and self.quasi_definite and _is_symmetric(matrix)
+        bulk_symmetric = not dense and self.linear != "iterative" and self.quasi_definite and _is_symmetric(matrix)
         what = f"contact solve{' at ' + where if where else ''}"
         it_nr = 0
         krylov = self._krylov(n, N, ifs, freemask) if self.linear == "iterative" else None
@@ -566,6 +634,8 @@ class ContactSolver:
             step = None
             if krylov is not None:
                 step = _KrylovStep(krylov, pattern, b, info, f"{what}, iteration {it_nr}", rigid, n)
+            elif bulk is not None:
+                step = _DenseStep(bulk, pattern, n, freemask)
             elif factored is not None:
                 rows = pattern.changed_rows(factored[1])
                 if not len(rows):                    # the factored matrix itself
@@ -1297,6 +1367,191 @@ class _KrylovStep:
         dx.FV().NumPy()[:] = self.krylov.solve(ra, self.ref, self.what)
         self.info.gmres_iterations.append(self.krylov.stats.iterations[-1])
         return True
+
+
+class _DenseBulk:
+    """A dense symmetric bulk matrix (the condensed problem's Schur complement S, shifted on the floating bodies'
+    dofs, or on all dofs when none is declared) factored once per solve (Cholesky; LU when round-off makes the
+    shifted S indefinite), with the solves S^-1 r_j^T of the multiplier rows r_j cached by their values (an exact
+    row -B_j keeps its values, so a node's column is computed once per solve)."""
+
+    def __init__(self, S: np.ndarray, what: str):
+        import scipy.linalg as sl
+        self.n = S.shape[0]
+        self._sl = sl
+        try:
+            self._fac, self._chol = sl.cho_factor(S, lower=True, check_finite=False), True
+        except np.linalg.LinAlgError:
+            self._fac, self._chol = sl.lu_factor(S, check_finite=False), False
+        if not np.all(np.isfinite(self._fac[0])):
+            raise SolverError(f"{what}: the condensed stiffness is not finite; check the material data")
+        self.cache: dict = {}
+        self._store: np.ndarray | None = None
+
+    def solve(self, B: np.ndarray) -> np.ndarray:
+        if self._chol:
+            return self._sl.cho_solve(self._fac, B, check_finite=False)
+        return self._sl.lu_solve(self._fac, B, check_finite=False)
+
+    def blocks(self, pattern, n: int, freemask: np.ndarray) -> dict:
+        """The sparse blocks C = M[:n, free multipliers], R = M[free multipliers, :n], D and C^T of the pattern
+        as matrices whose ``data`` is read from ``pattern.values`` at the stored positions (computed once per
+        solve: the pattern and the free multipliers do not change within it)."""
+        if getattr(self, "_blocks", None) is not None:
+            return self._blocks
+        M = pattern.csr()
+        T = sp.csr_matrix((np.arange(1.0, M.nnz + 1.0), M.indices, M.indptr), shape=M.shape)   # positions + 1
+        order = pattern._csr_order
+        idx = np.nonzero(freemask[n:])[0]
+        out = {"idx": idx}
+        for name, block in (("C", T[:n, n:][:, idx]), ("R", T[n:, :n][idx]), ("D", T[n:, n:][idx][:, idx]),
+                            ("CT", T[:n, n:][:, idx].T.tocsr())):
+            block = block.tocsr() if name != "C" else block.tocsc()
+            block.sort_indices()
+            out[name + "_pos"] = order[np.rint(block.data).astype(np.int64) - 1]
+            block.data = np.zeros(len(block.data))
+            out[name] = block
+        R = out["R"]
+        out["R_row"] = np.repeat(np.arange(R.shape[0]), np.diff(R.indptr))
+        self._blocks = out
+        return out
+
+    def row_solves(self, R: sp.csr_matrix, keys: list) -> np.ndarray:
+        """S^-1 R^T (n x rows) for the sparse rows ``R``, cached under ``keys`` (one per row) as the columns of
+        one growing array."""
+        missing = [k for k, key in enumerate(keys) if key not in self.cache]
+        if missing:
+            Y = self.solve(R[missing].toarray().T)
+            used = len(self.cache)
+            if self._store is None or used + len(missing) > self._store.shape[1]:
+                grown = np.empty((self.n, max(2 * (used + len(missing)), 64)))
+                if self._store is not None:
+                    grown[:, :used] = self._store[:, :used]
+                self._store = grown
+            self._store[:, used:used + len(missing)] = Y
+            for k, j in enumerate(missing):
+                self.cache[keys[j]] = used + k
+        if not keys:
+            return np.zeros((self.n, 0))
+        return self._store[:, [self.cache[key] for key in keys]]
+
+
+class _DenseOperator(ngs.BaseMatrix):
+    """The saddle-point matrix of a dense bulk: the pattern's sparse multiplier entries plus S in the top left
+    block (for the residuals of the refinement loop)."""
+
+    def __init__(self, sparse, S: np.ndarray):
+        super().__init__()
+        self.sparse, self.S, self.n = sparse, S, S.shape[0]
+
+    def IsComplex(self):
+        return False
+
+    def Height(self):
+        return self.sparse.height
+
+    def Width(self):
+        return self.sparse.width
+
+    def CreateColVector(self):
+        return self.sparse.CreateColVector()
+
+    def CreateRowVector(self):
+        return self.sparse.CreateRowVector()
+
+    def Mult(self, x, y):
+        y.data = self.sparse * x
+        y.FV().NumPy()[:self.n] += self.S @ x.FV().NumPy()[:self.n]
+
+
+class _DenseStep:
+    """A Newton step of a dense bulk (:class:`_DenseBulk`): M = [[S, C], [R, D]] solved by eliminating u,
+
+        (D - R S^-1 C) lam = r_m - R S^-1 r_u,    u = S^-1 r_u - S^-1 C lam,
+
+    where R S^-1 C = Y^T C has rows only for the multipliers coupled to u (the exact and penalty rows P, Y = S^-1
+    R_P^T from the cache), and the other free multipliers (Q: open nodes, slip rows) are eliminated through their
+    sparse block D_QQ first, leaving a dense system of the size of P. The columns C_P are the rows R_P transposed
+    for the exact rows of a symmetric problem, so S^-1 C_P comes from the same cache; S^-1 C_Q lam_Q is solved only
+    when nonzero. No factorization of the saddle-point matrix, so nothing to reuse or refine: the step is exact for
+    the shifted matrix."""
+
+    usable = True
+    exact = True
+    free_motions = None
+
+    def __init__(self, bulk: _DenseBulk, pattern, n: int, freemask: np.ndarray):
+        import scipy.linalg as sl
+        import scipy.sparse.linalg as spla
+        self.bulk, self.n = bulk, n
+        blocks = bulk.blocks(pattern, n, freemask)
+        data = pattern.values
+        idx, Cm, Rm, Dm = blocks["idx"], blocks["C"], blocks["R"], blocks["D"]
+        self.idx = idx
+        Cm.data = data[blocks["C_pos"]]
+        Rm.data = data[blocks["R_pos"]]
+        Dm.data = data[blocks["D_pos"]]
+        coupled = np.bincount(blocks["R_row"], weights=(Rm.data != 0.0), minlength=len(idx)) > 0
+        P, Q = np.nonzero(coupled)[0], np.nonzero(~coupled)[0]
+        self.P, self.Q, self.Rm = P, Q, Rm
+        RP = Rm[P]
+        CP = blocks["CT"][P]
+        CP.data = data[blocks["CT_pos"]][_rows_entries(blocks["CT"], P)]
+        keys_r = [_row_key(idx[p], RP, k) for k, p in enumerate(P)]
+        keys_c = [_row_key(idx[p], CP, k) for k, p in enumerate(P)]
+        Y = bulk.row_solves(RP, keys_r)                                         # S^-1 R_P^T
+        self.Z = Y if keys_c == keys_r else bulk.row_solves(CP, keys_c)         # S^-1 C_P
+        self.C_Q = Cm[:, Q] if len(Q) else None
+        YC = (Cm.T @ Y).T                                   # Y^T C = R_P S^-1 C (|P| x free multipliers)
+        G_P = Dm[P].toarray() - YC
+        self.G_PP, G_PQ = G_P[:, P], G_P[:, Q]
+        self.lu_QQ, self.G_QP, self.G_PQ = None, None, G_PQ
+        H = self.G_PP
+        if len(Q):
+            DQ = Dm[Q]
+            self.lu_QQ = spla.splu(DQ[:, Q].tocsc())
+            G_QP = DQ[:, P].tocsc()
+            G_QP.eliminate_zeros()
+            if G_QP.nnz and len(P):
+                self.G_QP = G_QP
+                H = self.G_PP - G_PQ @ self.lu_QQ.solve(G_QP.toarray())
+        self.H_lu = sl.lu_factor(H, check_finite=False) if len(P) else None
+
+    def apply(self, r, dx) -> bool:
+        import scipy.linalg as sl
+        n, P, Q = self.n, self.P, self.Q
+        ra = r.FV().NumPy()
+        z = self.bulk.solve(ra[:n])
+        t = ra[n:][self.idx] - self.Rm @ z
+        lam = np.zeros(len(self.idx))
+        wQ = self.lu_QQ.solve(t[Q]) if len(Q) else np.zeros(0)
+        if len(P):
+            lam[P] = sl.lu_solve(self.H_lu, t[P] - self.G_PQ @ wQ if len(Q) else t[P], check_finite=False)
+        if len(Q):
+            lam[Q] = self.lu_QQ.solve(t[Q] - self.G_QP @ lam[P]) if self.G_QP is not None else wQ
+        out = dx.FV().NumPy()
+        out[:] = 0.0
+        u = z - self.Z @ lam[P]
+        cq = self.C_Q @ lam[Q] if len(Q) and np.any(lam[Q] != 0.0) else None
+        if cq is not None and np.any(cq != 0.0):
+            u -= self.bulk.solve(cq)
+        out[:n] = u
+        out[n:][self.idx] = lam
+        return True
+
+
+def _rows_entries(A: sp.csr_matrix, rows: np.ndarray) -> np.ndarray:
+    """The positions in ``A.data`` of the entries of ``rows`` (in order), i.e. of A[rows].data."""
+    starts, ends = A.indptr[rows], A.indptr[np.asarray(rows) + 1]
+    if not len(starts):
+        return np.zeros(0, dtype=np.int64)
+    return np.concatenate([np.arange(a, b) for a, b in zip(starts, ends)]).astype(np.int64)
+
+
+def _row_key(j: int, A: sp.csr_matrix, k: int) -> tuple:
+    """A cache key of row ``k`` of ``A`` (the multiplier ``j``'s row or column): its index and its entries."""
+    lo, hi = A.indptr[k], A.indptr[k + 1]
+    return int(j), A.indices[lo:hi].tobytes(), A.data[lo:hi].tobytes()
 
 
 class _Fresh:

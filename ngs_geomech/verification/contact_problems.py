@@ -268,7 +268,7 @@ def patch_test(p: float = 1e6, *, h_lower: float = 0.1, h_upper: float = 0.07, o
 def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio: float = 0.7,
                        p_top: float = 5e6, L: float = 1.0, H: float = 0.5, h_ratio: float = 0.7,
                        E: float = 10e9, nu: float = 0.25, solver_factory=None,
-                       return_system: bool = False, linear: str = "direct") -> dict:
+                       return_system: bool = False, linear: str = "auto") -> dict:
     """Two elastic blocks with Coulomb friction, plane strain: a lower block [0, L] x [-H, 0] fixed at its base
     (u = 0 on y = -H) and an upper block [0, L] x [0, H] on it, meshed independently (non-matching meshes,
     sizes ``h`` below and ``h_ratio`` x ``h`` above, as :func:`patch_test`). The upper block is held by the
@@ -290,8 +290,9 @@ def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio
     floating=)`` builds the solver (default :class:`ContactSolver`; e.g.
     :class:`ngs_geomech.solvers.contact_uzawa.UzawaSolver`: then "iterations" counts its outer steps and
     "inner_iterations" the active set iterations of its frictionless subproblems, 0 for ContactSolver).
-    ``linear``: the default solver's Newton-step solver ("direct" or "iterative": GMRES, then the result also has
-    "gmres", the iterations per Newton-step solve, and "u", "lam_n", "lam_t")."""
+    ``linear``: the default solver's Newton-step solver (ContactSolver(linear=): "auto", "direct", "condensed" or
+    "iterative": GMRES, then the result also has "gmres", the iterations per Newton-step solve, and "u", "lam_n",
+    "lam_t")."""
     mesh = _stacked_blocks(L, H, -H, h, h_ratio * h, order,
                            {"lower": ("lower_side", "lower_side"), "upper": ("left", "right")})
     props = _props(E, nu, ["lower", "upper"])
@@ -327,7 +328,7 @@ def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio
 
 def punch_3d(h: float, order: int = 1, *, law: str = "coulomb", friction: float = 0.3, g_c: float = 1e6,
              ratio: float = 0.7, p_top: float = 5e6, E: float = 10e9, nu: float = 0.25, h_ratio: float = 0.7,
-             linear: str = "direct", linear_tol: float | None = None, linear_maxit: int = 3000) -> dict:
+             linear: str = "auto", linear_tol: float | None = None, linear_maxit: int = 3000) -> dict:
     """A punch [0.2, 0.8]^2 x [0, 0.3] (m) on a block [0, 1]^2 x [-0.5, 0] fixed at its base (u = 0 on z = -0.5),
     meshed independently (sizes ``h`` and ``h_ratio`` x ``h``: non-matching), contact on the punch's bottom
     (its multipliers) against the block's top. The punch is held by the contact alone: the pressure ``p_top`` on
@@ -335,7 +336,7 @@ def punch_3d(h: float, order: int = 1, *, law: str = "coulomb", friction: float 
     capacity (Coulomb F_c p_top A, Tresca g_c A, A = 0.36 m^2; frictionless: no push, so the punch's horizontal
     translations and rotation about z are held by nothing and fixed by the solver's shift). The push and its
     moment give a slip zone under the pushed side and a stick zone behind it. ``linear``: the contact solver's
-    Newton-step solver ("direct" or "iterative").
+    Newton-step solver ("auto": direct in 3D, "direct" or "iterative").
 
     Returns {"ndof", "nodes" (multiplier nodes), "iterations", "factorizations", "gmres" (GMRES iterations per
     Newton-step solve), "wall_s", "active", "stick", "slip", "normal_force" (int lam_n dA, N), "load"

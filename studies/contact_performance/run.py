@@ -180,6 +180,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 import gc
 import math
 import time
@@ -189,21 +190,25 @@ import ngsolve as ngs
 import numpy as np
 import scipy.linalg  # noqa: F401  (loads scipy's OpenBLAS before single_threaded_blas; linprog uses it)
 import scipy.optimize  # noqa: F401
+import scipy.sparse as sp
 
 from ngs_geomech.elastic_materials import isotropic
+from ngs_geomech.solvers import pardiso
 from ngs_geomech.solvers.contact_uzawa import UzawaSolver
 from ngs_geomech.verification import contact_problems as cp
 from ngs_geomech.verification.study import convergence_entry, metrics_lines, one_ngsolve_thread, study_cli, study_main
 
 STUDY = "contact_performance"
 LEVELS = {
-    0: {"hertz_k": (0, 1, 2, 3), "blocks_h": (0.16, 0.08, 0.04), "uzawa_h": (0.16, 0.08)},
-    1: {"hertz_k": (0, 1, 2, 3, 4, 5), "blocks_h": (0.16, 0.08, 0.04, 0.02, 0.01), "uzawa_h": (0.16, 0.08, 0.04)},
+    0: {"hertz_k": (0, 1, 2, 3), "blocks_h": (0.16, 0.08, 0.04), "uzawa_h": (0.16, 0.08), "repeats": 1},
+    1: {"hertz_k": (0, 1, 2, 3, 4, 5), "blocks_h": (0.16, 0.08, 0.04, 0.02, 0.01), "uzawa_h": (0.16, 0.08, 0.04),
+        "repeats": 3},
     2: {"hertz_k": (0, 1, 2, 3, 4, 5), "blocks_h": (0.16, 0.08, 0.04, 0.02, 0.01),
-        "uzawa_h": (0.16, 0.08, 0.04, 0.02)},
+        "uzawa_h": (0.16, 0.08, 0.04, 0.02), "repeats": 3},
 }
 """Per level: the Hertz refinements k (h_contact = a/5 / 2^k, maxh = R/4 / 2^k), the block mesh sizes (m) of
-the Newton runs and those of the (slow) Uzawa runs."""
+the Newton runs and those of the (slow) Uzawa runs, and the cold contact solves and linear solves timed per
+mesh (the fastest of each kept: the machine is shared)."""
 ORDER = 2
 FRICTION = 0.3
 RATIO = 0.7
@@ -213,6 +218,8 @@ WARM_LOAD_FACTOR = 1.02
 UZAWA_RHO_FACTOR = 1.0
 UZAWA_TOL = 1e-10
 UZAWA_MAXIT = 3000
+LINEAR = "condensed" if pardiso.available() else "direct"
+"""The contact solver's linear algebra (ContactSolver(linear=)): the condensed solver when PARDISO is installed."""
 TARGET_NEWTON = 15
 TARGET_RATIO_FRICTIONLESS = 2.0
 TARGET_RATIO_COULOMB = 3.0
@@ -220,10 +227,12 @@ TARGET_RATIO_COULOMB = 3.0
 
 class _Timed:
     """A contact solver wrapper that also measures the CPU time of ``solve`` (process time: with one thread
-    the work done, whatever else runs on the machine) and keeps the solver for its multipliers."""
+    the work done, whatever else runs on the machine) and keeps the solver for its multipliers, and how it was
+    built (for the repeated cold solves)."""
 
     def __init__(self, factory, interfaces, **kw):
         self.inner = factory(interfaces, **kw)
+        self.factory, self.interfaces, self.kw = factory, interfaces, kw
         self.cpu_s = math.nan
 
     @property
@@ -244,11 +253,15 @@ def _factory(store: dict, base):
     return make
 
 
-def linear_solve_time(system: dict) -> dict:
-    """One linear elastic solve with the assembled K of a contact problem: factor K on the free dofs (NGSolve
-    sparsecholesky, and UMFPACK for comparison) and solve once for the load; the floating body's free dofs get
-    the contact solver's shift (1e-10 x their mean diagonal entry), without which K is singular. Returns wall
-    and CPU seconds (factor + solve) per method and the relative residual of the Cholesky solve."""
+def linear_solve_time(system: dict, repeats: int = 1) -> dict:
+    """One linear elastic solve with the assembled K of a contact problem: factor K on the free dofs and solve once
+    for the load, by NGSolve's sparsecholesky (the product's ElasticSolver), UMFPACK, and PARDISO's Cholesky with
+    its two orderings (minimum degree, METIS: :class:`ngs_geomech.solvers.pardiso.SchurFactorization` without a
+    Schur set, from K's COO as the condensed contact solver builds it); the floating body's free dofs get the
+    contact solver's shift (1e-10 x their mean diagonal entry), without which K is singular. Each is timed
+    ``repeats`` times and the fastest kept (the machine is shared). Returns wall and CPU seconds (factor + solve)
+    per method, "best" (the fastest of all: the reference of the ratios) and the relative residual of the
+    Cholesky solve."""
     K, free, f, x0 = system["matrix"], system["free"], np.asarray(system["rhs"]), system["x0"]
     n = len(x0)
     kr, kc, kv = (np.asarray(a) for a in K.COO())
@@ -272,19 +285,42 @@ def linear_solve_time(system: dict) -> dict:
     r.data = A * x
     r.FV().NumPy()[:] = (f - r.FV().NumPy()) * free
     out = {"shift": eps}
-    for name in ("sparsecholesky", "umfpack"):
-        dx = A.CreateColVector()
-        t0, c0 = time.perf_counter(), time.process_time()
-        inv = A.Inverse(fd, inverse=name)
-        dx.data = inv * r
-        out[name] = {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
-        if name == "sparsecholesky":
-            y = A.CreateColVector()
-            y.data = x + dx
-            res = A.CreateColVector()
-            res.data = A * y
-            out["residual"] = float(np.linalg.norm((f - res.FV().NumPy()) * free) / np.linalg.norm(f * free))
-        del inv
+
+    def keep(name, wall, cpu):
+        old = out.get(name)
+        if old is None or wall < old["wall_s"]:
+            out[name] = {"wall_s": wall, "cpu_s": cpu}
+
+    for _ in range(repeats):
+        for name in ("sparsecholesky", "umfpack"):
+            dx = A.CreateColVector()
+            gc.collect()
+            t0, c0 = time.perf_counter(), time.process_time()
+            inv = A.Inverse(fd, inverse=name)
+            dx.data = inv * r
+            keep(name, time.perf_counter() - t0, time.process_time() - c0)
+            if name == "sparsecholesky":
+                y = A.CreateColVector()
+                y.data = x + dx
+                res = A.CreateColVector()
+                res.data = A * y
+                out["residual"] = float(np.linalg.norm((f - res.FV().NumPy()) * free) / np.linalg.norm(f * free))
+            del inv
+        if pardiso.available():
+            for ordering in ("mmd", "metis"):
+                gc.collect()
+                t0, c0 = time.perf_counter(), time.process_time()
+                fi = np.nonzero(free)[0]
+                loc = np.full(n, -1, dtype=np.int64)
+                loc[fi] = np.arange(len(fi))
+                up = free[kr] & free[kc] & (kr <= kc)
+                U = sp.csr_matrix((kv[up], (loc[kr[up]], loc[kc[up]])), shape=(len(fi), len(fi)))
+                fac = pardiso.SchurFactorization(U, upper=True, ordering=ordering)
+                fac.solve(np.asarray(r.FV().NumPy())[fi])
+                keep(f"pardiso_{ordering}", time.perf_counter() - t0, time.process_time() - c0)
+                fac.close()
+    best = min((v for k, v in out.items() if isinstance(v, dict)), key=lambda v: v["wall_s"])
+    out["best"] = dict(best, name=next(k for k, v in out.items() if v is best))
     return out
 
 
@@ -293,16 +329,53 @@ def _pos(t: float) -> float:
     return max(t, 1e-9)
 
 
-def _row(r: dict, store: dict, lin: dict, wall_total: float) -> dict:
-    solver = store["solver"]
-    ch, um = lin["sparsecholesky"], lin["umfpack"]
+def _row(r: dict, store: dict, lin: dict, wall_total: float, cold: dict) -> dict:
+    """One level's figures: the cold contact solve (the fastest of the repeats, ``cold``) against the fastest linear
+    solve (``lin["best"]``), and against sparsecholesky and UMFPACK."""
+    ch, um, best = lin["sparsecholesky"], lin["umfpack"], lin["best"]
+    wall, cpu = cold["wall_s"], cold["cpu_s"]
     return {"ndof": r["ndof"], "iterations": r["iterations"], "factorizations": r["factorizations"],
-            "penalty_iterations": r["penalty_iterations"], "wall_s": r["wall_s"], "cpu_s": solver.cpu_s,
-            "linear_wall_s": ch["wall_s"], "linear_cpu_s": ch["cpu_s"], "umfpack_wall_s": um["wall_s"],
-            "umfpack_cpu_s": um["cpu_s"], "ratio": r["wall_s"] / _pos(ch["wall_s"]),
-            "ratio_cpu": solver.cpu_s / _pos(ch["cpu_s"]), "ratio_umfpack": r["wall_s"] / _pos(um["wall_s"]),
-            "linear_residual": lin["residual"],
+            "penalty_iterations": r["penalty_iterations"], "wall_s": wall, "cpu_s": cpu,
+            "wall_samples_s": cold["samples"], "linear": best["name"],
+            "linear_wall_s": best["wall_s"], "linear_cpu_s": best["cpu_s"],
+            "sparsecholesky_wall_s": ch["wall_s"], "umfpack_wall_s": um["wall_s"],
+            "pardiso_wall_s": min((lin[k]["wall_s"] for k in ("pardiso_mmd", "pardiso_metis") if k in lin),
+                                  default=math.nan),
+            "ratio": wall / _pos(best["wall_s"]), "ratio_cpu": cpu / _pos(best["cpu_s"]),
+            "ratio_sparsecholesky": wall / _pos(ch["wall_s"]), "ratio_umfpack": wall / _pos(um["wall_s"]),
+            "linear_residual": lin["residual"], "condensed_dofs": cold["condensed_dofs"],
+            "candidate_passes": cold["candidate_passes"], "fallback": cold["fallback"],
             "run_s": wall_total}
+
+
+def _cold_samples(store: dict, system: dict, first: dict, repeats: int) -> dict:
+    """The fastest of ``repeats`` cold solves (the first, ``first``, from the problem's own run; the others with a
+    fresh solver built alike): wall and CPU seconds, the samples, the condensed solver's figures."""
+    timed = store["solver"]
+    info = timed.inner.infos[-1]
+    walls, cpus = [first["wall_s"]], [timed.cpu_s]
+    for _ in range(repeats - 1):
+        solver = timed.factory(timed.interfaces, **timed.kw)
+        gc.collect()
+        c0 = time.process_time()
+        _, inf = solver.solve(system["matrix"], system["rhs"], system["free"], system["x0"], "again")
+        walls.append(inf.wall_s)
+        cpus.append(time.process_time() - c0)
+        del solver
+    k = int(np.argmin(walls))
+    return {"wall_s": walls[k], "cpu_s": cpus[k], "samples": walls, "condensed_dofs": info.condensed_dofs,
+            "candidate_passes": info.candidate_passes, "fallback": bool(info.condensed_fallback)}
+
+
+def _direct(store: dict, system: dict) -> dict:
+    """The same cold solve by the sparse direct path (ContactSolver(linear="direct")), for comparison."""
+    timed = store["solver"]
+    kw = dict(timed.kw, linear="direct")
+    solver = cp.ContactSolver(timed.interfaces, **kw)
+    gc.collect()
+    _, info = solver.solve(system["matrix"], system["rhs"], system["free"], system["x0"], "direct")
+    return {"direct_wall_s": info.wall_s, "direct_iterations": info.iterations,
+            "direct_factorizations": info.factorizations}
 
 
 def _loaded_openblas() -> list[str]:
@@ -341,18 +414,20 @@ def single_threaded_blas():
             setter(old)
 
 
-def _level(solve, extra) -> tuple[dict, list]:
+def _level(solve, extra, repeats: int = 1) -> tuple[dict, list]:
     """One level of the ssn runs: ``solve(solver_factory)`` returns the problem's dict with its "system", timed
     against one linear solve; the row (with ``extra(result)``) and the contact solver's multipliers."""
     t0 = time.perf_counter()
     store: dict = {}
-    r = solve(_factory(store, cp.ContactSolver))
+    r = solve(_factory(store, functools.partial(cp.ContactSolver, linear=LINEAR)))
     system = r.pop("system")
-    lin = linear_solve_time(system)
-    row = _row(r, store, lin, 0.0)
-    row.update(extra(r))
     multipliers = [np.array(v) for v in store["solver"].multipliers[0]]
+    cold = _cold_samples(store, system, r, repeats)
+    lin = linear_solve_time(system, repeats)
+    row = _row(r, store, lin, 0.0, cold)
+    row.update(extra(r))
     row.update(_warm(store["solver"], system, lin))
+    row.update(_direct(store, system))
     del r, store, lin
     gc.collect()
     row["run_s"] = time.perf_counter() - t0
@@ -368,17 +443,18 @@ def _warm(solver, system: dict, lin: dict) -> dict:
                            system["x0"], "warm")
     wall = time.perf_counter() - t0
     return {"warm_iterations": info.iterations, "warm_factorizations": info.factorizations, "warm_wall_s": wall,
-            "warm_ratio": wall / _pos(lin["sparsecholesky"]["wall_s"])}
+            "warm_ratio": wall / _pos(lin["best"]["wall_s"])}
 
 
 def _ratio_entry(name: str, rows: list) -> dict:
     """The convergence entry of the time ratios of a sequence of levels (no order expected)."""
     return convergence_entry(name, [row["h"] for row in rows], [row["ndof"] for row in rows],
                              [row["ratio"] for row in rows], None,
-                             note="contact solve wall time / one linear solve (sparsecholesky)",
+                             note="contact solve wall time / the fastest linear solve (factor + solve of K)",
                              **{key: [row[key] for row in rows] for key in
-                                ("wall_s", "linear_wall_s", "ratio_cpu", "cpu_s", "linear_cpu_s",
-                                 "umfpack_wall_s", "ratio_umfpack")})
+                                ("wall_s", "linear_wall_s", "linear", "ratio_cpu", "cpu_s", "linear_cpu_s",
+                                 "sparsecholesky_wall_s", "ratio_sparsecholesky", "pardiso_wall_s",
+                                 "umfpack_wall_s", "ratio_umfpack", "direct_wall_s", "condensed_dofs")})
 
 
 def run(level: int) -> tuple[dict, dict]:
@@ -408,7 +484,8 @@ def _run(level: int) -> tuple[dict, dict]:
                                                       return_system=True, solver_factory=factory),
                         lambda r, k=k: dict(k=k, h=a / 5 / 2 ** k, maxh=cp.R_HERTZ / 4 / 2 ** k,
                                             p0_rel_error=r["p0_rel_error"], a_error_over_h=r["a_error"] / r["h"],
-                                            force_balance=r["force_balance"], max_penetration=r["max_penetration"]))
+                                            force_balance=r["force_balance"], max_penetration=r["max_penetration"]),
+                        p["repeats"])
         timing[f"hertz_k{k}_s"] = row["run_s"]
         tables["hertz"].append(row)
     timing["hertz_s"] = time.perf_counter() - tic
@@ -433,7 +510,7 @@ def _run(level: int) -> tuple[dict, dict]:
                                   lambda r, h=h: dict(h=h, stick=r["stick"], slip=r["slip"], active=r["active"],
                                                       force_balance_n=r["force_balance_n"],
                                                       force_balance_t=r["force_balance_t"],
-                                                      max_penetration=r["max_penetration"]))
+                                                      max_penetration=r["max_penetration"]), p["repeats"])
         if h in p["uzawa_h"]:
             lam_ref[h] = multipliers
         timing[f"blocks_h{h:g}_s"] = row["run_s"]
@@ -509,6 +586,14 @@ def _run(level: int) -> tuple[dict, dict]:
     metrics["time_ratio_coulomb_cpu"] = bf["ratio_cpu"]
     metrics["time_ratio_frictionless_vs_umfpack"] = hf["ratio_umfpack"]
     metrics["time_ratio_coulomb_vs_umfpack"] = bf["ratio_umfpack"]
+    metrics["time_ratio_frictionless_vs_sparsecholesky"] = hf["ratio_sparsecholesky"]
+    metrics["time_ratio_coulomb_vs_sparsecholesky"] = bf["ratio_sparsecholesky"]
+    metrics["hertz_direct_wall_s_finest"] = hf["direct_wall_s"]
+    metrics["friction_direct_wall_s_finest"] = bf["direct_wall_s"]
+    metrics["hertz_condensed_dofs_finest"] = hf["condensed_dofs"]
+    metrics["friction_condensed_dofs_finest"] = bf["condensed_dofs"]
+    metrics["condensed_fallbacks"] = sum(row["fallback"] for row in hz + bl)
+    metrics["candidate_passes_max"] = max(row["candidate_passes"] for row in hz + bl)
     metrics["hertz_ndof_finest"] = hf["ndof"]
     metrics["friction_ndof_finest"] = bf["ndof"]
     metrics["hertz_factorizations_finest"] = hf["factorizations"]
@@ -545,25 +630,27 @@ def _targets(m: dict) -> list[str]:
 
 
 def _cols(row: dict) -> str:
-    return (f"{row['iterations']:4d} {row['factorizations']:4d} {row['wall_s']:7.2f} {row['cpu_s']:7.2f} "
-            f"{row['linear_wall_s']:6.3f} {row['ratio']:6.1f} {row['ratio_cpu']:6.1f} {row['umfpack_wall_s']:6.3f} "
-            f"{row['ratio_umfpack']:6.1f} {row['run_s']:6.1f} {row['warm_iterations']:4d} "
-            f"{row['warm_factorizations']:4d} {row['warm_ratio']:6.1f}")
+    return (f"{row['iterations']:4d} {row['factorizations']:4d} {row['condensed_dofs']:5d} {row['wall_s']:7.2f} "
+            f"{row['cpu_s']:7.2f} {row['linear_wall_s']:6.3f} {row['ratio']:6.2f} {row['ratio_cpu']:6.2f} "
+            f"{row['sparsecholesky_wall_s']:6.3f} {row['ratio_sparsecholesky']:6.2f} {row['direct_wall_s']:7.2f} "
+            f"{row['run_s']:6.1f} {row['warm_iterations']:4d} {row['warm_factorizations']:4d} "
+            f"{row['warm_ratio']:6.2f}")
+
+
+_HEAD = (f"{'Newt':>4} {'fact':>4} {'m_s':>5} {'wall':>7} {'cpu':>7} {'lin':>6} {'ratio':>6} {'r cpu':>6} "
+         f"{'sc':>6} {'r sc':>6} {'direct':>7} {'run':>6} {'wNwt':>4} {'wfac':>4} {'wratio':>6}")
 
 
 def tables_text(rows: dict) -> list[str]:
     """The per-level tables (Hertz, blocks, Uzawa) as text lines."""
-    lines = ["", "Hertz, frictionless, P2 (times in s; lin = one sparsecholesky factor + solve of K; umf = UMFPACK; "
-             f"w...: a warm solve at {WARM_LOAD_FACTOR:g} x the load from the converged sets)",
-             f"{'k':>2} {'h_c':>8} {'dofs':>7} {'p0 err':>9} {'Newt':>4} {'fact':>4} {'wall':>7} {'cpu':>7} "
-             f"{'lin':>6} {'ratio':>6} {'r cpu':>6} {'umf':>6} {'r umf':>6} {'run':>6} {'wNwt':>4} {'wfac':>4} "
-             f"{'wratio':>6}"]
+    lines = ["", f"Hertz, frictionless, P2 (solver {LINEAR!r}; times in s, the fastest of the repeats; m_s: condensed "
+             "dofs; lin = the fastest factor + solve of K; sc = NGSolve's sparsecholesky; direct: the sparse direct "
+             f"path; w...: a warm solve at {WARM_LOAD_FACTOR:g} x the load from the converged sets)",
+             f"{'k':>2} {'h_c':>8} {'dofs':>7} {'p0 err':>9} " + _HEAD]
     for row in rows["hertz"]:
         lines.append(f"{row['k']:2d} {row['h']:8.2e} {row['ndof']:7d} {row['p0_rel_error']:9.2e} " + _cols(row))
     lines += ["", f"two blocks, Coulomb F_c = {FRICTION:g}, push {RATIO:g} x capacity, P2 (stick / slip: nodes)",
-              f"{'h':>6} {'dofs':>7} {'stick':>5} {'slip':>5} {'Newt':>4} {'fact':>4} {'wall':>7} {'cpu':>7} "
-              f"{'lin':>6} {'ratio':>6} {'r cpu':>6} {'umf':>6} {'r umf':>6} {'run':>6} {'wNwt':>4} {'wfac':>4} "
-              f"{'wratio':>6}"]
+              f"{'h':>6} {'dofs':>7} {'stick':>5} {'slip':>5} " + _HEAD]
     for row in rows["blocks"]:
         lines.append(f"{row['h']:6.3f} {row['ndof']:7d} {row['stick']:5d} {row['slip']:5d} " + _cols(row))
     if rows["uzawa"]:
