@@ -235,6 +235,16 @@ class _Interface:
         return self.op.size
 
 
+def _drop_prescribed_nodes(ifs: list, free: np.ndarray, n: int) -> None:
+    """Take out of ``keep`` the nodes whose normal constraint involves only prescribed displacements (a
+    foundation's end node on a boundary with u_n given): its multiplier would be undetermined (1e21 Pa was
+    reported, balanced by an equal support reaction); the support carries that load."""
+    freef = np.asarray(free, dtype=float)
+    for it in ifs:
+        absB = abs(it.Bn[:, :n])
+        it.keep = it.keep & ((absB @ freef) > 1e-10 * (absB @ np.ones(n)))
+
+
 def _balance_slip(it, lam_t: np.ndarray, rigid: np.ndarray, n: int, imbalance: np.ndarray) -> np.ndarray:
     """2D, every active node of ``it`` slipping and the free rigid motions ``rigid`` unbalanced by ``imbalance``
     (rigid^T times the residual of the equilibrium rows): choose a node to stick and the slip directions of the
@@ -297,7 +307,7 @@ class ContactSolver:
     def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float,
                  maxit: int = 50, method: str = "ssn", floating=(), reuse_rows: int = 12,
                  quasi_definite: bool = True, linear: str = "auto", forms=None, linear_tol: float | None = None,
-                 linear_maxit: int = 3000):
+                 linear_maxit: int = 3000, check_solvable: bool = True):
         """``floating``: the semi-coercive bodies (:meth:`ElasticForms.floating_bodies`): their load is
         checked for solvability before any factorization, and their free dofs get a tiny diagonal shift in the
         factorization (the residual is always that of the exact system, so the converged solution is exact;
@@ -311,7 +321,9 @@ class ContactSolver:
         PARDISO is installed, else direct) or "iterative": every Newton step by GMRES with the
         augmented-Lagrangian AMG preconditioner of :mod:`.contact_krylov` (needs ``forms``, the
         :class:`ElasticForms` of the matrix, for the displacement space and the rigid motions of the AMG;
-        ``linear_tol`` its relative tolerance, ``linear_maxit`` its iteration limit per Newton step)."""
+        ``linear_tol`` its relative tolerance, ``linear_maxit`` its iteration limit per Newton step).
+        ``check_solvable``: False skips the check of the floating bodies' load (the condensed solver's inner
+        problem, whose caller checked it on all nodes)."""
         if linear not in ("auto", "direct", "iterative", "condensed"):
             raise ValueError(f"the contact solver's linear solver must be 'auto', 'direct', 'iterative' or "
                              f"'condensed', got {linear!r}")
@@ -332,6 +344,7 @@ class ContactSolver:
         self.linear_maxit = linear_maxit
         self._modes = None                 # contact_krylov.near_null_space(forms), for the iterative solver's AMG
         self._condensed = None             # contact_condensed.CondensedContact (linear="condensed")
+        self.check_solvable = check_solvable
         self.items = interfaces
         self.modulus = float(modulus)
         self.maxit = maxit
@@ -484,13 +497,7 @@ class ContactSolver:
         self._exact_cold = False
         n = len(x0)
         ifs = self._interfaces(n)
-        freef = np.asarray(free, dtype=float)
-        for it in ifs:
-            # a node whose normal constraint involves only prescribed displacements (a foundation's end node on a
-            # boundary with u_n given) cannot take part: its multiplier would be undetermined (1e21 Pa was
-            # reported, balanced by an equal support reaction); the support carries that load
-            absB = abs(it.Bn[:, :n])
-            it.keep = it.keep & ((absB @ freef) > 1e-10 * (absB @ np.ones(n)))
+        _drop_prescribed_nodes(ifs, free, n)
         N = n + sum(it.blocks * it.m for it in ifs)
         # a dense bulk (numpy, the condensed problem of .contact_condensed): the pattern holds the multiplier
         # entries only, the steps eliminate the multipliers against one Cholesky factorization of the bulk
@@ -509,7 +516,7 @@ class ContactSolver:
         info = ContactInfo()
         for it in ifs:
             it.flips[:] = 0
-        if self.floating:
+        if self.floating and self.check_solvable:
             self._check_solvable(ifs, f, where)
         reg_dofs = np.zeros(0, dtype=np.int64)
         eps = 0.0
@@ -518,19 +525,19 @@ class ContactSolver:
             for body in self.floating:
                 mask |= np.any(np.abs(body.modes) > 0, axis=1)
             reg_dofs = np.where(mask & free)[0].astype(np.int64)
-            diag = np.zeros(n)
-            if dense:
-                diag = np.diag(matrix).copy()
-            else:
-                np.add.at(diag, kr[kr == kc], kv[kr == kc])
-            eps = (DENSE_SHIFT if dense else 1e-10) * float(np.mean(np.abs(diag[reg_dofs]))) if len(reg_dofs) else 0.0
         if dense and not len(reg_dofs):
             # a dense bulk is eliminated by itself (_DenseStep): a rigid motion held only by the contact rows and
             # not declared floating (a time step's matrix of a body on a foundation) would make S singular, so S
             # gets the shift everywhere, and the refinement with the exact residual removes it as for the
             # floating bodies
             reg_dofs = np.where(free)[0].astype(np.int64)
-            eps = DENSE_SHIFT * float(np.mean(np.abs(np.diag(matrix)[reg_dofs]))) if len(reg_dofs) else 0.0
+        if len(reg_dofs):
+            if dense:
+                diag = np.diag(matrix)
+            else:
+                diag = np.zeros(n)
+                np.add.at(diag, kr[kr == kc], kv[kr == kc])
+            eps = (DENSE_SHIFT if dense else 1e-10) * float(np.mean(np.abs(diag[reg_dofs])))
         rigid = np.hstack([bd.modes[:n] for bd in self.floating]) if self.floating else np.zeros((n, 0))
         x = np.zeros(N)
         x[:n] = x0
@@ -1387,6 +1394,7 @@ class _DenseBulk:
             raise SolverError(f"{what}: the condensed stiffness is not finite; check the material data")
         self.cache: dict = {}
         self._store: np.ndarray | None = None
+        self._blocks: dict | None = None
 
     def solve(self, B: np.ndarray) -> np.ndarray:
         if self._chol:
@@ -1397,7 +1405,7 @@ class _DenseBulk:
         """The sparse blocks C = M[:n, free multipliers], R = M[free multipliers, :n], D and C^T of the pattern
         as matrices whose ``data`` is read from ``pattern.values`` at the stored positions (computed once per
         solve: the pattern and the free multipliers do not change within it)."""
-        if getattr(self, "_blocks", None) is not None:
+        if self._blocks is not None:
             return self._blocks
         M = pattern.csr()
         T = sp.csr_matrix((np.arange(1.0, M.nnz + 1.0), M.indices, M.indptr), shape=M.shape)   # positions + 1
@@ -1486,8 +1494,9 @@ class _DenseStep:
         self.bulk, self.n = bulk, n
         blocks = bulk.blocks(pattern, n, freemask)
         data = pattern.values
-        idx, Cm, Rm, Dm = blocks["idx"], blocks["C"], blocks["R"], blocks["D"]
+        idx = blocks["idx"]
         self.idx = idx
+        Cm, Rm, Dm = (blocks[k].copy() for k in ("C", "R", "D"))     # the structures shared by the solve's steps
         Cm.data = data[blocks["C_pos"]]
         Rm.data = data[blocks["R_pos"]]
         Dm.data = data[blocks["D_pos"]]
@@ -1504,9 +1513,8 @@ class _DenseStep:
         self.C_Q = Cm[:, Q] if len(Q) else None
         YC = (Cm.T @ Y).T                                   # Y^T C = R_P S^-1 C (|P| x free multipliers)
         G_P = Dm[P].toarray() - YC
-        self.G_PP, G_PQ = G_P[:, P], G_P[:, Q]
+        H, G_PQ = G_P[:, P], G_P[:, Q]
         self.lu_QQ, self.G_QP, self.G_PQ = None, None, G_PQ
-        H = self.G_PP
         if len(Q):
             DQ = Dm[Q]
             self.lu_QQ = spla.splu(DQ[:, Q].tocsc())
@@ -1514,7 +1522,7 @@ class _DenseStep:
             G_QP.eliminate_zeros()
             if G_QP.nnz and len(P):
                 self.G_QP = G_QP
-                H = self.G_PP - G_PQ @ self.lu_QQ.solve(G_QP.toarray())
+                H = H - G_PQ @ self.lu_QQ.solve(G_QP.toarray())
         self.H_lu = sl.lu_factor(H, check_finite=False) if len(P) else None
 
     def apply(self, r, dx) -> bool:

@@ -77,26 +77,15 @@ def applicable(dim: int) -> bool:
     return dim == 2 and pardiso.available()
 
 
-@dataclasses.dataclass
-class _Schur:
-    """A factorization of K_ff with the Schur set of one candidate set, for reuse by the next solves."""
-
-    key: tuple
-    fac: pardiso.SchurFactorization
-    values: np.ndarray
-    cols: np.ndarray          # the Schur dofs, numbers in X
-
-
 class CondensedContact:
     """The condensed solves of one :class:`.contact.ContactSolver` (``outer``), which keeps the laws, the
     settings, the warm-start sets (its interfaces) and the history."""
 
     def __init__(self, outer):
         self.outer = outer
-        self._schur: _Schur | None = None
+        self._schur: tuple | None = None     # (the Schur dofs as bytes, their SchurFactorization)
         self._inner = None
         self._inner_key = None
-        self.window = CANDIDATE_GAP
 
     # ------------------------------------------------------------------ candidate sets
     def _extent(self, op) -> float:
@@ -109,7 +98,7 @@ class CondensedContact:
         for it in ifs:
             op = it.op
             g = op.g0 / it.w
-            window = self.window * self._extent(op)
+            window = CANDIDATE_GAP * self._extent(op)
             keep = it.keep
             cand = np.zeros(it.m, dtype=bool)
             if keep.any():
@@ -161,16 +150,13 @@ class CondensedContact:
     def solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str):
         """(u, info) of the whole problem, or None when the condensed path cannot take it (the caller then
         solves it with the sparse path)."""
-        from .contact import ContactInfo, _is_symmetric
+        from .contact import _drop_prescribed_nodes, _is_symmetric
         outer = self.outer
         tic = time.perf_counter()
         n = len(x0)
         ifs = outer._interfaces(n)
         free = np.asarray(free, dtype=bool)
-        freef = free.astype(float)
-        for it in ifs:
-            absB = abs(it.Bn[:, :n])
-            it.keep = it.keep & ((absB @ freef) > 1e-10 * (absB @ np.ones(n)))
+        _drop_prescribed_nodes(ifs, free, n)
         f = np.where(free, np.asarray(rhs, dtype=float), 0.0)
         if not np.all(np.isfinite(f)) or not _is_symmetric(matrix):
             return None          # the sparse path names the bad load; an unsymmetric K is not for Cholesky
@@ -241,7 +227,7 @@ class CondensedContact:
         for it in ifs:
             gap = (it.op.g0 + it.Bn[:, :n] @ u) / it.w
             pen = max(pen, float(np.max(-gap[it.keep], initial=0.0)))
-        info = dataclasses.replace(info) if isinstance(info, ContactInfo) else info
+        info = dataclasses.replace(info)            # the inner solver's record stays as it was
         info.max_penetration = pen
         info.factorizations += factorizations
         info.condensed_dofs = len(cols)
@@ -254,22 +240,21 @@ class CondensedContact:
         """PARDISO's factorization of K_ff (``Kff``: its upper triangle) with the Schur set ``cols`` (numbers in
         X): reused when the pattern and the set are the last solve's (only the numeric phase when the values
         changed, nothing when they did not). Returns (the factorization, 1 when factored now else 0)."""
-        key = (Kff.shape[0], Kff.nnz, cols.tobytes())
-        last = self._schur
+        key = cols.tobytes()
         what = f"condensed contact solve{' at ' + where if where else ''}"
-        Kff.sort_indices()
-        if (last is not None and last.key == key and np.array_equal(Kff.indptr, last.fac._ia)
-                and np.array_equal(Kff.indices, last.fac._ja)):
-            if np.array_equal(Kff.data, last.values):
-                return last.fac, 0
-            last.fac.factor(Kff, upper=True)
-            last.values = Kff.data.copy()
-            return last.fac, 1
-        if last is not None:
-            last.fac.close()
+        if self._schur is not None and self._schur[0] == key:
+            fac = self._schur[1]
+            state = fac.compare(Kff, upper=True)
+            if state == "same":
+                return fac, 0
+            if state == "values":
+                fac.factor(Kff, upper=True)
+                return fac, 1
+        if self._schur is not None:
+            self._schur[1].close()
             self._schur = None
         fac = pardiso.SchurFactorization(Kff, loc[cols], what=what, upper=True)
-        self._schur = _Schur(key, fac, np.array(fac._a), cols)
+        self._schur = (key, fac)
         return fac, 1
 
     def _inner_solver(self, ifs, cands, cols: np.ndarray, n: int, x0: np.ndarray, free: np.ndarray):
@@ -296,9 +281,11 @@ class CondensedContact:
             items.append((dataclasses.replace(op, Bn=cut(op.Bn), Bt=cut(op.Bt), Bt2=cut(op.Bt2), g0=g0,
                                               coverage=np.where(cand & it.keep, op.coverage, 0.0)), law))
         floating = [FloatingBody(b.regions, b.names, b.modes[:n][cols]) for b in outer.floating]
+        # its dense bulk selects the dense steps; the solvability of the load was checked on all nodes (the outer
+        # solver), the candidate nodes alone could wrongly refuse it
         inner = ContactSolver(items, modulus=outer.modulus, maxit=outer.maxit, method=outer.method,
                               floating=floating, reuse_rows=outer.reuse_rows, quasi_definite=outer.quasi_definite,
-                              linear="direct")         # its dense bulk selects the dense steps
+                              linear="direct", check_solvable=False)
         self._inner, self._inner_key = inner, key
         return inner
 

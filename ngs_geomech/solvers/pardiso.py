@@ -41,7 +41,8 @@ ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering pro
 
 
 def _library():
-    """The oneMKL runtime library (``mkl_rt``) or None: from the ``mkl`` wheel's files, else the system's."""
+    """The oneMKL runtime library (``mkl_rt``) or None: from the ``mkl`` wheel's files, else the system's (the
+    lookup NGSolve does in ``ngsolve.solvers.mkl_pardiso._find_mkl``, whose handle is private to it)."""
     global _LIB, _TRIED
     if _TRIED:
         return _LIB
@@ -119,8 +120,7 @@ class SchurFactorization:
         U = _upper(A, upper)
         self._ia = U.indptr.astype(np.int32)
         self._ja = U.indices.astype(np.int32)
-        self._a = np.ascontiguousarray(U.data, dtype=float)
-        self._upper = U
+        self._a = np.array(U.data, dtype=float)            # PARDISO's own copy of the values (never the caller's)
         self.schur = np.asarray(schur, dtype=np.int64)
         self.m = len(self.schur)
         self._perm = np.zeros(n, dtype=np.int32)
@@ -150,14 +150,21 @@ class SchurFactorization:
         if err.value:
             raise SolverError(f"{self.what}: PARDISO phase {phase} failed ({ERRORS.get(err.value, err.value)})")
 
+    def compare(self, A: sp.spmatrix, upper: bool = False) -> str:
+        """How ``A`` (``upper``: its upper triangle already) differs from the factored matrix: "same", "values"
+        (the same pattern, other values: :meth:`factor` takes it) or "pattern"."""
+        U = _upper(A, upper)
+        if not (U.nnz == len(self._a) and np.array_equal(U.indptr, self._ia) and np.array_equal(U.indices, self._ja)):
+            return "pattern"
+        return "same" if np.array_equal(U.data, self._a) else "values"
+
     def factor(self, A: sp.spmatrix | None = None, upper: bool = False) -> None:
         """The numeric factorization (and the Schur complement) of ``A``'s values (None: the matrix given;
         ``upper``: ``A`` is the upper triangle already)."""
         if A is not None:
-            U = _upper(A, upper)
-            same = np.array_equal(U.indptr, self._ia) and np.array_equal(U.indices, self._ja)
-            if U.nnz != len(self._a) or not same:
+            if self.compare(A, upper) == "pattern":
                 raise ValueError("SchurFactorization.factor: the matrix has another sparsity pattern")
+            U = _upper(A, upper)
             self._a[:] = U.data
         out = np.zeros(self.m * self.m) if self.m else np.zeros(1)
         self._call(22, np.zeros(1), out)
