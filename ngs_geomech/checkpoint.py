@@ -3,14 +3,19 @@ step, writing it, and restoring a run from it (the file format is :mod:`ngs_geom
 
 The state after step k (time t_k): the heat GridFunction vector (temperature and the mortar multipliers;
 the old state is a copy of it at the start of the next step) or, in a scene with phase change, the Stefan
-solver's nodal enthalpy (with its predictor rate and the melted volume, latent heat, energy and Newton
-histories), the mechanics GridFunction vector (at the last
-output step), the contact solvers' active/stick/slip sets (a warm start: the next solve starts from them as
-in an uninterrupted run), the probe series, the Newton iteration and interface heat flow histories, the
+solver's state (:meth:`StefanSolver.capture`: the nodal enthalpy, its predictor rate and what its Newton matrix
+was factored from, with the correction rows solved since, so that the resumed Newton steps reuse the same
+factorization; with the melted volume, latent heat, energy and Newton histories), the mechanics GridFunction
+vector (at the last output step), the contact solvers' warm start (:meth:`ContactSolver.capture`: the
+active/stick/slip sets, slip signs and directions; the next solve starts from them as in an uninterrupted run),
+the probe series, the Newton iteration and interface heat flow histories, the
 mechanics solve histories, the VTK and contact series entries written so far, the time step schedule
 (where it started and with which dt, so the remaining steps are the same ones) and the scene and mesh
 sizes the checkpoint belongs to. :meth:`RunState.capture` after every completed step copies the vectors and
 notes the lengths of the (append-only) series, so that a failing step can still save the last good state.
+Everything a next step depends on is restored, so a resumed run repeats the uninterrupted one to the last bit
+(with one NGSolve thread; the Stefan solver's window mode on large meshes adapts its width to measured times
+and is not repeatable even without an interruption).
 """
 
 from __future__ import annotations
@@ -171,7 +176,7 @@ class RunState:
             if self._mech_copy is None or self._mech_copy[0] != len(m.times):   # mechanics solved since
                 mech_arrays = {"mechanics": np.array(m.forms.gf.vec.FV().NumPy())}
                 if m.contact_output is not None:
-                    mech_arrays.update(_warm_state(m.solver.contact, "warm"))
+                    mech_arrays.update({f"warm/{k}": v for k, v in m.solver.contact.capture().items()})
                 self._mech_copy = (len(m.times), mech_arrays)
             arrays.update(self._mech_copy[1])
             if m.contact_output is not None:
@@ -264,7 +269,8 @@ class RunState:
                 m.contact_output.latest = [
                     {k.split("/", 2)[2]: v for k, v in arrays.items() if k.startswith(f"latest/{i}/")}
                     for i in range(mm["contact_latest"])]
-                _set_warm_state(m.solver.contact, arrays, "warm", m.forms.X.ndof)
+                m.solver.contact.restore(m.forms.X.ndof, {k.split("/", 1)[1]: v for k, v in arrays.items()
+                                                          if k.startswith("warm/")})
         self.factorizations_before = int(meta["factorizations"])
         self.resumed = list(meta.get("resumed", [])) + [{"step": meta["step"], "time_s": meta["time_s"],
                                                           "at": time.strftime("%Y-%m-%dT%H:%M:%S")}]
@@ -278,51 +284,3 @@ def _plain(obj):
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     raise TypeError(f"not JSON serializable: {type(obj).__name__}")
-
-
-def _warm_state(solver, prefix: str) -> dict:
-    """The contact solver's sets from its last solve (ContactSolver: per interface the arrays of its state
-    and whether it converged; UzawaSolver: the last tangential multipliers and its inner solver). Best effort:
-    a solver without them gives nothing and the resumed run starts cold (same solution, other iteration counts).
-    """
-    out = {}
-    state = getattr(solver, "_state", None)
-    if state is not None:
-        for i, it in enumerate(state):
-            for key, val in vars(it).items():
-                if isinstance(val, np.ndarray):
-                    out[f"{prefix}/{i}/{key}"] = val.copy()
-    if isinstance(getattr(solver, "_converged", None), bool):
-        out[f"{prefix}/converged"] = np.array(solver._converged)
-    if isinstance(getattr(solver, "_last", None), np.ndarray):
-        out[f"{prefix}/last"] = solver._last.copy()
-    inner = getattr(solver, "inner", None)
-    if inner is not None:
-        out.update(_warm_state(inner, f"{prefix}/inner"))
-    return out
-
-
-def _set_warm_state(solver, arrays: dict, prefix: str, ndof: int) -> None:
-    items = {}
-    for key, val in arrays.items():
-        if key.startswith(prefix + "/"):
-            parts = key[len(prefix) + 1:].split("/")
-            if len(parts) == 2 and parts[0].isdigit():
-                items[(int(parts[0]), parts[1])] = val
-    if items and hasattr(solver, "_interfaces"):
-        try:
-            state = solver._interfaces(ndof)
-        except Exception:       # noqa: BLE001 - a warm start only
-            state = []
-        for (i, key), val in items.items():
-            if i < len(state):
-                cur = getattr(state[i], key, None)
-                if isinstance(cur, np.ndarray) and cur.shape == val.shape:
-                    setattr(state[i], key, val.astype(cur.dtype, copy=True))
-    if f"{prefix}/converged" in arrays and hasattr(solver, "_converged"):
-        solver._converged = bool(arrays[f"{prefix}/converged"])
-    if f"{prefix}/last" in arrays and hasattr(solver, "_last"):
-        solver._last = np.array(arrays[f"{prefix}/last"])
-    inner = getattr(solver, "inner", None)
-    if inner is not None:
-        _set_warm_state(inner, arrays, f"{prefix}/inner", ndof)

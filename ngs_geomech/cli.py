@@ -102,14 +102,16 @@ def _uncertainty_report(res: dict, out: str) -> str:
     lines = []
     for name, e in body["criteria"].items():
         unit = f" {e['unit']}" if e.get("unit") else ""
+        # the range over every finished sample and the margin taken from it, in every mode
+        covering = (f"range [{e['range'][0]:.6g}, {e['range'][1]:.6g}]{unit}"
+                    + (f", margin to the limit {e['margin_to_limit']:.4g}{unit}" if "margin_to_limit" in e else "")
+                    if "range" in e else "")
         if res["mode"] == "worst_scenario":
-            lines.append(f"  {name}: nominal {e['nominal']:.6g}, range [{e['range'][0]:.6g}, {e['range'][1]:.6g}]"
-                         f"{unit}" + (f", margin to the limit {e['margin_to_limit']:.4g}{unit}"
-                                      if "margin_to_limit" in e else ""))
+            lines.append(f"  {name}: nominal {e['nominal']:.6g}, {covering}")
         elif e.get("n"):
             ci = e["mean_ci"]
             lines.append(f"  {name}: mean {e['mean']:.6g}{unit} ({ci[0]:.6g} .. {ci[1]:.6g}), "
-                         f"5-95 % {e['quantiles']['q05']:.6g} .. {e['quantiles']['q95']:.6g}"
+                         f"5-95 % {e['quantiles']['q05']:.6g} .. {e['quantiles']['q95']:.6g}, {covering}"
                          + (f", P(> {e['limit']:g}) = {e['p_exceed']:.3g}" if "p_exceed" in e else ""))
     s = res["samples"]
     warn = f"; {s['failed']} samples FAILED (see results.json failed_samples)" if s["failed"] else ""

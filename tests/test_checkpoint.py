@@ -243,3 +243,38 @@ def test_kill_while_writing_a_checkpoint_leaves_the_previous_one(tmp_path, monke
     assert_same_output(reference[1], tmp_path / "DIR")
     a, b = reference[0].forms.gf.vec.FV().NumPy(), result.forms.gf.vec.FV().NumPy()
     assert np.linalg.norm(b - a) <= 1e-12 * np.linalg.norm(a)
+
+
+def test_stefan_run_with_growing_steps_resumes_to_the_last_bit(tmp_path, monkeypatch):
+    """Permafrost (phase change, dt growing 1.2x per step up to dt_max) stopped by a solver error after dt
+    reached dt_max, where the Newton matrix's factorization is reused over steps (Woodbury corrections): the
+    checkpoint keeps that reuse state, so the resumed run repeats the uninterrupted one to the last bit."""
+    from ngs_geomech.solvers.stefan import StefanSolver
+
+    sets = ["mesh.maxh=10", "time.end='15000 year'", "output.figures=false",
+            "output.vtk=false", "output.checkpoint_every=1000"]
+    ref = run("permafrost", tmp_path / "REF", overrides=sets, progress=False)
+    original = StefanSolver.step
+    calls = {"n": 0}
+
+    def step(self, t_old, t_new, extra_load=None):
+        calls["n"] += 1
+        if calls["n"] >= 30:            # every try from the 30th step on (the step halvings too)
+            raise SolverError("Stefan Newton step diverged (injected)")
+        return original(self, t_old, t_new, extra_load)
+    monkeypatch.setattr(StefanSolver, "step", step)
+    with pytest.raises(SolverError, match=r"The last good state \(step 29 of"):
+        run("permafrost", tmp_path / "DIR", overrides=sets, progress=False)
+    monkeypatch.undo()
+    cp = load_checkpoint(staging_of(tmp_path) / "checkpoint")
+    res = run("permafrost", tmp_path / "DIR", overrides=sets, progress=False, resume=True)
+    a, b = ref.summary, res.summary
+    year = 365.25 * 86400
+    dts = [t1 - t0 for t0, t1 in schedule(0.0, 15000 * year, 20 * year, 1.2, 250 * year)]
+    assert dts[13] < dts[14] == dts[29] == 250 * year         # the steps around the stop: dt_max
+    assert b["resumed"][0]["step"] == 29
+    assert np.array_equal(res.stefan.solver.e, ref.stefan.solver.e)
+    assert b["probe_series"] == a["probe_series"] and b["stefan"]["energy"] == a["stefan"]["energy"]
+    assert b["stefan"]["newton_iterations"] == a["stefan"]["newton_iterations"]
+    # what made it so: the factorization's data and the correction rows solved since it
+    assert "stefan/jacobian/d0" in cp.arrays and len(cp.arrays["stefan/jacobian/rows_nodes"]) > 0

@@ -107,17 +107,13 @@ def test_coupled_run_resumes_after_a_failed_step(tmp_path, monkeypatch):
     res = run_scene(scene_from_dict(data), tmp_path / "DIR", progress=False, resume=True)
     a = json.loads((tmp_path / "REF" / "summary.json").read_text())
     b = json.loads((tmp_path / "DIR" / "summary.json").read_text())
-    da, db = a["coupling"]["deformation_heat_per_step"], b["coupling"]["deformation_heat_per_step"]
-    # two uninterrupted runs of this scene differ by up to 1.9e-10 in the deformation heat of a step (measured
-    # 2026-11-26 with this code and with fda2e30: round-off of the threaded assembly, amplified by u_t of a slow
-    # motion), so 1e-10 failed at random
-    assert np.allclose(da, db, rtol=1e-9, atol=0)
-    ea, eb = ref.stefan.solver.e, res.stefan.solver.e
-    ua, ub = ref.mechanics.forms.gf.vec.FV().NumPy(), res.mechanics.forms.gf.vec.FV().NumPy()
-    print(f"\nresumed at step 12 of 20: |e - e_ref|/|e_ref| {np.linalg.norm(eb - ea) / np.linalg.norm(ea):.1e}, "
-          f"|u - u_ref|/|u_ref| {np.linalg.norm(ub - ua) / np.linalg.norm(ua):.1e}")
-    assert np.linalg.norm(eb - ea) <= 1e-10 * np.linalg.norm(ea)
-    assert np.linalg.norm(ub - ua) <= 1e-8 * np.linalg.norm(ua)
+    # the checkpoint restores the Stefan Newton matrix's reuse and the contact sets: the resumed run repeats the
+    # uninterrupted one to the last bit (one thread), contact iteration counts included
+    assert b["coupling"]["deformation_heat_per_step"] == a["coupling"]["deformation_heat_per_step"]
+    assert b["mechanics"]["contact"]["iterations_per_solve"] == a["mechanics"]["contact"]["iterations_per_solve"]
+    assert b["stefan"]["newton_iterations"] == a["stefan"]["newton_iterations"]
+    assert np.array_equal(res.stefan.solver.e, ref.stefan.solver.e)
+    assert np.array_equal(res.mechanics.forms.gf.vec.FV().NumPy(), ref.mechanics.forms.gf.vec.FV().NumPy())
 
 
 def test_coupling_stops_with_a_diagnosis_when_passes_run_out():

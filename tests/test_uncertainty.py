@@ -276,3 +276,46 @@ def test_a_dying_worker_stops_the_study_with_a_clear_error():
 
     with Runner("process", 1) as runner, pytest.raises(SolverError, match="--resume"):
         list(runner.as_completed(os._exit, [3]))
+
+
+def _two_criteria_slab() -> dict:
+    """The slab with a second probe (x = L/4: q x (L - x) / (2 k), largest where the peak is) and two criteria
+    searched in opposite senses: the quarter's max search passes points where the peak exceeds everything the
+    peak's own (min) search saw."""
+    from ngs_geomech.scene.parse import read_toml
+
+    raw = read_toml(SLAB)
+    raw["output"]["probes"].append({"name": "quarter", "point": [0.5, 0.125]})
+    raw["uncertainty"]["criteria"] = [
+        {"name": "peak_temperature", "summary": "probes.peak.max", "unit": "C", "sense": "min", "limit": 30.0},
+        {"name": "quarter_temperature", "summary": "probes.quarter.max", "unit": "C", "sense": "max",
+         "limit": 45.0}]
+    return raw
+
+
+@pytest.mark.parametrize("mode", ["worst_scenario", "monte_carlo"])
+def test_reported_range_covers_every_sample_and_gives_the_margin(tmp_path, mode):
+    """Each criterion's range covers its value at every finished sample (nominal, design, every criterion's
+    search), the margin to the limit is limit - max of that range, and results.json, table.md and the CLI
+    report say the same."""
+    from ngs_geomech.cli import _uncertainty_report
+
+    over = [f"uncertainty.mode={mode}", "uncertainty.samples=3", "uncertainty.vertices=no",
+            "uncertainty.max_local_iterations=1"]
+    res = run_uncertainty(_two_criteria_slab(), tmp_path / "r", overrides=over, executor="serial", progress=False,
+                          figures=False)
+    recs = [json.loads(x) for x in (tmp_path / "r" / "samples.jsonl").read_text().splitlines()[1:]]
+    table = (tmp_path / "r" / "table.md").read_text()
+    report = _uncertainty_report(res, str(tmp_path / "r"))
+    for name, limit in (("peak_temperature", 30.0), ("quarter_temperature", 45.0)):
+        v = [r["values"][name] for r in recs if r["status"] == "ok"]
+        e = res[mode]["criteria"][name]
+        print(mode, name, "range", e["range"], "samples", [min(v), max(v)], "margin", e["margin_to_limit"])
+        assert e["range"] == [min(v), max(v)] and e["range_samples"] == len(v) == len(recs)
+        assert e["margin_to_limit"] == limit - max(v)
+        assert f"{min(v):.6g} | {max(v):.6g} | {limit:.6g} | {limit - max(v):.6g}" in table
+        assert (f"range [{min(v):.6g}, {max(v):.6g}] C, margin to the limit {limit - max(v):.4g} C"
+                in report)
+    if mode == "worst_scenario":      # the case that hid the peak's largest value before
+        peak_max = res[mode]["criteria"]["peak_temperature"]["max_over_all_samples"]
+        assert peak_max["found_by"].startswith("quarter_temperature:max")

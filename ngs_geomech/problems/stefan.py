@@ -301,12 +301,9 @@ class StefanRun:
 
     # -- checkpoints --------------------------------------------------------------------------------------
     def capture(self) -> tuple[dict, dict]:
-        """Copies of the state vectors (the nodal enthalpy and the solver's predictor rate, when it has one) and
-        the lengths of the histories."""
-        arrays = {"stefan/enthalpy": np.array(self.solver.e, dtype=float)}
-        rate = getattr(self.solver, "_last_change", None)
-        if isinstance(rate, np.ndarray):
-            arrays["stefan/rate"] = rate.copy()
+        """The solver's state (:meth:`StefanSolver.capture`: the nodal enthalpy, the predictor rate, the Newton
+        matrix's reuse state) as ``stefan/...`` arrays and the lengths of the histories."""
+        arrays = {f"stefan/{k}": v for k, v in self.solver.capture().items()}
         return arrays, {"steps": len(self.iterations), "records": len(self.records["time_s"])}
 
     def meta(self, lengths: dict) -> dict:
@@ -320,9 +317,7 @@ class StefanRun:
                             "latent_heat_stored": {r: v[:k] for r, v in rec["latent_heat_stored"].items()}}}
 
     def restore(self, arrays: dict, meta: dict) -> None:
-        self.solver.set_initial_enthalpy(np.array(arrays["stefan/enthalpy"], dtype=float))
-        if "stefan/rate" in arrays and hasattr(self.solver, "_last_change"):
-            self.solver._last_change = np.array(arrays["stefan/rate"], dtype=float)
+        self.solver.restore({k.split("/", 1)[1]: v for k, v in arrays.items() if k.startswith("stefan/")})
         self.initial_heat = float(meta["initial_heat"])
         self.iterations[:] = [int(i) for i in meta["iterations"]]
         self.dirichlet_heat[:] = [float(v) for v in meta["dirichlet_heat"]]

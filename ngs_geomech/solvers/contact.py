@@ -391,6 +391,31 @@ class ContactSolver:
             it.slip = np.asarray(slip, dtype=bool) & it.active & ~it.stick
         self._converged = True
 
+    def capture(self) -> dict:
+        """The warm start of the next solve as plain arrays (a checkpoint's): per interface ``"i/name"`` its node
+        arrays (the active, stick and slip sets, slip signs and directions, the nodes kept, ...) and
+        ``"converged"``; {} before the first solve. The factorizations are not kept: the next solve factors
+        the same matrices again, which gives the same values."""
+        out = {}
+        for i, it in enumerate(self._state or []):
+            out.update({f"{i}/{key}": val.copy() for key, val in vars(it).items() if isinstance(val, np.ndarray)})
+        if self._state is not None:
+            out["converged"] = np.array(self._converged)
+        return out
+
+    def restore(self, ndof: int, state: dict) -> None:
+        """Start the next solve from a state of :meth:`capture` (``ndof``: the size of the displacement vector X),
+        as the solve after the captured one would in an uninterrupted run."""
+        items = [(key.split("/", 1), val) for key, val in state.items() if key.split("/", 1)[0].isdigit()]
+        if items:
+            ifs = self._interfaces(ndof)
+            for (i, key), val in items:
+                cur = getattr(ifs[int(i)], key, None) if int(i) < len(ifs) else None
+                if isinstance(cur, np.ndarray) and cur.shape == np.shape(val):
+                    setattr(ifs[int(i)], key, np.array(val, dtype=cur.dtype))
+        if "converged" in state:
+            self._converged = bool(np.ravel(state["converged"])[0])
+
     def solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str = "") -> tuple[np.ndarray, ContactInfo]:
         """The displacement vector (X) and the history; the multipliers per interface in
         ``self.multipliers`` [(lam_n, lam_t)] (Pa).

@@ -238,6 +238,20 @@ class UzawaSolver:
                               "one (one body sliding along its contacts): add supports or use ContactSolver")
         return R @ null[0]
 
+    def capture(self) -> dict:
+        """The warm start of the next solve as plain arrays: the last tangential multipliers (``"last"``) and the
+        inner solver's sets (``"inner/..."``, :meth:`ContactSolver.capture`)."""
+        out = {f"inner/{k}": v for k, v in self.inner.capture().items()}
+        if self._last is not None:
+            out["last"] = self._last.copy()
+        return out
+
+    def restore(self, ndof: int, state: dict) -> None:
+        """Start the next solve from a state of :meth:`capture`."""
+        if "last" in state:
+            self._last = np.array(state["last"], dtype=float)
+        self.inner.restore(ndof, {k.split("/", 1)[1]: v for k, v in state.items() if k.startswith("inner/")})
+
     def solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str = "") -> tuple[np.ndarray, UzawaInfo]:
         """The displacement vector (X) and the history; raises SolverError when the change of lam_t does not
         fall below ``tol`` in ``maxit`` steps or a floating body's tangential load exceeds the friction."""

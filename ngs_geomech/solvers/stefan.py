@@ -288,6 +288,9 @@ class _ColumnJacobian:
                 window: bool = True) -> None:
         """Factor M0 = M(d, w); ``recent`` (free nodes, bool): the nodes whose columns changed in the last cycle,
         around which the next changes are expected (the rows of v_i kept, see the class docstring)."""
+        # how M0 was made and the rows v_i solved since, in their batches: what :meth:`capture` keeps
+        self._made = (None if recent is None else recent.copy(), window)
+        self._batches: list[np.ndarray] = []
         offdiag = np.any(w != 0.0, axis=1)
         inA = offdiag.copy()
         for _ in range(self.HALO):
@@ -586,6 +589,45 @@ class _ColumnJacobian:
         self._slot[new] = np.arange(used, used + len(new))
         self._used = used + len(new)
         self.corrections += len(new)
+        self._batches.append(np.array(new, dtype=np.int64))
+
+    def capture(self) -> dict:
+        """The reuse state as plain arrays: the data M0 was factored from (d0, w0, dt0, the recent nodes, the
+        window flag; in window mode its width and the last solve's (d, w)) and the nodes whose rows v_i were
+        solved since, batch by batch. {} before the first factorization or when the stiffness changed since
+        (the next solve factors anew either way). :meth:`restore` factors the same M0 again and repeats the same
+        solves, so that the Newton steps after it are those of an uninterrupted run to the last bit (window
+        mode: up to its timing-based width adaptation, see the class docstring)."""
+        if self._d0 is None or self.version != self.forms.version:
+            return {}
+        recent, window = self._made
+        sizes = [len(b) for b in self._batches]
+        out = {"dt0": np.array(self.dt0), "d0": self._d0.copy(), "w0": self._w0.copy(), "window": np.array(window),
+               "rows_nodes": np.concatenate(self._batches) if sizes else np.zeros(0, dtype=np.int64),
+               "rows_batches": np.array(sizes, dtype=np.int64)}
+        if recent is not None:
+            out["recent"] = recent.copy()
+        if self._win is not None:
+            out["width"] = np.array(self._width if self._width is not None else self.WINDOW)
+            out["last_d"], out["last_w"] = self._last[0].copy(), self._last[1].copy()
+        return out
+
+    def restore(self, state: dict) -> None:
+        """The reuse state of :meth:`capture` (counted as one more factorization and the rows' solves)."""
+        if not state:
+            return
+        if self.version != self.forms.version:
+            self._load_stiffness()
+        if "width" in state:
+            self._width, self._cycle = int(np.ravel(state["width"])[0]), [0.0, 0.0]     # kept by _adapt_width
+        recent = np.asarray(state["recent"], dtype=bool) if "recent" in state else None
+        self._factor(np.asarray(state["d0"], dtype=float), np.asarray(state["w0"], dtype=float),
+                     float(np.ravel(state["dt0"])[0]), "the resumed state", recent, bool(np.ravel(state["window"])[0]))
+        if self._win is not None and "last_d" in state:
+            self._last = (np.asarray(state["last_d"], dtype=float), np.asarray(state["last_w"], dtype=float))
+        nodes = np.asarray(state["rows_nodes"], dtype=np.int64)
+        for batch in np.split(nodes, np.cumsum(state["rows_batches"])[:-1]) if len(state["rows_batches"]) else []:
+            self._add_rows(batch)
 
     def solve(self, mc: np.ndarray, wd: np.ndarray, w: np.ndarray, b: np.ndarray, dt: float,
               where: str) -> np.ndarray:
@@ -865,6 +907,13 @@ class _KrylovJacobian:
         self._form.mat.local_mat.AsVector().FV().NumPy()[:] = data
         return f.cumulate(diag)
 
+    def capture(self) -> dict:
+        """Nothing to keep: every solve builds its preconditioner from the current matrix."""
+        return {}
+
+    def restore(self, state: dict) -> None:
+        pass
+
     def solve(self, mc: np.ndarray, wd: np.ndarray, w: np.ndarray, b: np.ndarray, dt: float,
               where: str) -> np.ndarray:
         """Solve M x = b on the free nodes (arguments as :meth:`_ColumnJacobian.solve`, local free nodes, all
@@ -999,6 +1048,23 @@ class StefanSolver:
         self._state = state
         del self.iterations[n:]
         self.f.store(self.e)
+
+    def capture(self) -> dict:
+        """The state between steps as plain arrays: the enthalpy, the predictor rate and the Newton matrix's
+        reuse state (``jacobian/...``, :meth:`_ColumnJacobian.capture`)."""
+        out = {"enthalpy": np.array(self.e, dtype=float)}
+        if self._last_change is not None:
+            out["rate"] = self._last_change.copy()
+        out.update({f"jacobian/{k}": v for k, v in self.jac.capture().items()})
+        return out
+
+    def restore(self, state: dict) -> None:
+        """Continue from a state of :meth:`capture` (a checkpoint's; a missing rate or reuse state starts the
+        next step without them)."""
+        self.set_initial_enthalpy(np.array(state["enthalpy"], dtype=float))
+        if "rate" in state:
+            self._last_change = np.array(state["rate"], dtype=float)
+        self.jac.restore({k.split("/", 1)[1]: v for k, v in state.items() if k.startswith("jacobian/")})
 
     def temperature(self) -> np.ndarray:
         """Nodal temperatures of the current state, K."""

@@ -146,18 +146,10 @@ class Study:
                 res[sense] = worst.local_search(sampler, c.name, sense, start, h=u.fd_step,
                                                 max_iterations=u.max_local_iterations, scale=scale,
                                                 enabled=u.local_search).as_dict(self.space)
-            entry = {"nominal": nominal.values[c.name], "unit": c.unit, **res}
-            # the extremes over every finished sample (a later search may have passed a better point)
-            allv = [(s.values[c.name], s) for s in sampler.done.values() if s.ok and c.name in s.values]
-            hi = max(allv, key=lambda t: t[0])
-            lo = min(allv, key=lambda t: t[0])
-            entry["range"] = [lo[0], hi[0]]
-            entry["max_over_all_samples"] = {"value": hi[0], "parameters": hi[1].params, "found_by": hi[1].tag}
-            entry["min_over_all_samples"] = {"value": lo[0], "parameters": lo[1].params, "found_by": lo[1].tag}
-            if c.limit is not None:
-                entry["limit"] = c.limit
-                entry["margin_to_limit"] = c.limit - hi[0]
-            searches[c.name] = entry
+            searches[c.name] = {"nominal": nominal.values[c.name], "unit": c.unit, **res}
+        # the ranges only now: a later criterion's search may have passed a more extreme point of an earlier one
+        for c in u.criteria:
+            searches[c.name].update(covering_range(sampler.done.values(), c.name, c.limit))
         body["criteria"] = searches
         return body
 
@@ -212,6 +204,7 @@ class Study:
             est = stochastic.estimate(v, g, u.confidence, c.limit)
             est["unit"] = c.unit
             est["running"] = stochastic.running_mean(v, u.confidence)
+            est.update(covering_range(sampler.done.values(), c.name, c.limit))
             body["criteria"][c.name] = est
         return body
 
@@ -284,6 +277,24 @@ def run_uncertainty(scene: str | Path | dict, out: str | Path, *, overrides: lis
                                                     progress=progress, figures=figures)
 
 
+def covering_range(samples, name: str, limit: float | None) -> dict:
+    """The range of criterion ``name`` over every finished sample (the nominal one, the design, every search's
+    gradient and step points, those read from the log), the samples at its ends and, with a limit (an upper
+    one: the criterion must stay below it), the margin ``limit - max`` taken from that covering range."""
+    allv = [(s.values[name], s) for s in samples if s.ok and name in s.values]
+    if not allv:
+        return {}
+    lo = min(allv, key=lambda t: t[0])
+    hi = max(allv, key=lambda t: t[0])
+    out = {"range": [lo[0], hi[0]], "range_samples": len(allv),
+           "max_over_all_samples": {"value": hi[0], "parameters": hi[1].params, "found_by": hi[1].tag},
+           "min_over_all_samples": {"value": lo[0], "parameters": lo[1].params, "found_by": lo[1].tag}}
+    if limit is not None:
+        out["limit"] = limit
+        out["margin_to_limit"] = limit - hi[0]
+    return out
+
+
 def _check_settings(sc) -> list[Problem]:
     u = sc.uncertainty
     p: list[Problem] = []
@@ -341,8 +352,8 @@ def _table(results: dict) -> tuple[str, list[list]]:
                          e.get("margin_to_limit", ""), _params(hi["parameters"]), hi["found_by"],
                          _params(lo["parameters"]), lo["found_by"]])
     else:
-        head = ["criterion", "unit", "n", "mean", "ci_low", "ci_high", "std", "q05", "q50", "q95", "limit",
-                "p_exceed", "p_ci_low", "p_ci_high"]
+        head = ["criterion", "unit", "n", "mean", "ci_low", "ci_high", "std", "q05", "q50", "q95", "min", "max",
+                "limit", "margin", "p_exceed", "p_ci_low", "p_ci_high"]
         rows.append(head)
         for n, e in body["criteria"].items():
             if e.get("n", 0) == 0:
@@ -350,8 +361,9 @@ def _table(results: dict) -> tuple[str, list[list]]:
                 continue
             pci = e.get("p_exceed_ci", ["", ""])
             rows.append([n, e["unit"], e["n"], e["mean"], e["mean_ci"][0], e["mean_ci"][1], e["std"],
-                         e["quantiles"]["q05"], e["quantiles"]["q50"], e["quantiles"]["q95"], e.get("limit", ""),
-                         e.get("p_exceed", ""), pci[0], pci[1]])
+                         e["quantiles"]["q05"], e["quantiles"]["q50"], e["quantiles"]["q95"], e["range"][0],
+                         e["range"][1], e.get("limit", ""), e.get("margin_to_limit", ""), e.get("p_exceed", ""),
+                         pci[0], pci[1]])
     lines.append("| " + " | ".join(rows[0]) + " |")
     lines.append("|" + "---|" * len(rows[0]))
     for r in rows[1:]:
