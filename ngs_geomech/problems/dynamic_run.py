@@ -26,7 +26,7 @@ from ..physics.elasticity import ElasticForms, stress_measures
 from ..scene.model import Scene
 from ..solvers.dynamics import DynamicSolver, ViscousSolver, contact_switches
 from .contact import contact_specs, interface_results
-from .mechanics import elastic_setup, mechanics_warnings
+from .mechanics import elastic_setup, mechanics_warnings, watch_small_strain
 
 
 def viscous_properties(scene: Scene, props: dict[str, ElasticProperties]) -> dict[str, ViscousProperties]:
@@ -132,6 +132,7 @@ class DynamicsRun:
         if not np.all(np.isfinite(u)):
             raise SolverError(f"{self.kind} mechanics at {where}: the displacement is not finite; reduce the time "
                               "step")
+        watch_small_strain(self, where)
         if record:
             self.record(t)
 
