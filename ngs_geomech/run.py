@@ -58,7 +58,7 @@ from .problems.contact_output import ContactOutput
 from .problems.coupled import KELVIN, DeformationHeating, relative_change
 from .problems.dynamic_run import DynamicsRun
 from .problems.heat import heat_setup, initial_temperature
-from .problems.mechanics import elastic_setup, mechanics_warnings
+from .problems.mechanics import elastic_setup, mechanics_warnings, watch_small_strain
 from .problems.nested import NestedStart
 from .problems.stefan import StefanRun
 from .problems.stefan_adaptive import FrontFollowing
@@ -227,8 +227,9 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         timings["adaptivity_s"] = _time.perf_counter() - tic
     fields, heat, solver, T, stefan, mech, coupling = (phys.fields, phys.heat, phys.solver, phys.T, phys.stefan,
                                                        phys.mech, phys.coupling)
-    if show and mech is not None:
-        for w in mech.warnings:
+    shown = list(mech.warnings) if mech is not None else []
+    if show:
+        for w in shown:
             print(f"warning: {w}", flush=True)
     probes = ProbeSet(mesh, scene.output.probes, axi)
     timings["setup_s"] = _time.perf_counter() - tic
@@ -416,6 +417,10 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         counts = {"vertices": ngs.H1(mesh, order=1).ndofglobal, "elements": parallel.allsum(mesh, mesh.ne),
                   "ranks": comm.size, "elements_per_rank": parallel.allgather(mesh, mesh.ne)}
     thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity in THERMAL), [])
+    if show and mech is not None:             # the warnings of the solves (small-strain range)
+        for w in mech.warnings:
+            if w not in shown:
+                print(f"warning: {w}", flush=True)
     summary = {
         "scene": to_dict(scene),
         "versions": versions(),
@@ -764,13 +769,16 @@ class _Mechanics:
         if self.nested is not None:
             self.nested_solves.append(self.nested(self.forms, t, where))
         self.solver.solve(where)
+        watch_small_strain(self, where)
         if record:
             self.record(t)
 
     def adopt(self, old: _Mechanics) -> None:
         """Continue the histories of ``old`` (the same scene on the previous mesh: contact-zone following): the
-        times, the solves and the contact records (the factorizations are counted by the follower)."""
+        times, the solves, the warnings and the contact records (the factorizations are counted by the
+        follower)."""
         self.times = old.times
+        self.warnings[:] = old.warnings + [w for w in self.warnings if w not in old.warnings]
         self.solver.history[:0] = old.solver.history
         if self.contact_output is not None:
             self.contact_output.history[:0] = old.contact_output.history

@@ -54,6 +54,21 @@ def test_bar_frequency_orders_in_h_and_dt():
     assert abs(order_h - 2) < 0.15 and abs(order_dt - 2) < 0.15
 
 
+
+def test_base_driven_bar_energy_balance_counts_the_dirichlet_work():
+    """A bar driven at its base, u(0, t) = a sin(omega t) (a standing wave, :func:`vd.driven_bar`): the change of
+    the energy equals the work of the support's reaction on the prescribed displacement to round-off (Newmark,
+    rho_inf = 1), and that work converges to the closed form -rho A a^2 omega^2 tan(k L) sin^2(omega t) / (2 k)
+    with order 2 in h and dt together (measured 1.5e-2, 3.9e-3)."""
+    r = [vd.driven_bar(n, 5 * n) for n in (8, 16)]
+    def col(key):
+        return ", ".join(f"{x[key]:.2e}" for x in r)
+    print(f"driven bar, n = 8, 16: energy balance {col('balance_rel_error')}, Dirichlet work vs closed form "
+          f"{col('work_rel_error')}, tip {col('tip_rel_error')}")
+    assert all(x["balance_rel_error"] < 1e-10 for x in r)
+    assert r[1]["work_rel_error"] < 0.02 and r[1]["tip_rel_error"] < 5e-3
+    assert 3.5 < r[0]["work_rel_error"] / r[1]["work_rel_error"] < 4.5
+
 def test_generalized_alpha_damps_and_keeps_second_order():
     r1 = vd.bar_vibration(8, 8, periods=4)
     r5 = vd.bar_vibration(8, 8, periods=4, rho_inf=0.5)

@@ -245,6 +245,32 @@ def test_warning_for_non_monotone_lambda_law():
     assert any("non-monotone" in w for w in res.summary["warnings"])
 
 
+
+@pytest.mark.parametrize("youngs_modulus", [3.0, 30e9], ids=["3_Pa", "30_GPa"])
+def test_warning_when_the_displacement_leaves_the_small_strain_range(youngs_modulus, capsys):
+    """A 1 km block under gravity on a fixed base, solved at three output times: with E = 3 Pa (a unit slip)
+    the settlement is ~1e9 m, |grad u| ~ 1e7 >> 0.1: one warning naming the value and the region, printed
+    once on stdout and kept in the summary; with E = 30 GPa (settlement 0.03 m) none."""
+    blocks = [{"name": "rock", "shape": "rectangle", "origin": [0, -1000.0], "size": [1000.0, 1000.0],
+               "boundaries": {"base": "ymin", "left": "xmin", "right": "xmax"}}]
+    d = {"scene": {"name": "soft"}, "physics": {"mechanics": "static"}, "mesh": {"maxh": 500.0, "order": 1},
+         "blocks": blocks, "materials": {"rock": {"youngs_modulus": youngs_modulus, "poisson_ratio": 0.25,
+                                                  "density": 2500.0}},
+         "mechanics": {"gravity": [0.0, -9.81]}, "time": {"end": 2.0, "dt": 1.0},
+         "boundary_conditions": {"base": {"displacement": [0.0, 0.0]}, "left": {"symmetry": True},
+                                 "right": {"symmetry": True}},
+         "output": {"vtk": False, "figures": False}}
+    res = run(scene_from_dict(d), None, progress=True)
+    out = capsys.readouterr().out
+    found = [w for w in res.summary["warnings"] if "small-strain" in w]
+    print(f"\nE = {youngs_modulus:g} Pa: {found}")
+    assert res.summary["mechanics"]["solves"] == 3
+    if youngs_modulus < 1e3:
+        assert len(found) == 1 and "max |grad u| = " in found[0] and "(region rock)" in found[0]
+        assert out.count("warning: the displacement leaves the small-strain range") == 1
+    else:
+        assert not found and "small-strain" not in out
+
 def test_unheld_rigid_motion_stops_with_a_diagnosis(tmp_path):
     """Only a roller at the base: the body can slide along x. The run stops before solving with an error that
     names the free rigid motion (never an NGSolve exception, NaN or a huge displacement) and writes no output."""

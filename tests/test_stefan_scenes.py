@@ -17,6 +17,8 @@ import time
 import ngsolve as ngs
 import numpy as np
 import pytest
+from scipy.optimize import brentq
+from scipy.special import erfc
 
 from ngs_geomech.api import run
 from ngs_geomech.errors import SceneError, SolverError
@@ -140,6 +142,44 @@ def test_builtin_scene_energy_balance_with_fluxes_and_several_regions(melting_bl
     assert e["heat_supplied_sources_fluxes"][-1] == pytest.approx(0.06 * 6.0 * s["scene"]["time"]["end"], rel=1e-9)
     assert 0 < s["probes"]["thaw_depth_lens"]["final"] < s["probes"]["thaw_depth"]["final"]
 
+
+
+def test_zero_latent_heat_sets_the_phase_from_the_temperature():
+    """L = 0 (a phase change of k and rho c only): the liquid fraction is 1 above Theta_R and 0 below, and the
+    front is the Theta_R isotherm. With equal phases the problem is plain conduction in the half-space,
+    T = T_S + (T_L - T_S) erfc(x / (2 sqrt(a t))) (Carslaw & Jaeger 2.4), so the front lies at
+    x_f = 2 z sqrt(a t), erfc(z) = (Theta_R - T_S)/(T_L - T_S); the nodal 0/1 fraction puts it within one
+    element of x_f (measured 0.76 h, dt error included). A strip all at +14 C is liquid (fraction 1 at every
+    node, no front)."""
+    t_l, t_s, h, t_end = 14.0, -6.0, 0.025, 0.04
+    pcm = {"conductivity": 1.0, "rho_c": 1.0, "phase_change_temperature": 0.0, "latent_heat_volumetric": 0.0,
+           "rho_c_liquid": 1.0, "conductivity_liquid": 1.0}
+    changes = {"scene.temperature_unit": "C", "materials.pcm": pcm, "mesh.maxh": h,
+               "time.end": t_end, "time.dt": 0.002, "boundary_conditions.far": None,
+               "boundary_conditions.hot.temperature": t_l, "blocks.0.size": [1.0, HEIGHT],
+               "output.probes": [{"name": "front", "quantity": "front",
+                                  "line": [[0.0, HEIGHT / 2], [1.0, HEIGHT / 2]]},
+                                 {"name": "phi_near_face", "quantity": "liquid_fraction", "point": [0.1, HEIGHT / 2]},
+                                 {"name": "phi_mean", "quantity": "liquid_fraction", "region": "pcm",
+                                  "statistic": "mean"}]}
+    tic = time.perf_counter()
+    cold = run(scene_from_dict(neumann_scene(**changes, **{"initial.temperature": t_s})), None,
+               progress=False).summary
+    warm = run(scene_from_dict(neumann_scene(**changes, **{"initial.temperature": t_l})), None,
+               progress=False).summary
+    z = brentq(lambda z: erfc(z) - (0.0 - t_s) / (t_l - t_s), 0.0, 5.0)
+    times = np.array(cold["probe_series"]["times_s"]["front"])
+    front = np.array(cold["probe_series"]["front"][1:], dtype=float)
+    err = np.abs(front - 2 * z * np.sqrt(times[1:]))
+    print(f"\nL = 0: front at t = {t_end} s {front[-1]:.4f} m, closed form {2 * z * np.sqrt(t_end):.4f} m, max error "
+          f"{err.max() / h:.2f} h; liquid fraction near the hot face {cold['probes']['phi_near_face']['final']}, "
+          f"warm strip mean {warm['probes']['phi_mean']}; {time.perf_counter() - tic:.2f} s")
+    assert err.max() <= h
+    assert cold["probes"]["phi_near_face"]["final"] == 1.0
+    assert 0 < cold["probes"]["phi_mean"]["final"] < 1
+    assert warm["probes"]["phi_mean"]["min"] == 1.0 and warm["probes"]["phi_near_face"]["min"] == 1.0
+    assert warm["probes"]["front"] == {"final": None}
+    assert warm["stefan"]["melted_fraction"]["pcm"][-1] == pytest.approx(1.0)
 
 # -- (c) validation -------------------------------------------------------------------------------------------
 BAD = [

@@ -775,17 +775,25 @@ class StefanForms:
 
     def store(self, e: np.ndarray, state: NodalState | None = None) -> None:
         """Copy a nodal enthalpy and what follows from it into the GridFunctions ``gf_enthalpy`` (J/m^3),
-        ``gf_temperature`` (K) and ``gf_liquid_fraction`` (latent-heat weighted, 0..1)."""
+        ``gf_temperature`` (K) and ``gf_liquid_fraction`` (0..1, :meth:`nodal_liquid_fraction`)."""
         st = state if state is not None else self.nodal_state(e)
         self.gf_enthalpy.vec.FV().NumPy()[:] = e
         self.gf_temperature.vec.FV().NumPy()[:] = st.T
-        frac = self.liquid_fractions(e, st)
+        self.gf_liquid_fraction.vec.FV().NumPy()[:] = self.nodal_liquid_fraction(self.liquid_fractions(e, st))
+
+    def nodal_liquid_fraction(self, frac: np.ndarray) -> np.ndarray:
+        """One liquid fraction per node (0..1) from the per-group fractions ``frac`` (n x G): the mean over the
+        PCM groups touching the node weighted by their latent heat m_i^r L_r; at a node whose PCMs all have
+        L = 0 (a phase change of the conductivity and heat capacity only, the phase set by T against Theta_R)
+        weighted by m_i^r alone; 0 at nodes without a PCM."""
+        pcm = np.zeros(len(self.groups))
+        pcm[list(self.pcm_groups)] = 1.0
         L = np.array([m.latent_heat if isinstance(m, PhaseChangeMaterial) else 0.0 for m in self.groups])
         wl = self.weights * L
+        wl = np.where(wl.sum(axis=1, keepdims=True) > 0, wl, self.weights * pcm)
         total = wl.sum(axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
-            phi = np.where(total > 0, (wl * frac).sum(axis=1) / total, 0.0)
-        self.gf_liquid_fraction.vec.FV().NumPy()[:] = phi
+            return np.where(total > 0, (wl * frac).sum(axis=1) / total, 0.0)
 
     # -- the smeared (apparent heat capacity) variant ----------------------------------------------------------
     def apparent_capacity(self, T: np.ndarray, delta: float) -> np.ndarray:

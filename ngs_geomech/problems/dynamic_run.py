@@ -26,7 +26,7 @@ from ..physics.elasticity import ElasticForms, stress_measures
 from ..scene.model import Scene
 from ..solvers.dynamics import DynamicSolver, ViscousSolver, contact_switches
 from .contact import contact_specs, interface_results
-from .mechanics import elastic_setup, mechanics_warnings
+from .mechanics import elastic_setup, mechanics_warnings, watch_small_strain
 
 
 def viscous_properties(scene: Scene, props: dict[str, ElasticProperties]) -> dict[str, ViscousProperties]:
@@ -132,6 +132,7 @@ class DynamicsRun:
         if not np.all(np.isfinite(u)):
             raise SolverError(f"{self.kind} mechanics at {where}: the displacement is not finite; reduce the time "
                               "step")
+        watch_small_strain(self, where)
         if record:
             self.record(t)
 
@@ -145,7 +146,8 @@ class DynamicsRun:
         if self.kind == "dynamic" and self.solver.energy_history:
             e = self.solver.energy_history[-1]
             entry.update(kinetic_J=e.kinetic, elastic_J=e.elastic, branches_J=e.branches, total_J=e.total,
-                         external_work_J=e.external_work, viscous_dissipation_J=e.viscous_dissipation,
+                         external_work_J=e.external_work, dirichlet_work_J=e.dirichlet_work,
+                         viscous_dissipation_J=e.viscous_dissipation,
                          branch_dissipation_J=e.branch_dissipation, contact_work_J=e.contact_work,
                          numerical_dissipation_J=e.numerical_dissipation)
         for spec, res in zip(self.contacts, self.latest):
@@ -161,8 +163,9 @@ class DynamicsRun:
         if self.kind == "dynamic":
             h = self.solver.energy_history
             e0 = h[0].total if h else 0.0
-            gain = max((r.total - e0 - r.external_work - r.contact_work) for r in h) if h else 0.0
-            scale = max([abs(r.total) for r in h] + [abs(r.external_work) for r in h] + [1e-300])
+            gain = max((r.total - e0 - r.external_work - r.dirichlet_work - r.contact_work) for r in h) if h else 0.0
+            scale = max([abs(r.total) for r in h] + [abs(r.external_work) + abs(r.dirichlet_work) for r in h]
+                        + [1e-300])
             out.update(scheme="generalized-alpha", rho_inf=self.solver.rho_inf, mass=self.mass,
                        energy_gain_rel_max=gain / scale)
         else:

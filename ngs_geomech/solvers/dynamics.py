@@ -20,9 +20,13 @@ the semi-smooth Newton method of ContactSolver on the increment du = u_{n+1} - u
 friction laws on the slip increment Bt du, so stick means no slip during the step). For rho_inf = 1 the step
 satisfies M (v_{n+1} - v_n) = dt (f - K u_{n+1/2} + G) and u_{n+1} - u_n = dt v_{n+1/2}, hence
 
-    E_{n+1} - E_n = du . (f_{n+1/2} - (viscous, branch forces)) + lam_n . (g_{n+1} - g_n) + lam_t . Bt du,
+    E_{n+1} - E_n = du . (f_{n+1/2} + R_{n+1/2} - (viscous, branch forces)) + lam_n . (g_{n+1} - g_n)
+                    + lam_t . Bt du,
 
-and lam_n . (g_{n+1} - g_n) = -lam_n . g_n <= 0 by lam_n g_{n+1} = 0: contact never adds energy; it removes
+with R the reactions on the dofs with prescribed displacements (the residual M a + C^v v + K u + sum_k K_k w_k - f
+of those rows at the generalized mid-step; R_{n+1/2} = (R_n + R_{n+1})/2 for rho_inf = 1, the trapezoidal rule of
+the scheme) doing the work du_D . R on time-dependent prescribed displacements, and
+lam_n . (g_{n+1} - g_n) = -lam_n . g_n <= 0 by lam_n g_{n+1} = 0: contact never adds energy; it removes
 lam_n g_n (a node closing a gap within a step: the impact loss) and nothing while a node stays closed (g_n = 0) or
 opens (lam_n = 0); friction removes -lam_t . Bt du >= 0. With the contact force taken at both ends of the step
 (lam_n + lam_{n+1})/2, the classical Newmark form, the release term +lam_n g_{n+1}/2 gains energy. The
@@ -41,7 +45,8 @@ dashpot does not move instantly).
 
 Energies are reported per step (:class:`EnergyRecord`, J for plane models per metre of thickness, axisymmetric per
 radian): kinetic v M v / 2, elastic u K u / 2, stored in the branches sum w K_k w / 2, and the cumulated external
-work, viscous and branch dissipation, contact work (<= 0) and the remainder (numerical dissipation of rho_inf < 1).
+work, work of the prescribed displacements (the reactions R against du_D), viscous and branch dissipation, contact
+work (<= 0) and the remainder (numerical dissipation of rho_inf < 1).
 Units: s, m, m/s, Pa.
 """
 
@@ -80,9 +85,10 @@ def generalized_alpha_parameters(rho_inf: float) -> tuple[float, float, float, f
 @dataclass
 class EnergyRecord:
     """Energies after a step (J per unit thickness in plane models): ``kinetic``, ``elastic``, ``branches``
-    (stored in the Prony branches), ``total`` (their sum), and cumulated since the start: ``external_work``,
+    (stored in the Prony branches), ``total`` (their sum), and cumulated since the start: ``external_work``
+    (loads), ``dirichlet_work`` (the reactions on the prescribed displacements against their increments),
     ``viscous_dissipation``, ``branch_dissipation``, ``contact_work`` (<= 0 without driven contacts),
-    ``numerical_dissipation`` (external work - change of total - the dissipations + contact work: 0 for
+    ``numerical_dissipation`` (external + Dirichlet + contact work - change of total - the dissipations: 0 for
     rho_inf = 1 up to round-off)."""
 
     t: float
@@ -95,6 +101,7 @@ class EnergyRecord:
     branch_dissipation: float = 0.0
     contact_work: float = 0.0
     numerical_dissipation: float = 0.0
+    dirichlet_work: float = 0.0
 
 
 @dataclass
@@ -344,6 +351,8 @@ class DynamicSolver(_Stepper):
         prev = self.energy_history[-1]
         v_al = (1 - af) * v1 + af * vn
         rec.external_work = prev.external_work + float(du @ f_alpha)
+        fixed = ~self.free
+        rec.dirichlet_work = prev.dirichlet_work + float(du[fixed] @ (A[fixed] @ u1 - r[fixed]))
         rec.viscous_dissipation = prev.viscous_dissipation + float(du @ (F.C @ v_al))
         stored0 = sum(0.5 * float(w @ (b.K @ w)) for b, w in zip(F.branches, self.w))
         work_b = sum(float(du @ (b.K @ ((1 - af) * w_new + af * w))) for b, w, w_new in zip(F.branches, self.w, w1))
@@ -352,7 +361,7 @@ class DynamicSolver(_Stepper):
         rec.branch_dissipation = prev.branch_dissipation + work_b - (rec.branches - stored0)
         rec.contact_work = prev.contact_work + float(du @ G)
         e0 = self.energy_history[0].total
-        rec.numerical_dissipation = (rec.external_work + rec.contact_work - (rec.total - e0)
+        rec.numerical_dissipation = (rec.external_work + rec.dirichlet_work + rec.contact_work - (rec.total - e0)
                                      - rec.viscous_dissipation - rec.branch_dissipation)
         self.energy_history.append(rec)
         self._sync_fields()
