@@ -25,6 +25,7 @@ from ..materials import (
     phase_change_problems,
     volumetric_heat_capacity,
 )
+from ..names import name_problem
 from .model import Scene
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -51,29 +52,46 @@ def validate(scene: Scene) -> GeometryModel:
 
 
 def _check_names(scene: Scene, problems: list[Problem]) -> None:
+    """Every name that becomes part of a file name follows :data:`ngs_geomech.names.RULE`; block, boundary and
+    interface names are also identifiers (region and boundary names of the mesh; ``__`` joins an interface and
+    a block name in a contact side's name)."""
+    _check_name("scene.name", scene.scene.name, problems)
     if not scene.blocks:
         problems.append(Problem("blocks", "a scene needs at least one block"))
     seen = set()
     for i, b in enumerate(scene.blocks):
-        if not NAME.match(b.name or "") or "__" in b.name:
-            problems.append(Problem(f"blocks[{i}].name", f"{b.name!r} must start with a letter, hold letters, "
-                                                         "digits and single underscores"))
+        _check_name(f"blocks[{i}].name", b.name, problems, identifier=True)
         if b.name in seen:
             problems.append(Problem(f"blocks[{i}].name", f"block name {b.name!r} is used twice"))
         seen.add(b.name)
         for bname in b.boundaries:
-            if not NAME.match(bname) or "__" in bname:
-                problems.append(Problem(f"blocks[{i}].boundaries.{bname}", "boundary names must start with a "
-                                        "letter and hold letters, digits and single underscores"))
+            _check_name(f"blocks[{i}].boundaries.{bname}", bname, problems, identifier=True)
+        for j, ename in enumerate(b.edges or []):
+            if ename:                   # an unnamed side
+                _check_name(f"blocks[{i}].edges[{j}]", ename, problems, identifier=True)
+        for j, seg in enumerate(b.segments or []):
+            if seg is not None and seg.name:
+                _check_name(f"blocks[{i}].segments[{j}].name", seg.name, problems, identifier=True)
         if b.maxh is not None and b.maxh <= 0:
             problems.append(Problem(f"blocks[{i}].maxh", f"must be positive, got {b.maxh}"))
     inames = set()
     for i, itf in enumerate(scene.interfaces):
-        if not NAME.match(itf.name or "") or "__" in itf.name:
-            problems.append(Problem(f"interfaces[{i}].name", f"{itf.name!r} is not a valid name"))
+        _check_name(f"interfaces[{i}].name", itf.name, problems, identifier=True)
         if itf.name in inames or itf.name in seen:
             problems.append(Problem(f"interfaces[{i}].name", f"name {itf.name!r} is used twice"))
         inames.add(itf.name)
+    for i, pr in enumerate(scene.output.probes):
+        _check_name(f"output.probes[{i}].name", pr.name, problems)
+
+
+def _check_name(item: str, name, problems: list[Problem], identifier: bool = False) -> None:
+    """One name: the file-name rule, and with ``identifier`` a letter first, then letters, digits and single
+    underscores."""
+    why = name_problem(name)
+    if why is None and identifier and (not NAME.fullmatch(name) or "__" in name):
+        why = f"{name!r} must start with a letter and hold letters, digits and single underscores"
+    if why is not None:
+        problems.append(Problem(item, why))
 
 
 def _check_formulation(scene: Scene, problems: list[Problem]) -> None:
