@@ -26,6 +26,7 @@ from ..materials import (
     volumetric_heat_capacity,
 )
 from ..names import name_problem
+from ..units import KELVIN
 from .model import Scene
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -38,6 +39,7 @@ def validate(scene: Scene) -> GeometryModel:
     _check_settings(scene, problems)
     _check_materials(scene, problems)
     _check_phase_change(scene, problems)
+    _check_temperatures(scene, problems)
     geo = None
     if not any(p.item.startswith("blocks") for p in problems):
         try:
@@ -92,6 +94,25 @@ def _check_name(item: str, name, problems: list[Problem], identifier: bool = Fal
         why = f"{name!r} must start with a letter and hold letters, digits and single underscores"
     if why is not None:
         problems.append(Problem(item, why))
+
+
+def _check_temperatures(scene: Scene, problems: list[Problem]) -> None:
+    """Every temperature given as a number lies at or above absolute zero in the scene's temperature_unit
+    (0 K = -273.15 degC). Expressions are evaluated at the mesh points and are not checked here."""
+    unit = scene.scene.temperature_unit
+    zero = -KELVIN if unit == "C" else 0.0
+    given: list[tuple[str, object]] = [("initial.temperature", scene.initial.temperature)]
+    given += [(f"initial.regions.{n}", v) for n, v in scene.initial.regions.items()]
+    for name, bc in scene.boundary_conditions.items():
+        given += [(f"boundary_conditions.{name}.{k}", getattr(bc, k)) for k in ("temperature", "ambient_temperature")]
+    for name, mat in scene.materials.items():
+        given += [(f"materials.{name}.{k}", getattr(mat, k))
+                  for k in ("reference_temperature", "stress_free_temperature", "phase_change_temperature")]
+    for item, v in given:
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and v < zero:
+            problems.append(Problem(item, f"{v:g} {'degC' if unit == 'C' else 'K'} is below absolute zero "
+                                    f"({zero:g} {'degC' if unit == 'C' else 'K'}; the scene's temperatures are in "
+                                    f"scene.temperature_unit = {unit!r})"))
 
 
 def _check_formulation(scene: Scene, problems: list[Problem]) -> None:
@@ -361,7 +382,7 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem("physics.coupling", f"{ph.coupling!r} couples a transient heat problem with "
                                     "mechanics (deformation heating, problem (P_c)): it needs physics.thermal = "
                                     "'transient' and physics.mechanics = 'static'; use 'none' otherwise"))
-        offset = 273.15 if scene.scene.temperature_unit == "C" else 0.0
+        offset = KELVIN if scene.scene.temperature_unit == "C" else 0.0
         for name, mat in scene.materials.items():
             if mat.thermal_expansion is not None and not mat.stress_free_temperature + offset > 0:
                 problems.append(Problem(f"materials.{name}.stress_free_temperature", f"the deformation heating of "
