@@ -13,6 +13,7 @@ Rules:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -75,6 +76,30 @@ class GeometryModel:
 
     def occ_geometry(self):
         return occ.OCCGeometry(self.shape, dim=self.dim)
+
+    def element_estimate(self, maxh: float) -> dict[tuple[str, str], float]:
+        """An estimate of the number of elements netgen makes with global size ``maxh`` (m) and the blocks' and
+        boundaries' own maxh, per ("region", name) and ("boundary", name): each cell's area (volume) over that of
+        an equilateral triangle sqrt(3)/4 h^2 (regular tetrahedron h^3 / (6 sqrt(2))) of its size h, and a strip
+        one element wide along each side finer than every cell. From the OCC shape only (cheap, no meshing).
+        Measured on the built-in scenes, netgen made 0.5 to 2.9 times as many: fewer in boxes (its tetrahedra
+        are larger on average than the regular one of edge maxh), more near small features and curved sides."""
+        def per_element(h: float) -> float:
+            return math.sqrt(3) / 4 * h ** 2 if self.dim == 2 else h ** 3 / (6 * math.sqrt(2))
+
+        counts: dict[tuple[str, str], float] = {}
+        coarse = float("inf")
+        for cell in cells(self.shape, self.dim):
+            h = min(maxh, float(cell.maxh))
+            coarse = min(coarse, h)
+            key = ("region", cell.name)
+            counts[key] = counts.get(key, 0.0) + float(cell.mass) / per_element(h)
+        for side in sides(self.shape, self.dim):
+            h = min(maxh, float(side.maxh))
+            if h < coarse:
+                key = ("boundary", side.name or DEFAULT)
+                counts[key] = counts.get(key, 0.0) + float(side.mass) * h / per_element(h)
+        return counts
 
 
 def scene_dim(scene: Scene) -> int:

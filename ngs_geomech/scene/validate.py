@@ -48,6 +48,7 @@ def validate(scene: Scene) -> GeometryModel:
             problems += exc.problems
     if geo is not None:
         _check_references(scene, geo, problems)
+        _check_mesh_size(scene, geo, problems)
     if problems:
         raise SceneError(problems, source=f"scene {scene.scene.name!r}")
     return geo
@@ -113,6 +114,34 @@ def _check_temperatures(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem(item, f"{v:g} {'degC' if unit == 'C' else 'K'} is below absolute zero "
                                     f"({zero:g} {'degC' if unit == 'C' else 'K'}; the scene's temperatures are in "
                                     f"scene.temperature_unit = {unit!r})"))
+
+
+def _check_mesh_size(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
+    """The mesh is not larger than ``mesh.max_elements``, from the geometry's estimate before meshing (meshing
+    runs until memory is exhausted otherwise)."""
+    m = scene.mesh
+    if m.max_elements < 1:
+        problems.append(Problem("mesh.max_elements", f"must be >= 1, got {m.max_elements}"))
+        return
+    if not m.maxh > 0 or any(not h > 0 for h in m.boundary_maxh.values()) or any(
+            b.maxh is not None and not b.maxh > 0 for b in scene.blocks):
+        return                              # reported by _check_settings, _check_names
+    counts = geo.element_estimate(m.maxh)
+    n = sum(counts.values())
+    if n <= m.max_elements:
+        return
+    (kind, name), most = max(counts.items(), key=lambda kv: kv[1])
+    item, h = "mesh.maxh", m.maxh
+    i = next((i for i, b in enumerate(scene.blocks) if b.name == name), None)
+    if kind == "boundary":
+        item, h = f"mesh.boundary_maxh.{name}", m.boundary_maxh.get(name, m.maxh)
+    elif i is not None and scene.blocks[i].maxh is not None and scene.blocks[i].maxh < m.maxh:
+        item, h = f"blocks[{i}].maxh", scene.blocks[i].maxh
+    where = f"{'region' if kind == 'region' else 'boundary'} {name!r}"
+    problems.append(Problem(item, f"{h:g} m: the mesh would have at least {n:.3g} elements ({most:.3g} in {where}; "
+                            f"estimated from the {'areas' if geo.dim == 2 else 'volumes'} and the element sizes "
+                            f"before meshing), more than mesh.max_elements = {m.max_elements}: use larger elements, "
+                            "or raise mesh.max_elements if the machine can take it"))
 
 
 def _check_formulation(scene: Scene, problems: list[Problem]) -> None:
