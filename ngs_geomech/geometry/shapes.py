@@ -123,9 +123,9 @@ def make_block(block: Block, dim: int):
 
 def polygon_problem(xy: np.ndarray) -> str | None:
     """Why the closed polygon through the points ``xy`` (n x 2, side k from point k to point k+1, the last
-    side back to point 0) is not a simple polygon of positive area: coinciding points, zero area, sides that
-    cross, touch or fold back on each other (a simple polygon of points not all on one line has a positive
-    area). None when it is simple. O(n^2) pair tests."""
+    side back to point 0) is not a simple polygon of positive area: coinciding points, all points on one line,
+    sides that cross or touch (also two sides folding back on each other: the end of one lies on the other).
+    None when it is simple. O(n^2) pair tests."""
     n = len(xy)
     p, q = xy, np.roll(xy, -1, axis=0)
     d = q - p
@@ -163,11 +163,6 @@ def polygon_problem(xy: np.ndarray) -> str | None:
         i, j = (int(v) for v in hits[0])
         return f"sides {i} and {j} cross or touch (side k runs from point k to point k+1): the outline must " \
                "not intersect itself"
-    nxt = np.roll(d, -1, axis=0)
-    back = np.flatnonzero((np.abs(cross(d, nxt)) <= eps) & (np.sum(d * nxt, axis=1) < 0))
-    if back.size:
-        k0 = int(back[0])
-        return f"sides {k0} and {(k0 + 1) % n} fold back on each other at point {(k0 + 1) % n}"
     return None
 
 
