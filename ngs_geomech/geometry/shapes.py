@@ -38,10 +38,12 @@ def make_block(block: Block, dim: int):
         if min(block.size) <= 0:
             raise ValueError(f"size {block.size} must be positive")
         (x0, y0), (w, h) = block.origin, block.size
-        # the outline point by point: netgen's WorkPlane.Rectangle returns an unbounded face for sides above
-        # about 5.3e5 m
-        shape = occ.WorkPlane().MoveTo(x0, y0).LineTo(x0 + w, y0).LineTo(x0 + w, y0 + h).LineTo(x0, y0 + h).Close() \
-            .Face()
+        shape = occ.WorkPlane().MoveTo(x0, y0).Rectangle(w, h).Face()
+        if not shape.edges:
+            # netgen's WorkPlane.Rectangle returns an unbounded face without edges for sides above about
+            # 5.3e5 m; the same outline point by point is bounded
+            shape = occ.WorkPlane().MoveTo(x0, y0).LineTo(x0 + w, y0).LineTo(x0 + w, y0 + h).LineTo(x0, y0 + h) \
+                .Close().Face()
     elif s == "circle":
         _need(block, "center", 2)
         if block.radius is None or block.radius <= 0:
