@@ -32,8 +32,8 @@ def name_problem(name: object) -> str | None:
 
 
 def plain_file_name(name: str) -> str:
-    """``name`` itself when it follows the rule; raises ValueError otherwise (for the writers)."""
-    why = name_problem(name)
-    if why is not None:
-        raise ValueError(f"refusing to write a file named after {name!r}: {why}")
+    """``name`` itself when it is a plain file name (the characters of :data:`RULE`, any length: writers join
+    checked names, e.g. ``<scene>_contact_<interface>``); raises ValueError otherwise (for the writers)."""
+    if not isinstance(name, str) or not _PLAIN.fullmatch(name) or ".." in name:
+        raise ValueError(f"refusing to write a file named after {name!r}: not a plain file name ({RULE})")
     return name
