@@ -101,6 +101,10 @@ def test_the_writers_refuse_a_name_that_is_no_plain_file_name(tmp_path, name):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_the_writers_take_joined_names_longer_than_one_name(tmp_path):
+    assert LineSeries(tmp_path, f"{'s' * 64}_contact_{'i' * 64}").basename.startswith("s")
+
+
 # -- temperatures --------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("path, value, unit", [
