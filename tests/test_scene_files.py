@@ -105,6 +105,15 @@ def test_the_writers_take_joined_names_longer_than_one_name(tmp_path):
     assert LineSeries(tmp_path, f"{'s' * 64}_contact_{'i' * 64}").basename.startswith("s")
 
 
+def test_an_uncertainty_criterion_name_that_is_no_plain_file_name_is_refused(tmp_path):
+    from ngs_geomech.uncertainty.study import run_uncertainty
+    with pytest.raises(SceneError, match=r"uncertainty.criteria\[0\].name: '\.\./x' is not allowed"):
+        run_uncertainty(Path(__file__).parent / "scenes" / "uncertainty" / "slab.toml", tmp_path / "u",
+                        overrides=["uncertainty.criteria.peak_temperature.name=../x"], executor="serial",
+                        progress=False)
+    assert not (tmp_path / "u").exists()
+
+
 # -- temperatures --------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("path, value, unit", [
