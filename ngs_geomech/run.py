@@ -48,6 +48,7 @@ from .io.meshdata import mesh_arrays, vertex_values
 from .io.progress import Progress
 from .io.summary import finite, probe_statistics, versions
 from .io.vtk import VtkSeries
+from .names import plain_file_name
 from .physics.elasticity import ElasticForms, stress_measures
 from .physics.stefan import vertex_rules
 from .physics.thermal import HeatForms
@@ -959,7 +960,7 @@ def _contact_figures(scene: Scene, mech, directory: Path, t_end: float, figures)
             forces["slip bound"] = res["bound"][o] / 1e6
         figures.interface_profiles(
             s, [forces, {"gap": res["gap"][o] * 1e3, "slip": res["slip"][o] * 1e3}],
-            directory / f"contact_{spec.name}.png", ylabels=["traction (MPa)", "gap, slip (mm)"],
+            directory / f"contact_{plain_file_name(spec.name)}.png", ylabels=["traction (MPa)", "gap, slip (mm)"],
             title=f"{scene.scene.name}: contact {spec.name} ({spec.law.kind}), {_when(t_end)}",
             xlabel=f"arc length along {spec.op.side} from ({xy[0, 0]:.3g}, {xy[0, 1]:.3g}) (m)",
             status=res["status"][o].astype(int))

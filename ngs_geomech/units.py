@@ -1,7 +1,7 @@
 """Quantities with units in scene files.
 
-Scenes are in SI units. Times may also be written as strings with a unit, e.g. ``"100 year"``,
-``"10 day"``; one year is the Julian year, 365.25 days = 31 557 600 s.
+Scenes are in SI units, temperatures in degC or K (``scene.temperature_unit``). Times may also be written as
+strings with a unit, e.g. ``"100 year"``, ``"10 day"``; one year is the Julian year, 365.25 days = 31 557 600 s.
 """
 
 from __future__ import annotations
@@ -14,6 +14,8 @@ MINUTE = 60.0
 HOUR = 3600.0
 DAY = 86400.0
 YEAR = 365.25 * DAY
+KELVIN = 273.15
+"""0 degC in K."""
 
 TIME_UNITS = {
     "s": SECOND, "second": SECOND, "seconds": SECOND,

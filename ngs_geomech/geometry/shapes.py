@@ -37,7 +37,13 @@ def make_block(block: Block, dim: int):
         _need(block, "size", 2)
         if min(block.size) <= 0:
             raise ValueError(f"size {block.size} must be positive")
-        shape = occ.WorkPlane().MoveTo(*block.origin).Rectangle(*block.size).Face()
+        (x0, y0), (w, h) = block.origin, block.size
+        shape = occ.WorkPlane().MoveTo(x0, y0).Rectangle(w, h).Face()
+        if not shape.edges:
+            # netgen's WorkPlane.Rectangle returns an unbounded face without edges for sides above about
+            # 5.3e5 m; the same outline point by point is bounded
+            shape = occ.WorkPlane().MoveTo(x0, y0).LineTo(x0 + w, y0).LineTo(x0 + w, y0 + h).LineTo(x0, y0 + h) \
+                .Close().Face()
     elif s == "circle":
         _need(block, "center", 2)
         if block.radius is None or block.radius <= 0:
@@ -51,6 +57,9 @@ def make_block(block: Block, dim: int):
         if len(names) != len(pts):
             raise ValueError(f"edges names {len(names)} sides but the polygon has {len(pts)}")
         xy = np.asarray(pts, dtype=float)
+        why = polygon_problem(xy)
+        if why is not None:
+            raise ValueError(why)
         area2 = float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
         if area2 < 0:           # clockwise: the same polygon counterclockwise (a clockwise face has negative area)
             pts = [pts[0]] + list(pts[:0:-1])
@@ -82,6 +91,9 @@ def make_block(block: Block, dim: int):
         if np.linalg.norm(pos - np.array(block.start)) > 1e-9 * scale:
             raise ValueError(f"profile is not closed: ends at {pos.tolist()}, starts at {block.start}")
         shape = wp.Face()
+        span = np.ptp(np.array([[v.p.x, v.p.y] for v in shape.vertices]), axis=0)
+        if abs(shape.mass) <= 1e-12 * float(np.max(span)) ** 2:
+            raise ValueError("the profile encloses no area (its outline runs back on itself)")
         if shape.mass < 0:
             raise ValueError("the profile runs clockwise: list its segments counterclockwise (the region on the "
                              "left of the direction of travel)")
@@ -99,11 +111,95 @@ def make_block(block: Block, dim: int):
             raise ValueError("cylinder needs positive radius and height")
         axis = block.axis or [0.0, 0.0, 1.0]
         shape = occ.Cylinder(occ.Pnt(*block.center), occ.Dir(*axis), block.radius, block.height)
+    box = declared_extent(block, dim)
+    if box is not None and not 0 < abs(shape.mass) <= 1.01 * float(np.prod(box[1] - box[0])):
+        raise ValueError(f"the geometry kernel built a {'face' if dim == 2 else 'solid'} of measure "
+                         f"{shape.mass:.3g} from this block's data (its box is {np.prod(box[1] - box[0]):.3g}): "
+                         "check its coordinates")
     cells(shape, dim).name = block.name
     if block.maxh is not None:
         cells(shape, dim).maxh = block.maxh
     _name_sides(shape, block, dim)
     return shape
+
+
+def polygon_problem(xy: np.ndarray) -> str | None:
+    """Why the closed polygon through the points ``xy`` (n x 2, side k from point k to point k+1, the last
+    side back to point 0) is not a simple polygon of positive area: coinciding points, all points on one line,
+    sides that cross or touch (also two sides folding back on each other: the end of one lies on the other).
+    None when it is simple. O(n^2) pair tests."""
+    n = len(xy)
+    p, q = xy, np.roll(xy, -1, axis=0)
+    d = q - p
+    scale = float(np.max(np.abs(d)))
+    short = np.flatnonzero(np.linalg.norm(d, axis=1) <= 1e-9 * scale) if scale > 0 else np.arange(n)
+    if short.size:
+        k = int(short[0])
+        return f"points {k} and {(k + 1) % n} coincide (side {k} has no length)"
+    eps = 1e-12 * scale ** 2
+
+    def cross(u, v):
+        return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+    far = xy[int(np.argmax(np.linalg.norm(xy - xy[0], axis=1)))] - xy[0]
+    if np.all(np.abs(cross(far, xy - xy[0])) <= eps):
+        return "the polygon has zero area (its points lie on one line)"
+
+    def side(o):                      # orientation sign, 0 within the rounding tolerance
+        return np.where(np.abs(o) <= eps, 0, np.sign(o))
+
+    def within(c, tol=1e-9 * scale):  # [i, j]: point c[j] inside the bounding box of side i
+        lo, hi = np.minimum(p, q)[:, None], np.maximum(p, q)[:, None]
+        return np.all((c[None] >= lo - tol) & (c[None] <= hi + tol), axis=2)
+
+    s1 = side(cross(d[:, None], p[None] - p[:, None]))     # [i, j]: start of side j about the line of side i
+    s2 = side(cross(d[:, None], q[None] - p[:, None]))     # [i, j]: end of side j about the line of side i
+    proper = (s1 * s2 < 0) & (s1.T * s2.T < 0)
+    touch = ((s1 == 0) & within(p)) | ((s2 == 0) & within(q))
+    meet = proper | touch | touch.T
+    k = np.arange(n)
+    apart = (np.abs(k[:, None] - k[None]) > 1) & ~(((k[:, None] == 0) & (k[None] == n - 1))
+                                                    | ((k[:, None] == n - 1) & (k[None] == 0)))
+    hits = np.argwhere(meet & apart & (k[:, None] < k[None]))
+    if hits.size:
+        i, j = (int(v) for v in hits[0])
+        return f"sides {i} and {j} cross or touch (side k runs from point k to point k+1): the outline must " \
+               "not intersect itself"
+    return None
+
+
+def declared_extent(block: Block, dim: int) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """The bounding box (lo, hi) of a block and its thickness (smallest extent; a circle's or cylinder's
+    diameter or height), m, from its data: no OCC shape, since a block too small for the geometry kernel may
+    crash it. None when the data are incomplete (then :func:`make_block` says what is missing)."""
+    try:
+        if block.shape in ("rectangle", "box"):
+            a = np.asarray(block.origin, float)
+            pts = [a, a + np.asarray(block.size, float)]
+        elif block.shape == "polygon":
+            pts = [np.asarray(q, float) for q in block.points]
+        elif block.shape == "profile":
+            pts = [np.asarray(block.start, float)]
+            for seg in block.segments:
+                pts += [np.asarray(q, float) for q in ([seg.line] if seg.line is not None else seg.spline or [])]
+        else:                                       # circle, cylinder: the box of the end discs' axis points
+            c, r = np.asarray(block.center, float), float(block.radius)
+            ends = [c]
+            if block.shape == "cylinder":
+                ax = np.asarray(block.axis or [0.0, 0.0, 1.0], float)
+                ends.append(c + float(block.height) * ax / max(float(np.linalg.norm(ax)), 1e-300))
+            pts = [e + sgn * r * np.eye(len(c))[k] for e in ends for k in range(len(c)) for sgn in (-1, 1)]
+        xy = np.array([q[:dim] for q in pts], float)
+    except (TypeError, ValueError, IndexError):
+        return None
+    if xy.ndim != 2 or xy.shape[1] != dim or not np.all(np.isfinite(xy)):
+        return None
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    if block.shape == "circle":
+        return lo, hi, 2 * float(block.radius)
+    if block.shape == "cylinder":
+        return lo, hi, min(2 * float(block.radius), float(block.height))
+    return lo, hi, float(np.min(hi - lo))
 
 
 def _need(block: Block, attr: str, n: int) -> None:

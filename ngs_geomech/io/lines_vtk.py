@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..names import plain_file_name
 from .atomic import write_text_atomic
 
 
@@ -52,7 +53,7 @@ class LineSeries:
 
     def __init__(self, directory: Path, basename: str):
         self.directory = Path(directory)
-        self.basename = basename
+        self.basename = plain_file_name(basename)     # every file stays inside ``directory``
         self.entries: list[tuple[float, str]] = []
 
     def write(self, time: float, points: np.ndarray, cells: np.ndarray, point_data: dict[str, np.ndarray]) -> None:

@@ -17,6 +17,7 @@ from pathlib import Path
 import ngsolve as ngs
 
 from .. import parallel
+from ..names import plain_file_name
 from .atomic import write_text_atomic
 
 
@@ -24,12 +25,12 @@ class VtkSeries:
     """Write named coefficient functions over the mesh at chosen times into ``directory/basename*``."""
 
     def __init__(self, mesh, fields: dict[str, object], directory: Path, basename: str, subdivision: int = 0):
+        self.basename = plain_file_name(basename)     # every file stays inside ``directory``
         self.directory = Path(directory)
         self.directory.mkdir(parents=True, exist_ok=True)
         self.mesh = mesh
         self.names = list(fields)
         self.coefs = list(fields.values())
-        self.basename = basename
         self.subdivision = subdivision
         self.entries: list[tuple[float, str]] = []
 

@@ -81,6 +81,10 @@ class MeshSettings:
     order: int = field(integer, 1, doc="polynomial order of the fields (curved boundaries to the same order)")
     grading: float = field(number, 0.3, doc="netgen grading in (0, 1): smaller gives slower growth")
     boundary_maxh: dict = field(dict_of(number), {}, doc="maximal element size per boundary name, m")
+    max_elements: int = field(integer, 5_000_000,
+                              doc="largest mesh accepted: a scene whose element count, estimated before meshing from "
+                                  "the blocks' areas (volumes) and the element sizes, exceeds it is refused (netgen "
+                                  "makes 0.5 to 3 times the estimate); raise it for a larger machine")
 
 
 @dataclass(frozen=True, kw_only=True)

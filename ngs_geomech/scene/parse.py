@@ -38,13 +38,22 @@ def resolve(name_or_path: str) -> Path:
 
 
 def read_toml(path: Path) -> dict:
+    """The data of a TOML scene file: UTF-8 text, with or without a byte order mark (some Windows editors
+    write one; TOML itself does not allow it)."""
     try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError([Problem(str(path), f"TOML syntax error: {exc}")], source=str(path)) from None
+        raw = Path(path).read_bytes()
     except OSError as exc:
         raise SceneError([Problem(str(path), f"cannot read: {exc.strerror}")], source=str(path)) from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise SceneError([Problem(str(path), f"not a text (UTF-8) file: byte 0x{raw[exc.start]:02x} at offset "
+                                             f"{exc.start} is not UTF-8; a scene is a TOML text file")],
+                         source=str(path)) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError([Problem(str(path), f"TOML syntax error: {exc}")], source=str(path)) from None
 
 
 def apply_overrides(data: dict, overrides: list[str]) -> dict:

@@ -25,6 +25,8 @@ from ..materials import (
     phase_change_problems,
     volumetric_heat_capacity,
 )
+from ..names import name_problem
+from ..units import KELVIN
 from .model import Scene
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -37,6 +39,7 @@ def validate(scene: Scene) -> GeometryModel:
     _check_settings(scene, problems)
     _check_materials(scene, problems)
     _check_phase_change(scene, problems)
+    _check_temperatures(scene, problems)
     geo = None
     if not any(p.item.startswith("blocks") for p in problems):
         try:
@@ -45,35 +48,100 @@ def validate(scene: Scene) -> GeometryModel:
             problems += exc.problems
     if geo is not None:
         _check_references(scene, geo, problems)
+        _check_mesh_size(scene, geo, problems)
     if problems:
         raise SceneError(problems, source=f"scene {scene.scene.name!r}")
     return geo
 
 
 def _check_names(scene: Scene, problems: list[Problem]) -> None:
+    """Every name that becomes part of a file name follows :data:`ngs_geomech.names.RULE`; block, boundary and
+    interface names are also identifiers (region and boundary names of the mesh; ``__`` joins an interface and
+    a block name in a contact side's name)."""
+    _check_name("scene.name", scene.scene.name, problems)
     if not scene.blocks:
         problems.append(Problem("blocks", "a scene needs at least one block"))
     seen = set()
     for i, b in enumerate(scene.blocks):
-        if not NAME.match(b.name or "") or "__" in b.name:
-            problems.append(Problem(f"blocks[{i}].name", f"{b.name!r} must start with a letter, hold letters, "
-                                                         "digits and single underscores"))
+        _check_name(f"blocks[{i}].name", b.name, problems, identifier=True)
         if b.name in seen:
             problems.append(Problem(f"blocks[{i}].name", f"block name {b.name!r} is used twice"))
         seen.add(b.name)
         for bname in b.boundaries:
-            if not NAME.match(bname) or "__" in bname:
-                problems.append(Problem(f"blocks[{i}].boundaries.{bname}", "boundary names must start with a "
-                                        "letter and hold letters, digits and single underscores"))
+            _check_name(f"blocks[{i}].boundaries.{bname}", bname, problems, identifier=True)
+        for j, ename in enumerate(b.edges or []):
+            if ename:                   # an unnamed side
+                _check_name(f"blocks[{i}].edges[{j}]", ename, problems, identifier=True)
+        for j, seg in enumerate(b.segments or []):
+            if seg is not None and seg.name:
+                _check_name(f"blocks[{i}].segments[{j}].name", seg.name, problems, identifier=True)
         if b.maxh is not None and b.maxh <= 0:
             problems.append(Problem(f"blocks[{i}].maxh", f"must be positive, got {b.maxh}"))
     inames = set()
     for i, itf in enumerate(scene.interfaces):
-        if not NAME.match(itf.name or "") or "__" in itf.name:
-            problems.append(Problem(f"interfaces[{i}].name", f"{itf.name!r} is not a valid name"))
+        _check_name(f"interfaces[{i}].name", itf.name, problems, identifier=True)
         if itf.name in inames or itf.name in seen:
             problems.append(Problem(f"interfaces[{i}].name", f"name {itf.name!r} is used twice"))
         inames.add(itf.name)
+    for i, pr in enumerate(scene.output.probes):
+        _check_name(f"output.probes[{i}].name", pr.name, problems)
+
+
+def _check_name(item: str, name, problems: list[Problem], identifier: bool = False) -> None:
+    """One name: the file-name rule, and with ``identifier`` a letter first, then letters, digits and single
+    underscores."""
+    why = name_problem(name)
+    if why is None and identifier and (not NAME.fullmatch(name) or "__" in name):
+        why = f"{name!r} must start with a letter and hold letters, digits and single underscores"
+    if why is not None:
+        problems.append(Problem(item, why))
+
+
+def _check_temperatures(scene: Scene, problems: list[Problem]) -> None:
+    """Every temperature given as a number lies at or above absolute zero in the scene's temperature_unit
+    (0 K = -273.15 degC). Expressions are evaluated at the mesh points and are not checked here."""
+    unit = scene.scene.temperature_unit
+    zero = -KELVIN if unit == "C" else 0.0
+    given: list[tuple[str, object]] = [("initial.temperature", scene.initial.temperature)]
+    given += [(f"initial.regions.{n}", v) for n, v in scene.initial.regions.items()]
+    for name, bc in scene.boundary_conditions.items():
+        given += [(f"boundary_conditions.{name}.{k}", getattr(bc, k)) for k in ("temperature", "ambient_temperature")]
+    for name, mat in scene.materials.items():
+        given += [(f"materials.{name}.{k}", getattr(mat, k))
+                  for k in ("reference_temperature", "stress_free_temperature", "phase_change_temperature")]
+    for item, v in given:
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and v < zero:
+            problems.append(Problem(item, f"{v:g} {'degC' if unit == 'C' else 'K'} is below absolute zero "
+                                    f"({zero:g} {'degC' if unit == 'C' else 'K'}; the scene's temperatures are in "
+                                    f"scene.temperature_unit = {unit!r})"))
+
+
+def _check_mesh_size(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
+    """The mesh is not larger than ``mesh.max_elements``, from the geometry's estimate before meshing (meshing
+    runs until memory is exhausted otherwise)."""
+    m = scene.mesh
+    if m.max_elements < 1:
+        problems.append(Problem("mesh.max_elements", f"must be >= 1, got {m.max_elements}"))
+        return
+    if not m.maxh > 0 or any(not h > 0 for h in m.boundary_maxh.values()) or any(
+            b.maxh is not None and not b.maxh > 0 for b in scene.blocks):
+        return                              # reported by _check_settings, _check_names
+    counts = geo.element_estimate(m.maxh)
+    n = sum(counts.values())
+    if n <= m.max_elements:
+        return
+    (kind, name), most = max(counts.items(), key=lambda kv: kv[1])
+    item, h = "mesh.maxh", m.maxh
+    i = next((i for i, b in enumerate(scene.blocks) if b.name == name), None)
+    if kind == "boundary":
+        item, h = f"mesh.boundary_maxh.{name}", m.boundary_maxh.get(name, m.maxh)
+    elif i is not None and scene.blocks[i].maxh is not None and scene.blocks[i].maxh < m.maxh:
+        item, h = f"blocks[{i}].maxh", scene.blocks[i].maxh
+    where = f"{'region' if kind == 'region' else 'boundary'} {name!r}"
+    problems.append(Problem(item, f"{h:g} m: the mesh would have at least {n:.3g} elements ({most:.3g} in {where}; "
+                            f"estimated from the {'areas' if geo.dim == 2 else 'volumes'} and the element sizes "
+                            f"before meshing), more than mesh.max_elements = {m.max_elements}: use larger elements, "
+                            "or raise mesh.max_elements if the machine can take it"))
 
 
 def _check_formulation(scene: Scene, problems: list[Problem]) -> None:
@@ -343,7 +411,7 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem("physics.coupling", f"{ph.coupling!r} couples a transient heat problem with "
                                     "mechanics (deformation heating, problem (P_c)): it needs physics.thermal = "
                                     "'transient' and physics.mechanics = 'static'; use 'none' otherwise"))
-        offset = 273.15 if scene.scene.temperature_unit == "C" else 0.0
+        offset = KELVIN if scene.scene.temperature_unit == "C" else 0.0
         for name, mat in scene.materials.items():
             if mat.thermal_expansion is not None and not mat.stress_free_temperature + offset > 0:
                 problems.append(Problem(f"materials.{name}.stress_free_temperature", f"the deformation heating of "

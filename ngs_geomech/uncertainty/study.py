@@ -26,6 +26,7 @@ from ..io.atomic import write_json_atomic, write_text_atomic
 from ..io.sample_log import SampleLog, differing_items, fingerprint, flatten
 from ..io.summary import json_safe
 from ..io.uncertainty_figures import distribution_figure, ranges_figure, scatter_figure
+from ..names import name_problem
 from ..scene.parse import apply_overrides, read_toml, resolve, scene_from_dict
 from ..scene.validate import validate
 from . import stochastic, worst
@@ -303,6 +304,10 @@ def _check_settings(sc) -> list[Problem]:
         p.append(Problem("uncertainty.criteria", "no criteria given"))
     for n in {n for n in names if names.count(n) > 1}:
         p.append(Problem(f"uncertainty.criteria.{n}", "duplicate criterion name"))
+    for i, c in enumerate(u.criteria):
+        why = name_problem(c.name)          # figures/samples_<name>.png
+        if why is not None:
+            p.append(Problem(f"uncertainty.criteria[{i}].name", why))
     probes = {pr.name for pr in sc.output.probes}
     for c in u.criteria:
         parts = c.summary.split(".")
