@@ -267,3 +267,44 @@ def test_fault_wedge_scene(one_thread):
     assert fault["nodes"]["stick"] > 0 and fault["nodes"]["slip"] > 0
     assert abs(fault["tangential_force"]) <= 0.6 * fault["normal_force"] * (1 + 1e-9)
     assert r.summary["mechanics"]["iterations"][-1] <= 30
+
+
+def _gap_blocks(top: dict, law: str = "frictionless") -> dict:
+    """An upper block held only by a contact across a 0.1 mm gap to a fixed lower block, loaded on top by
+    ``top`` over t in [0, 1] (one step: solves at t = 0 and t = 1)."""
+    return {"scene": {"name": "gap_blocks"}, "physics": {"mechanics": "static"}, "mesh": {"maxh": 0.25},
+            "time": {"end": 1.0, "dt": 1.0},
+            "blocks": [{"name": "lower", "shape": "rectangle", "origin": [0, 0], "size": [1.0, 0.5],
+                        "boundaries": {"base": "ymin", "lower_top": "ymax"}},
+                       {"name": "upper", "shape": "rectangle", "origin": [0, 0.5001], "size": [1.0, 0.5],
+                        "boundaries": {"top": "ymax", "upper_base": "ymin"}}],
+            "materials": {n: {"youngs_modulus": 10e9, "poisson_ratio": 0.25} for n in ("lower", "upper")},
+            "interfaces": [{"name": "joint", "blocks": ["upper", "lower"], "type": "contact", "law": law,
+                            "sides": ["upper_base", "lower_top"], **({"friction": 0.3} if law == "coulomb" else {})}],
+            "boundary_conditions": {"base": {"displacement": [0.0, 0.0]}, "top": top}}
+
+
+@pytest.mark.parametrize("law", ["frictionless", "coulomb"])
+def test_load_ramping_from_zero_starts_at_rest(one_thread, law):
+    """A pressure P t on a block held only by a contact across a gap: at t = 0 the load is zero and u = 0
+    (the unloaded rigid motion fixed at zero), not a singular system; at t = 1 the contact carries P."""
+    r = run_scene(scene_from_dict(_gap_blocks({"pressure": "5e6*t"}, law)), None, progress=False)
+    hist = r.summary["mechanics"]["contact"]["history"]
+    assert [h["time_s"] for h in hist] == [0.0, 1.0]
+    assert hist[0]["joint"]["normal_force"] == 0.0 and hist[0]["joint"]["nodes"]["stick"] == 0
+    assert hist[1]["joint"]["normal_force"] == pytest.approx(5e6, rel=1e-9)
+
+
+def test_unheld_contact_set_names_body_motion_load_and_reason(one_thread, monkeypatch):
+    """Truly singular (a push beyond the friction capacity) with the solvability LP skipped, as the condensed
+    path's inner problem does: the active-set iteration's own error names the body, the motion, the load's
+    component along it and why the contacts do not hold it."""
+    from ngs_geomech.solvers.contact import ContactSolver
+
+    monkeypatch.setattr(ContactSolver, "_check_solvable", lambda *a, **k: None)
+    s = _gap_blocks({"pressure": "5e6*t"}, "coulomb")
+    s["blocks"][1]["boundaries"]["upper_left"] = "xmin"
+    s["boundary_conditions"]["upper_left"] = {"traction": ["1e7*t", 0.0]}
+    with pytest.raises(SolverError, match=r"body upper: translation along x is not held by the contact set \(load "
+                                          r"component 5e\+06, .*\): its \d+ closed nodes? all slip: the load exceeds"):
+        run_scene(scene_from_dict(s), None, progress=False)
