@@ -711,7 +711,12 @@ class _Mechanics:
             check_supported(self.contacts, floating, scene.scene.name)
             items, modulus = [(c.op, c.law) for c in self.contacts], nodal_modulus(self.setup.props)
             if any(c.settings.method == "uzawa" for c in self.contacts):     # validated: then all are
-                csolver = UzawaSolver(items, modulus=modulus, floating=floating)
+                keys = [f"interfaces.{c.name}" if c.kind == "interface" else f"boundary_conditions.{c.name}.foundation"
+                        for c in self.contacts]
+                csolver = UzawaSolver(items, modulus=modulus, floating=floating, maxit=ms.uzawa_max_steps,
+                                      rho=[c.settings.uzawa_step for c in self.contacts],
+                                      settings=(" / ".join(f"{k}.uzawa_step" for k in keys),
+                                                "mechanics.uzawa_max_steps"))
             else:                                # 'penalty' interfaces keep their penalty rows (ContactLaw)
                 sv = scene.solver
                 # the Newton steps by GMRES (contact_krylov): 'auto' above contact_krylov.AUTO_DOFS; the mixed

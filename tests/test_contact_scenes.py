@@ -215,6 +215,20 @@ def test_uzawa_method_in_a_scene_matches_ssn(one_thread):
     assert uz.summary["mechanics"]["contact"]["force_balance"]["imbalance_rel"] < 1e-8
 
 
+def test_uzawa_non_convergence_names_the_scene_keys(one_thread):
+    """Uzawa stopped by its step limit: the advice names the scene keys of the step and of the limit, and
+    those keys act (the step given is the step used; a higher limit converges)."""
+    s = _block_scene(0.5, method="uzawa", uzawa_step=3e10)
+    s["mechanics"] = {"uzawa_max_steps": 100}
+    with pytest.raises(SolverError, match=r"after 100 Uzawa steps .*rho 3e\+10 Pa/m\): lower "
+                                          r"boundary_conditions\.base\.foundation\.uzawa_step \(.*\) or raise "
+                                          r"mechanics\.uzawa_max_steps"):
+        run_scene(scene_from_dict(s), None, progress=False)
+    s["mechanics"] = {"uzawa_max_steps": 200}
+    info = run_scene(scene_from_dict(s), None, progress=False).mechanics.solver.contact_infos[-1][-1]
+    assert info.rho == [3e10] and 100 < info.iterations <= 200
+
+
 def test_uzawa_must_be_used_on_every_contact():
     s = heated_bar_scene()
     s["boundary_conditions"]["left"]["foundation"]["method"] = "uzawa"

@@ -139,6 +139,11 @@ class ContactMechanics:
                             "(exact constraints; the default), 'penalty': plain penalty (penetration "
                             "~ pressure / augmentation), 'uzawa': the seed's Uzawa algorithm (2.66) for the "
                             "friction multipliers (reference; slow; 2D only)")
+    uzawa_step: float | None = field(optional(number), None,
+                                     doc="method = 'uzawa': the step rho of the friction multipliers, Pa/m (> 0; "
+                                         "default 2 x the largest stiffness entry over the extent of the contact "
+                                         "side, 2 E/L; a step above about 2 E/L oscillates and is halved after 30 "
+                                         "steps without progress)")
     augmentation: float | None = field(optional(number), None,
                                        doc="augmentation / penalty parameter c, Pa/m (default: the largest "
                                            "stiffness entry of the materials over the nodal size, E/h)")
@@ -375,6 +380,8 @@ class MechanicsSettings:
                                                 "step along the secant direction; 1.0 is the plain method (2.32)")
     tolerance: float = field(number, 1e-8, doc="relative tolerance of the nonlinear iteration")
     max_iterations: int = field(integer, 100, doc="iteration limit of the nonlinear solver")
+    uzawa_max_steps: int = field(integer, 1000, doc="contacts with method = 'uzawa': the most Uzawa steps (2.66) "
+                                                    "per contact solve (>= 1)")
     regularization: float = field(number, 1e-6, doc="delta in (A1/A_ref + delta)^lambda (lambda < 1 is singular "
                                                     "at zero strain)")
     nested_levels: int = field(integer, 0, doc="Newton on the lambda law (no contact): start from the solution on "
