@@ -330,7 +330,8 @@ class Source:
 
     region: str = field(string, doc="region the heat is released in")
     power: float | None = field(optional(number), None,
-                                doc="total power P0, W (plane scenes: W per m of depth); spread uniformly")
+                                doc="total power P0, W (plane scenes: W per m of depth); spread uniformly over "
+                                    "the region: density P0 / volume, W/m^3 (plane: P0 / area)")
     density: object = field(optional(expr), None, doc="power density Q(x, t), W/m^3 (instead of power)")
     decay: list = field(list_of(list_of(either(number, time, what="a number or a time"), 2)), [],
                         doc="[[a_i, tau_i], ...]: P(t) = P0 sum a_i exp(-(t - start)/tau_i); empty: constant")
