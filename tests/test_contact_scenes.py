@@ -322,3 +322,76 @@ def test_unheld_contact_set_names_body_motion_load_and_reason(one_thread, monkey
     with pytest.raises(SolverError, match=r"body upper: translation along x is not held by the contact set \(load "
                                           r"component 5e\+06, .*\): its \d+ closed nodes? all slip: the load exceeds"):
         run_scene(scene_from_dict(s), None, progress=False)
+
+
+def test_nodes_held_by_supports_are_marked_prescribed(one_thread, tmp_path):
+    """Two blocks on symmetry planes (x = 0), a Coulomb bedding between them: at the bedding's node on the
+    symmetry line both sides' tangential displacements are given, so its friction multiplier is undetermined
+    (the support carries it). It is reported as 'prescribed' (status 3) with q = 0, its pressure kept (the
+    normal displacement is free); in the .vtp too."""
+    s = _two_blocks()
+    s["blocks"].pop()
+    s["materials"].pop("loose")
+    s["blocks"][0]["boundaries"] = {"base": "ymin", "lower_left": "xmin"}
+    s["blocks"][1]["boundaries"] = {"top": "ymax", "upper_left": "xmin", "upper_right": "xmax"}
+    s["interfaces"][0].update(law="coulomb", friction=0.6)
+    s["boundary_conditions"] = {"base": {"displacement": [0.0, 0.0]}, "lower_left": {"symmetry": True},
+                                "upper_left": {"symmetry": True}, "top": {"pressure": 5e6},
+                                "upper_right": {"traction": [-1e6, 0.0]}}
+    s["output"] = {"figures": False}
+    r = run_scene(scene_from_dict(s), tmp_path / "out", progress=False)
+    res = r.mechanics.contact_output.latest[0]
+    corner = np.isclose(res["x"], 0.0)
+    nodes = r.summary["mechanics"]["contact"]["interfaces"]["joint"]["nodes"]
+    print(f"\nsymmetry corner: p {res['pressure'][corner]} Pa, q {res['traction'][corner]} Pa, nodes {nodes}")
+    assert res["status"][corner].tolist() == [3.0] and res["traction"][corner].tolist() == [0.0]
+    assert res["pressure"][corner][0] > 0
+    assert nodes["prescribed"] == 1 and nodes["slip"] + nodes["stick"] == int(np.sum(res["pressure"] > 0)) - 1
+    vtp = ET.parse(next((tmp_path / "out").glob("*_contact_joint_step*.vtp"))).getroot()
+    arrays = {a.get("Name"): np.array(a.text.split(), dtype=float) for a in next(vtp.iter("Piece")).find("PointData")}
+    assert np.count_nonzero(arrays["status"] == 3.0) == 1 and np.all(np.isfinite(arrays["traction"]))
+
+
+def _ramped_block(out_keys: dict) -> dict:
+    s = _block_scene(0.5)
+    s["time"] = {"end": 1.0, "dt": 0.5}
+    s["boundary_conditions"]["top"] = {"pressure": "5e6*(1 + t)"}
+    s["output"] = {"figures": False, **out_keys}
+    return s
+
+
+@pytest.mark.parametrize("keys, series", [({"vtk": False}, True), ({"vtk": False, "contact_vtp": False}, False)])
+def test_contact_series_does_not_follow_output_vtk(one_thread, tmp_path, keys, series):
+    """output.vtk = false drops the .vtu series only: the contact .vtp series (the only nodal multipliers)
+    stays unless output.contact_vtp = false."""
+    run_scene(scene_from_dict(_ramped_block(keys)), tmp_path / "out", progress=False)
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert not [n for n in names if n.endswith((".vtu", "block.pvd"))]
+    vtp = [n for n in names if n.startswith("block_contact_base_step")]
+    assert vtp == ([f"block_contact_base_step0000{k}.vtp" for k in range(3)] if series else [])
+    assert ("block_contact_base.pvd" in names) == series
+
+
+def test_solve_time_excludes_writing_the_series(one_thread, tmp_path, monkeypatch):
+    """summary.json's solve_s leaves out the VTK and .vtp writing (output_s has it): writers slowed by 0.15 s
+    a call (2 per output time, 2 output times in the steps: 0.6 s) add their time to output_s, not to solve_s;
+    solve_s + output_s <= total_s."""
+    import time
+
+    from ngs_geomech.io.lines_vtk import LineSeries
+    from ngs_geomech.io.vtk import VtkSeries
+
+    def slow(write):
+        def wrapped(self, *a, **k):
+            time.sleep(0.15)
+            return write(self, *a, **k)
+        return wrapped
+
+    monkeypatch.setattr(VtkSeries, "write", slow(VtkSeries.write))
+    monkeypatch.setattr(LineSeries, "write", slow(LineSeries.write))
+    run_scene(scene_from_dict(_ramped_block({})), tmp_path / "out", progress=False)
+    w = json.loads((tmp_path / "out" / "summary.json").read_text())["wall_time_s"]
+    print(f"\nwall times: {w}")
+    assert w["output_s"] >= 6 * 0.15          # 3 output times (t = 0 included) x (1 .vtu + 1 .vtp)
+    assert w["solve_s"] < 0.3
+    assert w["solve_s"] + w["output_s"] <= w["total_s"]

@@ -459,6 +459,10 @@ class Output:
     """``[output]``: what is written (VTK series, figures, summary.json)."""
 
     vtk: bool = field(boolean, True, doc="write a VTK series (.vtu per output time and a .pvd)")
+    contact_vtp: bool = field(boolean, True,
+                              doc="mechanics with contact: write each contact's series <scene>_contact_<name> (.vtp "
+                                  "per output time and a .pvd: nodal pressure, traction, gap, slip, status, slip "
+                                  "bound), independently of vtk (the only nodal output of the multipliers)")
     every: int = field(integer, 1, doc="write VTK every N-th step (the last step is always written)")
     checkpoint_every: int | None = field(optional(integer), None,
                                          doc="time-dependent runs: a checkpoint every N steps (0: no periodic ones; a "
