@@ -1082,8 +1082,8 @@ class ContactSolver:
             for j in bad:
                 body, name = labels[j]
                 kind = "moment" if "rotation" in name else "force"
-                parts.append(f"body {'+'.join(body.regions)}: {name} is not held (unbalanced {kind} "
-                             f"{-resid[j]:.3g})")
+                parts.append(f"body {'+'.join(body.regions)}: {name} is not held (load component "
+                             f"{float(R[:, j] @ f):.3g}, unbalanced {kind} {-resid[j]:.3g})")
             raise SolverError(f"contact solve{' at ' + where if where else ''}: the contacts cannot hold the load: "
                               + "; ".join(parts) + ". The load pulls the body off its supports, or a tangential "
                               "load exceeds what friction can carry (frictionless contact carries none); add a "
