@@ -215,6 +215,20 @@ def test_uzawa_method_in_a_scene_matches_ssn(one_thread):
     assert uz.summary["mechanics"]["contact"]["force_balance"]["imbalance_rel"] < 1e-8
 
 
+def test_uzawa_non_convergence_names_the_scene_keys(one_thread):
+    """Uzawa stopped by its step limit: the advice names the scene keys of the step and of the limit, and
+    those keys act (the step given is the step used; a higher limit converges)."""
+    s = _block_scene(0.5, method="uzawa", uzawa_step=3e10)
+    s["mechanics"] = {"uzawa_max_steps": 100}
+    with pytest.raises(SolverError, match=r"after 100 Uzawa steps .*rho 3e\+10 Pa/m\): lower "
+                                          r"boundary_conditions\.base\.foundation\.uzawa_step \(.*\) or raise "
+                                          r"mechanics\.uzawa_max_steps"):
+        run_scene(scene_from_dict(s), None, progress=False)
+    s["mechanics"] = {"uzawa_max_steps": 200}
+    info = run_scene(scene_from_dict(s), None, progress=False).mechanics.solver.contact_infos[-1][-1]
+    assert info.rho == [3e10] and 100 < info.iterations <= 200
+
+
 def test_uzawa_must_be_used_on_every_contact():
     s = heated_bar_scene()
     s["boundary_conditions"]["left"]["foundation"]["method"] = "uzawa"
@@ -267,3 +281,117 @@ def test_fault_wedge_scene(one_thread):
     assert fault["nodes"]["stick"] > 0 and fault["nodes"]["slip"] > 0
     assert abs(fault["tangential_force"]) <= 0.6 * fault["normal_force"] * (1 + 1e-9)
     assert r.summary["mechanics"]["iterations"][-1] <= 30
+
+
+def _gap_blocks(top: dict, law: str = "frictionless") -> dict:
+    """An upper block held only by a contact across a 0.1 mm gap to a fixed lower block, loaded on top by
+    ``top`` over t in [0, 1] (one step: solves at t = 0 and t = 1)."""
+    return {"scene": {"name": "gap_blocks"}, "physics": {"mechanics": "static"}, "mesh": {"maxh": 0.25},
+            "time": {"end": 1.0, "dt": 1.0},
+            "blocks": [{"name": "lower", "shape": "rectangle", "origin": [0, 0], "size": [1.0, 0.5],
+                        "boundaries": {"base": "ymin", "lower_top": "ymax"}},
+                       {"name": "upper", "shape": "rectangle", "origin": [0, 0.5001], "size": [1.0, 0.5],
+                        "boundaries": {"top": "ymax", "upper_base": "ymin"}}],
+            "materials": {n: {"youngs_modulus": 10e9, "poisson_ratio": 0.25} for n in ("lower", "upper")},
+            "interfaces": [{"name": "joint", "blocks": ["upper", "lower"], "type": "contact", "law": law,
+                            "sides": ["upper_base", "lower_top"], **({"friction": 0.3} if law == "coulomb" else {})}],
+            "boundary_conditions": {"base": {"displacement": [0.0, 0.0]}, "top": top}}
+
+
+@pytest.mark.parametrize("law", ["frictionless", "coulomb"])
+def test_load_ramping_from_zero_starts_at_rest(one_thread, law):
+    """A pressure P t on a block held only by a contact across a gap: at t = 0 the load is zero and u = 0
+    (the unloaded rigid motion fixed at zero), not a singular system; at t = 1 the contact carries P."""
+    r = run_scene(scene_from_dict(_gap_blocks({"pressure": "5e6*t"}, law)), None, progress=False)
+    hist = r.summary["mechanics"]["contact"]["history"]
+    assert [h["time_s"] for h in hist] == [0.0, 1.0]
+    assert hist[0]["joint"]["normal_force"] == 0.0 and hist[0]["joint"]["nodes"]["stick"] == 0
+    assert hist[1]["joint"]["normal_force"] == pytest.approx(5e6, rel=1e-9)
+
+
+def test_unheld_contact_set_names_body_motion_load_and_reason(one_thread, monkeypatch):
+    """Truly singular (a push beyond the friction capacity) with the solvability LP skipped, as the condensed
+    path's inner problem does: the active-set iteration's own error names the body, the motion, the load's
+    component along it and why the contacts do not hold it."""
+    from ngs_geomech.solvers.contact import ContactSolver
+
+    monkeypatch.setattr(ContactSolver, "_check_solvable", lambda *a, **k: None)
+    s = _gap_blocks({"pressure": "5e6*t"}, "coulomb")
+    s["blocks"][1]["boundaries"]["upper_left"] = "xmin"
+    s["boundary_conditions"]["upper_left"] = {"traction": ["1e7*t", 0.0]}
+    with pytest.raises(SolverError, match=r"body upper: translation along x is not held by the contact set \(load "
+                                          r"component 5e\+06, .*\): its \d+ closed nodes? all slip: the load exceeds"):
+        run_scene(scene_from_dict(s), None, progress=False)
+
+
+def test_nodes_held_by_supports_are_marked_prescribed(one_thread, tmp_path):
+    """Two blocks on symmetry planes (x = 0), a Coulomb bedding between them: at the bedding's node on the
+    symmetry line both sides' tangential displacements are given, so its friction multiplier is undetermined
+    (the support carries it). It is reported as 'prescribed' (status 3) with q = 0, its pressure kept (the
+    normal displacement is free); in the .vtp too."""
+    s = _two_blocks()
+    s["blocks"].pop()
+    s["materials"].pop("loose")
+    s["blocks"][0]["boundaries"] = {"base": "ymin", "lower_left": "xmin"}
+    s["blocks"][1]["boundaries"] = {"top": "ymax", "upper_left": "xmin", "upper_right": "xmax"}
+    s["interfaces"][0].update(law="coulomb", friction=0.6)
+    s["boundary_conditions"] = {"base": {"displacement": [0.0, 0.0]}, "lower_left": {"symmetry": True},
+                                "upper_left": {"symmetry": True}, "top": {"pressure": 5e6},
+                                "upper_right": {"traction": [-1e6, 0.0]}}
+    s["output"] = {"figures": False}
+    r = run_scene(scene_from_dict(s), tmp_path / "out", progress=False)
+    res = r.mechanics.contact_output.latest[0]
+    corner = np.isclose(res["x"], 0.0)
+    nodes = r.summary["mechanics"]["contact"]["interfaces"]["joint"]["nodes"]
+    print(f"\nsymmetry corner: p {res['pressure'][corner]} Pa, q {res['traction'][corner]} Pa, nodes {nodes}")
+    assert res["status"][corner].tolist() == [3.0] and res["traction"][corner].tolist() == [0.0]
+    assert res["pressure"][corner][0] > 0
+    assert nodes["prescribed"] == 1 and nodes["slip"] + nodes["stick"] == int(np.sum(res["pressure"] > 0)) - 1
+    vtp = ET.parse(next((tmp_path / "out").glob("*_contact_joint_step*.vtp"))).getroot()
+    arrays = {a.get("Name"): np.array(a.text.split(), dtype=float) for a in next(vtp.iter("Piece")).find("PointData")}
+    assert np.count_nonzero(arrays["status"] == 3.0) == 1 and np.all(np.isfinite(arrays["traction"]))
+
+
+def _ramped_block(out_keys: dict) -> dict:
+    s = _block_scene(0.5)
+    s["time"] = {"end": 1.0, "dt": 0.5}
+    s["boundary_conditions"]["top"] = {"pressure": "5e6*(1 + t)"}
+    s["output"] = {"figures": False, **out_keys}
+    return s
+
+
+@pytest.mark.parametrize("keys, series", [({"vtk": False}, True), ({"vtk": False, "contact_vtp": False}, False)])
+def test_contact_series_does_not_follow_output_vtk(one_thread, tmp_path, keys, series):
+    """output.vtk = false drops the .vtu series only: the contact .vtp series (the only nodal multipliers)
+    stays unless output.contact_vtp = false."""
+    run_scene(scene_from_dict(_ramped_block(keys)), tmp_path / "out", progress=False)
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert not [n for n in names if n.endswith((".vtu", "block.pvd"))]
+    vtp = [n for n in names if n.startswith("block_contact_base_step")]
+    assert vtp == ([f"block_contact_base_step0000{k}.vtp" for k in range(3)] if series else [])
+    assert ("block_contact_base.pvd" in names) == series
+
+
+def test_solve_time_excludes_writing_the_series(one_thread, tmp_path, monkeypatch):
+    """summary.json's solve_s leaves out the VTK and .vtp writing (output_s has it): writers slowed by 0.15 s
+    a call (2 per output time, 2 output times in the steps: 0.6 s) add their time to output_s, not to solve_s;
+    solve_s + output_s <= total_s."""
+    import time
+
+    from ngs_geomech.io.lines_vtk import LineSeries
+    from ngs_geomech.io.vtk import VtkSeries
+
+    def slow(write):
+        def wrapped(self, *a, **k):
+            time.sleep(0.15)
+            return write(self, *a, **k)
+        return wrapped
+
+    monkeypatch.setattr(VtkSeries, "write", slow(VtkSeries.write))
+    monkeypatch.setattr(LineSeries, "write", slow(LineSeries.write))
+    run_scene(scene_from_dict(_ramped_block({})), tmp_path / "out", progress=False)
+    w = json.loads((tmp_path / "out" / "summary.json").read_text())["wall_time_s"]
+    print(f"\nwall times: {w}")
+    assert w["output_s"] >= 6 * 0.15          # 3 output times (t = 0 included) x (1 .vtu + 1 .vtp)
+    assert w["solve_s"] < 0.3
+    assert w["solve_s"] + w["output_s"] <= w["total_s"]

@@ -87,14 +87,16 @@ def interface_profiles(s: np.ndarray, panels: list[dict[str, np.ndarray]], path:
                        ylabels: list[str], xlabel: str = "arc length along the interface (m)",
                        status: np.ndarray | None = None) -> None:
     """Quantities along an interface: one panel per dict of curves (e.g. pressure and traction, gap and
-    slip) over the arc length ``s``; ``status`` (0 open, 1 stick, 2 slip) shades the panels' background."""
+    slip) over the arc length ``s``; ``status`` (0 open, 1 stick, 2 slip, 3 prescribed: held by the supports)
+    shades the panels' background."""
     fig, axes = plt.subplots(len(panels), 1, figsize=(7, 2.6 * len(panels) + 0.6), sharex=True, squeeze=False)
     for ax, curves, ylabel in zip(axes[:, 0], panels, ylabels):
         for name, vals in curves.items():
             ax.plot(s, vals, label=name, marker="." if len(s) < 60 else None, linewidth=1.0)
         if status is not None and len(s) > 1:
             mids = np.concatenate([[s[0]], 0.5 * (s[1:] + s[:-1]), [s[-1]]])   # each node's share of the line
-            for k, (color, lab) in enumerate((("0.85", "open"), ("#cfe8cf", "stick"), ("#f6c8a6", "slip"))):
+            for k, (color, lab) in enumerate((("0.85", "open"), ("#cfe8cf", "stick"), ("#f6c8a6", "slip"),
+                                              ("#c9d6ef", "prescribed"))):
                 labelled = ax is not axes[0, 0]
                 for j in np.where(status == k)[0]:
                     ax.axvspan(mids[j], mids[j + 1], color=color, alpha=0.7, linewidth=0,

@@ -30,7 +30,9 @@ from ..physics.contact3d import contact_operator_3d
 from ..scene.model import ContactMechanics, Scene
 from ..solvers.contact import ContactLaw
 
-STATUS_OPEN, STATUS_STICK, STATUS_SLIP = 0, 1, 2
+STATUS_OPEN, STATUS_STICK, STATUS_SLIP, STATUS_PRESCRIBED = 0, 1, 2, 3
+"""Nodal contact states of the output; 'prescribed': every displacement its constraint involves is given
+(:func:`supported_nodes`), so the support, not the contact, carries the force and the multiplier is undetermined."""
 
 
 @dataclass
@@ -152,12 +154,48 @@ def check_supported(specs: list[ContactSpec], floating, scene_name: str) -> None
                          source=f"scene {scene_name!r}")
 
 
-def interface_results(spec: ContactSpec, u: np.ndarray, lam_n: np.ndarray, lam_t: np.ndarray) -> dict:
+def _only_prescribed(B, free: np.ndarray) -> np.ndarray:
+    """Rows of B (nodes x dofs) whose entries sit on prescribed dofs only (the rule of the solver's
+    ``_drop_prescribed_nodes``)."""
+    absB = abs(B[:, :len(free)])
+    return (absB @ free.astype(float)) <= 1e-10 * (absB @ np.ones(len(free)))
+
+
+def supported_nodes(spec: ContactSpec, free: np.ndarray, u: np.ndarray, lam_n: np.ndarray,
+                    lam_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The multipliers with the undetermined ones set to zero, and the mask of the nodes they belong to
+    (:data:`STATUS_PRESCRIBED`). A node's normal multiplier is undetermined when its normal constraint involves
+    prescribed dofs only (the solver drops the node, p = 0); its tangential one when the tangential rows do and
+    the given displacements do not slip there (e.g. a corner on two symmetry planes: both sides' tangential
+    displacements zero, so any |q| <= the slip bound balances the support's reaction and the solver's value is
+    arbitrary; a given slip instead fixes q at the bound). ``free``: the free dofs of V (bool), ``u`` the
+    displacement vector. The support reactions computed from the cleaned multipliers take up what they held."""
+    op = spec.op
+    free = np.asarray(free, dtype=bool)
+    n = len(free)
+    normal = _only_prescribed(op.Bn, free)
+    tangential = _only_prescribed(op.Bt, free)
+    rows = [op.Bt] if op.Bt2 is None else [op.Bt, op.Bt2]
+    if op.Bt2 is not None:
+        tangential &= _only_prescribed(op.Bt2, free)
+    # no slip: below round-off of the displacements the rows combine
+    scale = max(float(np.max(np.abs(u[:n]), initial=0.0)), 1e-300)
+    still = np.all([np.abs(B[:, :n] @ u[:n]) <= 1e-10 * scale * np.asarray(abs(B[:, :n]).sum(axis=1)).ravel()
+                    for B in rows], axis=0)
+    mask = normal | (tangential & still & (lam_n > 0) & (spec.law.kind != "frictionless"))
+    lam_n = np.where(normal, 0.0, lam_n)
+    lam_t = np.where(mask[:, None] if lam_t.ndim == 2 else mask, 0.0, lam_t)
+    return lam_n, lam_t, mask
+
+
+def interface_results(spec: ContactSpec, u: np.ndarray, lam_n: np.ndarray, lam_t: np.ndarray,
+                      prescribed: np.ndarray | None = None) -> dict:
     """Nodal arrays of one contact at a solution u (vector of X): x, y (and z in 3D) (m), pressure p (Pa),
     traction q (Pa; 3D: the magnitude |q|, and for friction laws the components ``traction_t1``,
     ``traction_t2`` along t1, t2), gap (m), slip (m; signed along t in 2D, the tangential length in 3D), status
-    (0 open, 1 stick, 2 slip), bound (the slip bound, Pa) and the node order along the side (``order``, by arc
-    length from one end; 3D: by x, y, z)."""
+    (0 open, 1 stick, 2 slip, 3 prescribed: the nodes of the mask ``prescribed`` from :func:`supported_nodes`,
+    whose multipliers are given cleaned), bound (the slip bound, Pa) and the node order along the side
+    (``order``, by arc length from one end; 3D: by x, y, z)."""
     op = spec.op
     n = op.Bn.shape[1]
     w = np.maximum(op.weight, 1e-300)
@@ -179,6 +217,8 @@ def interface_results(spec: ContactSpec, u: np.ndarray, lam_n: np.ndarray, lam_t
     else:
         sliding = (lam_n > 0) & (np.abs(q) >= bound * (1 - 1e-9))
         status = np.where(sliding, STATUS_SLIP, status)
+    if prescribed is not None:
+        status = np.where(prescribed, STATUS_PRESCRIBED, status)
     out = {"x": op.coords[:, 0], "y": op.coords[:, 1]}
     if op.coords.shape[1] == 3:
         out["z"] = op.coords[:, 2]

@@ -26,9 +26,9 @@ from __future__ import annotations
 import ngsolve as ngs
 import numpy as np
 
-from .contact import ContactSpec, contact_forces, interface_results, side_dofs
+from .contact import ContactSpec, contact_forces, interface_results, side_dofs, supported_nodes
 
-_STATUS = ("open", "stick", "slip")
+_STATUS = ("open", "stick", "slip", "prescribed")
 
 
 class ContactOutput:
@@ -69,8 +69,10 @@ class ContactOutput:
         self.latest = []
         entry = {"time_s": t, "interfaces": {}}
         foundation = np.zeros(len(self.directions))
+        free = np.array(list(f.X.FreeDofs()), dtype=bool)
         for k, (spec, (lam_n, lam_t)) in enumerate(zip(self.specs, solver.contact.multipliers)):
-            res = interface_results(spec, u, lam_n, lam_t)
+            lam_n, lam_t, prescribed = supported_nodes(spec, free[:n], u, lam_n, lam_t)
+            res = interface_results(spec, u, lam_n, lam_t, prescribed)
             self.latest.append(res)
             op = spec.op
             bt = contact_forces(op, lam_n, lam_t)
@@ -88,7 +90,7 @@ class ContactOutput:
                     **tangential,
                     "resultant_on_side": dict(zip(self.directions, on_side.tolist())),
                     "max_pressure_Pa": float(np.max(lam_n, initial=0.0)),
-                    "closed_length_m": float(np.sum(op.length[status > 0])),
+                    "closed_length_m": float(np.sum(op.length[lam_n > 0])),
                     "max_penetration_m": float(np.max(-res["gap"][keep], initial=0.0)),
                     "max_slip_m": float(np.max(np.abs(res["slip"][lam_n > 0]), initial=0.0)),
                     "max_tangential_displacement_m": float(np.max(np.abs(res["slip"][keep]), initial=0.0)),
@@ -103,7 +105,6 @@ class ContactOutput:
                 item["action_reaction"] = float(np.linalg.norm(on_side + on_opp)
                                                 / max(float(np.linalg.norm(on_side)), 1e-300))
             entry["interfaces"][spec.name] = item
-        free = np.array(list(f.X.FreeDofs()), dtype=bool)
         reaction = np.where(free, 0.0, force)
         load = self.translations @ rhs[:n]
         supports = self.translations @ reaction[:n]

@@ -25,7 +25,7 @@ from ..physics.dynamics import PronyBranch, ViscoelasticForms, ViscousProperties
 from ..physics.elasticity import ElasticForms, stress_measures
 from ..scene.model import Scene
 from ..solvers.dynamics import DynamicSolver, ViscousSolver, contact_switches
-from .contact import contact_specs, interface_results
+from .contact import contact_specs, interface_results, supported_nodes
 from .mechanics import elastic_setup, mechanics_warnings, watch_small_strain
 
 
@@ -140,8 +140,10 @@ class DynamicsRun:
         self.times.append(float(t))
         u = np.array(self.forms.gf.vec.FV().NumPy())
         self.latest = []
+        free = np.array(list(self.forms.X.FreeDofs()), dtype=bool)[:self.forms.V.ndof]
         for spec, (lam_n, lam_t) in zip(self.contacts, self.solver.multipliers):
-            self.latest.append(interface_results(spec, u, np.asarray(lam_n), np.asarray(lam_t)))
+            lam_n, lam_t, prescribed = supported_nodes(spec, free, u, np.asarray(lam_n), np.asarray(lam_t))
+            self.latest.append(interface_results(spec, u, lam_n, lam_t, prescribed))
         entry = {"time_s": float(t)}
         if self.kind == "dynamic" and self.solver.energy_history:
             e = self.solver.energy_history[-1]
@@ -153,7 +155,7 @@ class DynamicsRun:
         for spec, res in zip(self.contacts, self.latest):
             w = np.maximum(spec.op.weight, 0.0)
             entry[spec.name] = {"normal_force": float(w @ res["pressure"]),
-                                "nodes_closed": int(np.count_nonzero(res["status"] > 0)),
+                                "nodes_closed": int(np.count_nonzero(res["pressure"] > 0)),
                                 "max_pressure_Pa": float(np.max(res["pressure"], initial=0.0))}
         self.history.append(entry)
 

@@ -143,6 +143,11 @@ class ContactMechanics:
                             "(exact constraints; the default), 'penalty': plain penalty (penetration "
                             "~ pressure / augmentation), 'uzawa': the seed's Uzawa algorithm (2.66) for the "
                             "friction multipliers (reference; slow; 2D only)")
+    uzawa_step: float | None = field(optional(number), None,
+                                     doc="method = 'uzawa': the step rho of the friction multipliers, Pa/m (> 0; "
+                                         "default 2 x the largest stiffness entry over the extent of the contact "
+                                         "side, 2 E/L; a step above about 2 E/L oscillates and is halved after 30 "
+                                         "steps without progress)")
     augmentation: float | None = field(optional(number), None,
                                        doc="augmentation / penalty parameter c, Pa/m (default: the largest "
                                            "stiffness entry of the materials over the nodal size, E/h)")
@@ -329,7 +334,8 @@ class Source:
 
     region: str = field(string, doc="region the heat is released in")
     power: float | None = field(optional(number), None,
-                                doc="total power P0, W (plane scenes: W per m of depth); spread uniformly")
+                                doc="total power P0, W (plane scenes: W per m of depth); spread uniformly over "
+                                    "the region: density P0 / volume, W/m^3 (plane: P0 / area)")
     density: object = field(optional(expr), None, doc="power density Q(x, t), W/m^3 (instead of power)")
     decay: list = field(list_of(list_of(either(number, time, what="a number or a time"), 2)), [],
                         doc="[[a_i, tau_i], ...]: P(t) = P0 sum a_i exp(-(t - start)/tau_i); empty: constant")
@@ -379,6 +385,8 @@ class MechanicsSettings:
                                                 "step along the secant direction; 1.0 is the plain method (2.32)")
     tolerance: float = field(number, 1e-8, doc="relative tolerance of the nonlinear iteration")
     max_iterations: int = field(integer, 100, doc="iteration limit of the nonlinear solver")
+    uzawa_max_steps: int = field(integer, 1000, doc="contacts with method = 'uzawa': the most Uzawa steps (2.66) "
+                                                    "per contact solve (>= 1)")
     regularization: float = field(number, 1e-6, doc="delta in (A1/A_ref + delta)^lambda (lambda < 1 is singular "
                                                     "at zero strain)")
     nested_levels: int = field(integer, 0, doc="Newton on the lambda law (no contact): start from the solution on "
@@ -455,6 +463,10 @@ class Output:
     """``[output]``: what is written (VTK series, figures, summary.json)."""
 
     vtk: bool = field(boolean, True, doc="write a VTK series (.vtu per output time and a .pvd)")
+    contact_vtp: bool = field(boolean, True,
+                              doc="mechanics with contact: write each contact's series <scene>_contact_<name> (.vtp "
+                                  "per output time and a .pvd: nodal pressure, traction, gap, slip, status, slip "
+                                  "bound), independently of vtk (the only nodal output of the multipliers)")
     every: int = field(integer, 1, doc="write VTK every N-th step (the last step is always written)")
     checkpoint_every: int | None = field(optional(integer), None,
                                          doc="time-dependent runs: a checkpoint every N steps (0: no periodic ones; a "

@@ -385,6 +385,8 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem("mechanics.tolerance", f"must be positive, got {ms.tolerance}"))
         if ms.max_iterations < 1:
             problems.append(Problem("mechanics.max_iterations", f"must be >= 1, got {ms.max_iterations}"))
+        if ms.uzawa_max_steps < 1:
+            problems.append(Problem("mechanics.uzawa_max_steps", f"must be >= 1, got {ms.uzawa_max_steps}"))
         if ms.secant_relaxation is not None and not 0 < ms.secant_relaxation <= 2:
             problems.append(Problem("mechanics.secant_relaxation", f"must be in (0, 2], got {ms.secant_relaxation}"))
         if ms.regularization < 0:
@@ -517,7 +519,7 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
     for i, itf in enumerate(scene.interfaces):
         p = f"interfaces[{i}] ({itf.name})"
         if itf.type == "glued":
-            set_keys = [k for k in ("slip_bound", "friction", "augmentation", "search_distance")
+            set_keys = [k for k in ("slip_bound", "friction", "augmentation", "search_distance", "uzawa_step")
                         if getattr(itf, k) is not None] + [k for k, d in (("law", "frictionless"), ("method", "ssn"))
                                                            if getattr(itf, k) != d]
             if set_keys:
@@ -556,10 +558,12 @@ def _check_contact_law(c, p: str, problems: list[Problem]) -> None:
         problems.append(Problem(f"{p}.slip_bound", f"must be >= 0 (Pa), got {c.slip_bound}"))
     if isinstance(c.slip_bound, str) and "t" in expressions.uses(c.slip_bound):
         problems.append(Problem(f"{p}.slip_bound", "must not depend on time t (an expression of x, y, z)"))
-    for key in ("augmentation", "search_distance"):
+    for key in ("augmentation", "search_distance", "uzawa_step"):
         v = getattr(c, key)
         if v is not None and not (v > 0 and math.isfinite(v)):
             problems.append(Problem(f"{p}.{key}", f"must be positive, got {v}"))
+    if c.uzawa_step is not None and c.method != "uzawa":
+        problems.append(Problem(f"{p}.uzawa_step", f"applies to method = 'uzawa', not {c.method!r}"))
 
 
 def _count_steps(t) -> int:

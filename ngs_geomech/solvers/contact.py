@@ -425,6 +425,9 @@ class ContactSolver:
 
         ``linear="condensed"``: the problem condensed onto the contact surface (:mod:`.contact_condensed`); what it
         cannot take goes to the sparse direct path below (``ContactInfo.condensed_fallback``)."""
+        rest = self._at_rest(rhs, free, x0)
+        if rest is not None:
+            return rest
         if self.linear == "condensed" and not isinstance(matrix, np.ndarray):
             from .contact_condensed import CondensedContact
             if self._condensed is None:
@@ -436,6 +439,25 @@ class ContactSolver:
             info.condensed_fallback = True
             return u, info
         return self._solve_any(matrix, rhs, free, x0, where)
+
+    def _at_rest(self, rhs, free: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, ContactInfo] | None:
+        """The solution u = 0, lam = 0 when the data of (P) vanish: no load on the free dofs, zero prescribed
+        displacements and no initial overlap (a load ramping from zero, "P*t", at t = 0). That pair satisfies
+        every condition (K u = f + B^T lam, g = g0 >= 0, lam = 0) and fixes each unloaded rigid motion of a
+        floating body at zero; the active-set iteration would instead close the first-touching nodes and
+        find no load to measure their hold against. None when the data do not vanish. The sets are left as
+        they were: the next solve starts from them."""
+        n = len(x0)
+        f = np.asarray(rhs, dtype=float)[:n]
+        if np.any(f[free]) or np.any(np.asarray(x0)[~free]):
+            return None
+        ifs = self._interfaces(n)
+        if any(np.any(it.op.g0[it.keep] < 0) for it in ifs):
+            return None
+        info = ContactInfo(active=[0], stick=[0], slip=[0], changes=[0], newton_residual=[0.0])
+        self.multipliers = [(np.zeros(it.m), np.zeros((it.m, 2) if it.dim3 else it.m)) for it in ifs]
+        self.infos.append(info)
+        return np.zeros(n), info
 
     def _solve_any(self, matrix, rhs, free, x0, where: str) -> tuple[np.ndarray, ContactInfo]:
         try:
@@ -788,9 +810,11 @@ class ContactSolver:
                 info.unheld_sets += 1
                 grow = all(not (it.slip & it.active).any() for it in ifs)
                 if info.unheld_sets > 3 or (grow and not any((it.keep & ~it.active).any() for it in ifs)):
-                    raise SolverError(f"contact solve{' at ' + where if where else ''}, iteration {it_nr}: the "
-                                      "bodies in contact are not held by the active contact set (the linear system "
-                                      "is singular along a loaded rigid motion)")
+                    r.data = mat * xv
+                    ra = r.FV().NumPy()
+                    ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
+                    raise SolverError(f"{what}, iteration {it_nr}: "
+                                      + self._unheld(ifs, rigid, (b - ra)[:n] * free, f, n))
                 walked = False
                 if not grow and rigid.shape[1] and not any(it.dim3 for it in ifs):
                     # every active node slips and their friction does not balance the load: move the points where
@@ -950,6 +974,45 @@ class ContactSolver:
         return SaddleKrylov(n, freemask, scale, aug, blocks, modes, vertex, dim,
                             tol=self.linear_tol or DEFAULT_TOL, maxit=self.linear_maxit)
 
+    def _unheld(self, ifs: list[_Interface], rigid: np.ndarray, ru: np.ndarray, f: np.ndarray, n: int) -> str:
+        """Why the active sets leave a floating body free along a loaded rigid motion: the body, the motion with
+        the largest unbalanced force or moment rigid^T ru (``ru`` the residual of the equilibrium rows; N/m for a
+        translation in plane scenes, N m/m for a rotation), the load's component rigid^T f along it, and what
+        the body's contact nodes do (none closed, all slipping, frictionless against a tangential load, or
+        closed but not holding this motion)."""
+        labels = [(b, nm) for b in self.floating for nm in b.names]
+        norms = np.maximum(np.linalg.norm(rigid, axis=0), 1e-300)
+        j = int(np.argmax(np.abs(rigid.T @ ru) / norms))
+        body, name = labels[j]
+        kind = "moment" if "rotation" in name else "force"
+        mode = rigid[:, j]
+        closed = slipping = 0
+        frictionless, normal = True, False
+        for it in ifs:
+            Bn = it.Bn[:, :n]
+            on = (np.abs(Bn @ np.abs(body.modes[:n])).sum(axis=1) > 0) & it.active & it.keep
+            closed += int(on.sum())
+            slipping += int((on & it.slip).sum())
+            frictionless = frictionless and (it.law.kind == "frictionless" or not on.any())
+            # the closed nodes' normal rows see this motion: holding it would take tension
+            size = np.asarray(abs(Bn[on]).sum(axis=1)).ravel() * float(np.max(np.abs(mode)))
+            normal = normal or bool(np.any(np.abs(Bn[on] @ mode) > 1e-8 * size))
+        nodes = f"{closed} closed node{'s' if closed != 1 else ''}"
+        if not closed:
+            why = "no contact node of the body is closed (the load pulls it off its supports)"
+        elif normal:
+            why = (f"its {nodes} would have to pull (contact carries compression only): the load "
+                   "pulls the body off its supports")
+        elif frictionless:
+            why = f"its {nodes} (frictionless) carry no tangential force"
+        elif slipping == closed:
+            why = f"its {nodes} all slip: the load exceeds what friction can carry"
+        else:
+            why = f"its {nodes} ({slipping} slipping) do not hold this motion"
+        return (f"body {'+'.join(body.regions)}: {name} is not held by the contact set (load component "
+                f"{float(mode @ f):.3g}, unbalanced {kind} {float(mode @ ru):.3g}): {why}; add a support "
+                "(displacement or symmetry condition) or change the load")
+
     def _check_solvable(self, ifs: list[_Interface], f: np.ndarray, where: str) -> None:
         """Stop with a SolverError naming the body and the rigid motion when no admissible contact forces
         balance the load on the free rigid motions of the floating bodies: an LP for lam_n >= 0,
@@ -1044,8 +1107,8 @@ class ContactSolver:
             for j in bad:
                 body, name = labels[j]
                 kind = "moment" if "rotation" in name else "force"
-                parts.append(f"body {'+'.join(body.regions)}: {name} is not held (unbalanced {kind} "
-                             f"{-resid[j]:.3g})")
+                parts.append(f"body {'+'.join(body.regions)}: {name} is not held (load component "
+                             f"{float(R[:, j] @ f):.3g}, unbalanced {kind} {-resid[j]:.3g})")
             raise SolverError(f"contact solve{' at ' + where if where else ''}: the contacts cannot hold the load: "
                               + "; ".join(parts) + ". The load pulls the body off its supports, or a tangential "
                               "load exceeds what friction can carry (frictionless contact carries none); add a "

@@ -190,23 +190,30 @@ class UzawaSolver:
     :class:`ContactSolver`: ``solve(matrix, rhs, free, x0, where) -> (u, info)`` and the multipliers per
     interface in ``self.multipliers`` [(lam_n, lam_t)] (Pa).
 
-    ``rho``: the step (Pa/m) for every interface (default ``RHO_FACTOR`` x modulus / extent of the side);
-    ``tol``: the relative change of lam_t that stops; ``maxit``: outer steps; ``inner_maxit``: active set
-    iterations of each frictionless subproblem; ``floating``: as ContactSolver. rho is halved after ``STALL``
-    steps without a new smallest change of lam_t (a step above the stability limit oscillates)."""
+    ``rho``: the step (Pa/m), one for every interface or a list with one per interface (None entries: the
+    default ``RHO_FACTOR`` x modulus / extent of the side); ``tol``: the relative change of lam_t that stops;
+    ``maxit``: outer steps; ``inner_maxit``: active set iterations of each frictionless subproblem;
+    ``floating``: as ContactSolver; ``settings``: the names of the step and step-limit settings the
+    non-convergence error advises to change (a scene's keys; default the arguments ``rho`` and ``maxit``). rho
+    is halved after ``STALL`` steps without a new smallest change of lam_t (a step above the stability limit
+    oscillates)."""
 
     STALL = 30
 
     def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float,
-                 maxit: int = 1000, rho: float | None = None, tol: float = 1e-10, inner_maxit: int = 50,
-                 floating=()):
+                 maxit: int = 1000, rho=None, tol: float = 1e-10, inner_maxit: int = 50,
+                 floating=(), settings: tuple[str, str] = ("rho", "maxit")):
         self.items = interfaces
         self.modulus = float(modulus)
         self.maxit = maxit
-        self.rho = rho
+        self.rho = list(rho) if isinstance(rho, (list, tuple)) else [rho] * len(interfaces)
         self.tol = float(tol)
-        if rho is not None and not (rho > 0 and np.isfinite(rho)):
-            raise ValueError(f"the Uzawa step rho must be positive (Pa/m), got {rho}")
+        self.settings = settings
+        if len(self.rho) != len(interfaces):
+            raise ValueError(f"the Uzawa steps rho: one per interface ({len(interfaces)}), got {len(self.rho)}")
+        for r in self.rho:
+            if r is not None and not (r > 0 and np.isfinite(r)):
+                raise ValueError(f"the Uzawa step rho must be positive (Pa/m), got {r}")
         self.floating = list(floating)
         # the normal subproblems: one solver, so that its active sets carry over from step to step
         self.inner = ContactSolver([(op, ContactLaw("frictionless", augmentation=law.augmentation))
@@ -259,7 +266,7 @@ class UzawaSolver:
         at = f"Uzawa contact solve{' at ' + where if where else ''}"
         n = len(x0)
         f = np.asarray(rhs, dtype=float)
-        sides = [_Side(op, law, n, self.modulus, self.rho) for op, law in self.items]
+        sides = [_Side(op, law, n, self.modulus, rho) for (op, law), rho in zip(self.items, self.rho)]
         info = UzawaInfo(rho=[s.rho for s in sides])
         names = ", ".join(op.name for op, _ in self.items)
         r = self._sliding_motion(sides, n, where)
@@ -338,8 +345,8 @@ class UzawaSolver:
         else:
             raise SolverError(f"{at}: the friction multipliers on {names} still change by {change:.2e} (relative) "
                               f"after {self.maxit} Uzawa steps (tol {self.tol:.1e}, rho "
-                              f"{', '.join(f'{s.rho:.3g}' for s in sides)} Pa/m): lower rho (too large a step "
-                              "diverges) or raise maxit")
+                              f"{', '.join(f'{s.rho:.3g}' for s in sides)} Pa/m): lower {self.settings[0]} (too "
+                              f"large a step diverges) or raise {self.settings[1]}")
         pen = 0.0
         for s in sides:
             gap = (s.op.g0 + s.Bn @ u) / s.w
