@@ -46,7 +46,8 @@ class _Refused(Exception):
     """A constant sub-expression that has no finite double value; the message says why."""
 
 
-def _short(text: str, n: int = 60) -> str:
+def short(text: str, n: int = 60) -> str:
+    """The text, cut after n characters (messages do not echo a long expression whole)."""
     return text if len(text) <= n else text[:n] + "..."
 
 
@@ -57,7 +58,7 @@ def check(text: str) -> list[str]:
     anything else is done, and constant sub-expressions are folded with bounded arithmetic (a constant power
     is refused from its logarithm before it is computed).
     """
-    what = f"expression {_short(text)!r}"
+    what = f"expression {short(text)!r}"
     if len(text) > MAX_LENGTH:
         return [f"{what} is {len(text)} characters long (at most {MAX_LENGTH})"]
     try:
@@ -110,7 +111,7 @@ def _name_problems(tree: ast.AST, what: str) -> list[str]:
             bad.append(f"{type(node).__name__.lower()} syntax")
         elif isinstance(node, ast.Constant) and (isinstance(node.value, bool)
                                                  or not isinstance(node.value, (int, float))):
-            bad.append(f"the constant {_short(repr(node.value))}")
+            bad.append(f"the constant {short(repr(node.value))}")
         elif isinstance(node, ast.Name) and node.id not in VARIABLES and node.id not in CONSTANTS \
                 and node.id not in FUNCTIONS and node.id not in unknown:
             unknown.append(node.id)
@@ -132,7 +133,7 @@ def _fold(node: ast.AST, src: str) -> float | None:
     if isinstance(node, ast.Constant):
         v = node.value
         if isinstance(v, int) and abs(v) > LARGEST or isinstance(v, float) and not math.isfinite(v):
-            number = _short(ast.get_source_segment(src, node) or str(v), 24)
+            number = short(ast.get_source_segment(src, node) or str(v), 24)
             raise _Refused(f"the number {number} is too large (at most {LARGEST:g} in magnitude)")
         return float(v)
     if isinstance(node, ast.Name):
@@ -146,11 +147,11 @@ def _fold(node: ast.AST, src: str) -> float | None:
     a, b = _fold(node.left, src), _fold(node.right, src)
     op = node.op
     if isinstance(op, ast.Div) and b == 0:
-        raise _Refused(f"division by zero in {_short(ast.unparse(node), 40)!r}")
+        raise _Refused(f"division by zero in {short(ast.unparse(node), 40)!r}")
     if isinstance(op, ast.Pow) and b is not None:
         if a is None:
             if b.is_integer() and abs(b) > MAX_EXPONENT:
-                raise _Refused(f"the exponent {b:.10g} in {_short(ast.unparse(node), 40)!r} is too large (an "
+                raise _Refused(f"the exponent {b:.10g} in {short(ast.unparse(node), 40)!r} is too large (an "
                                f"integer power of a variable base is at most {MAX_EXPONENT})")
             return None
         return _power(a, b, node)
@@ -159,13 +160,13 @@ def _fold(node: ast.AST, src: str) -> float | None:
     v = a + b if isinstance(op, ast.Add) else a - b if isinstance(op, ast.Sub) else \
         a * b if isinstance(op, ast.Mult) else a / b
     if not math.isfinite(v):
-        raise _Refused(f"{_short(ast.unparse(node), 40)!r} overflows (above {LARGEST:g})")
+        raise _Refused(f"{short(ast.unparse(node), 40)!r} overflows (above {LARGEST:g})")
     return v
 
 
 def _power(a: float, b: float, node: ast.AST) -> float:
     """The power a ** b of constants, refused before it is computed when it has no finite real value."""
-    text = _short(ast.unparse(node), 40)
+    text = short(ast.unparse(node), 40)
     if a == 0 and b < 0:
         raise _Refused(f"division by zero in {text!r} (0 to a negative power)")
     if a < 0 and not b.is_integer():
@@ -184,6 +185,11 @@ def _call(name: str, v: float) -> float:
     if not math.isfinite(r):
         raise _Refused(f"{name}({v:g}) has no finite value")
     return r
+
+
+def node_count(text: str) -> int:
+    """Syntax-tree nodes of a checked expression (a measure of its evaluation cost)."""
+    return sum(1 for _ in ast.walk(ast.parse(text, mode="eval")))
 
 
 def uses(text: str) -> set[str]:
@@ -236,9 +242,23 @@ def compile_expr(text: str) -> Callable[[Mapping[str, object]], object]:
     return lambda ns: ev(tree, ns)
 
 
+def float_function(text: str) -> Callable[..., float]:
+    """A checked expression compiled once into ``f(**values) -> float`` (missing variables are 0). Raises
+    ValueError (outside a function's domain, or a negative number to a fractional power), ZeroDivisionError or
+    OverflowError where the expression has no finite value."""
+    compiled = compile_expr(text)
+
+    def f(**values: float) -> float:
+        ns: dict[str, object] = {v: 0.0 for v in VARIABLES}
+        ns.update(values)
+        ns.update(_MATH)
+        v = compiled(ns)
+        if isinstance(v, complex):
+            raise ValueError("a negative number to a fractional power")
+        return float(v)
+    return f
+
+
 def evaluate(text: str, **values: float) -> float:
     """Evaluate an expression with float values (missing variables are 0)."""
-    ns: dict[str, object] = {v: 0.0 for v in VARIABLES}
-    ns.update(values)
-    ns.update(_MATH)
-    return float(compile_expr(text)(ns))
+    return float_function(text)(**values)

@@ -107,6 +107,10 @@ def time(v, path, problems):
     return t
 
 
+class Expression(str):
+    """An expression string read by :func:`expr` (marks it for the value checks of validation)."""
+
+
 def expr(v, path, problems):
     """A number or an expression string (see :mod:`ngs_geomech.expressions`)."""
     if isinstance(v, bool):
@@ -117,7 +121,7 @@ def expr(v, path, problems):
         msgs = expressions.check(v)
         if msgs:
             raise Invalid("; ".join(msgs))
-        return v
+        return Expression(v)
     raise Invalid(f"expected a number or an expression string, got {_show(v)}")
 
 

@@ -25,6 +25,7 @@ from ..materials import (
     phase_change_problems,
     volumetric_heat_capacity,
 )
+from .expression_values import check_expression_values
 from .model import Scene
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -45,6 +46,7 @@ def validate(scene: Scene) -> GeometryModel:
             problems += exc.problems
     if geo is not None:
         _check_references(scene, geo, problems)
+        check_expression_values(scene, geo, problems)
     if problems:
         raise SceneError(problems, source=f"scene {scene.scene.name!r}")
     return geo
