@@ -56,6 +56,7 @@ class HeatSolver:
         self._dirichlet_ready = False
         self.factorizations = 0
         self._free_mask = None
+        self._region_vertices = None
         self.backward_euler_steps = 0
         """The next this many steps take theta = 1 whatever the scheme (a restart after the state was carried to
         a new mesh without the old interface multipliers: :mod:`ngs_geomech.problems.contact_following`)."""
@@ -203,13 +204,43 @@ class HeatSolver:
             if not math.isfinite(new_rel) or new_rel >= rel:
                 if rel < 1e3 * self.newton_tol:
                     break
+                self.check_conductivity(where, trial)
+                self.check_conductivity(where)
                 raise SolverError(f"Newton for the k(T) heat problem at {where} stagnated at relative "
                                   f"residual {rel:.3e}. Reduce the time step or check kappa(T) > 0.")
             gf.vec.data = trial
             rel = new_rel
             it += 1
         check_finite(gf.vec, f"heat solve at {where}")
+        self.check_conductivity(where)
         return StepInfo(max(it, 1), rel, True)
+
+    def check_conductivity(self, where: str, state=None) -> None:
+        """Raise SolverError naming the material and the temperature where f(T) = 1 + b (T - T_ref) of k(T) is
+        not positive at a vertex of its region (``state``: a state vector, default the solver's). The vertex
+        dofs of the H1 temperature hold its values at the vertices."""
+        f = self.f
+        if self._region_vertices is None:
+            self._region_vertices = {n: np.unique([v.nr for el in f.mesh.Materials(f"^{n}$").Elements()
+                                                   for v in el.vertices]) for n, p in f.setup.props.items()
+                                     if p.nonlinear}
+        T = f.temperature()
+        values = T.vec.FV().NumPy()
+        if state is not None:                   # a compound state (contacts) holds the temperature first
+            values = state.FV().NumPy()[:len(values)]
+        for name, verts in self._region_vertices.items():
+            p = f.setup.props[name]
+            temps = values[verts]
+            factor = 1 + p.b * (temps - p.t_ref)
+            bad = np.nonzero(~(factor > 0))[0]
+            if len(bad):
+                worst = temps[bad[np.argmin(factor[bad])]] if np.all(np.isfinite(factor[bad])) else temps[bad[0]]
+                limit = p.t_ref - 1 / p.b
+                raise SolverError(f"heat solve at {where}: the conductivity of material {name!r}, k(T) = k (1 + b "
+                                  f"(T - T_ref)) with b = {p.b:g} 1/K and T_ref = {p.t_ref:g}, is not positive at "
+                                  f"T = {worst:.6g} (it is positive only for T {'>' if p.b > 0 else '<'} "
+                                  f"{limit:.6g}). Check materials.{name}.conductivity_temperature_coefficient and "
+                                  "the temperatures the scene reaches (boundary values, sources).")
 
 
     def _linearized_solve(self, state, res, du, where: str) -> None:
