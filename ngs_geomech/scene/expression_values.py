@@ -134,3 +134,20 @@ def _first_not_finite(text: str, pts: np.ndarray, times: list, dim: int, with_t:
                 at = ", ".join(f"{n}={values[n]:.6g}" for n in names) + (f", t={t:.6g} s" if with_t else "")
                 return f"at {at} {why}"
     return ""
+
+
+def value_range(geo: GeometryModel, value, target: tuple) -> tuple[float, float] | None:
+    """(min, max) of a number or an expression at the sample points of a target at t = 0 (finite values only;
+    None when there is none)."""
+    if isinstance(value, (int, float)):
+        return float(value), float(value)
+    f = expressions.float_function(value)
+    vals = []
+    for p in _points(geo, target):
+        try:
+            v = f(x=float(p[0]), y=float(p[1]), z=float(p[2]), r=float(p[0]))
+        except (ValueError, ZeroDivisionError, OverflowError):
+            continue
+        if math.isfinite(v):
+            vals.append(v)
+    return (min(vals), max(vals)) if vals else None
