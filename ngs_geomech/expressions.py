@@ -25,6 +25,21 @@ FUNCTIONS = ("exp", "log", "sqrt", "sin", "cos", "tan", "atan", "tanh", "sinh", 
 _MATH = {"exp": math.exp, "log": math.log, "sqrt": math.sqrt, "sin": math.sin, "cos": math.cos, "tan": math.tan,
          "atan": math.atan, "tanh": math.tanh, "sinh": math.sinh, "cosh": math.cosh, "abs": abs, "erf": math.erf}
 
+
+
+def _ieee(fn: Callable[[float], float], sign: bool = False) -> Callable[[float], float]:
+    """``fn`` returning +-inf where math raises OverflowError (as NGSolve's functions do: 1/(1 + exp(1000)) is
+    0 there, a logistic window)."""
+    def g(v: float) -> float:
+        try:
+            return fn(v)
+        except OverflowError:
+            return math.copysign(math.inf, v) if sign else math.inf
+    return g
+
+
+_IEEE_MATH = dict(_MATH, exp=_ieee(math.exp), sinh=_ieee(math.sinh, sign=True), cosh=_ieee(math.cosh))
+
 _ALLOWED_NODES = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.Constant, ast.Name, ast.Call, ast.Load,
                   ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd)
 
@@ -251,7 +266,7 @@ def float_function(text: str) -> Callable[..., float]:
     def f(**values: float) -> float:
         ns: dict[str, object] = {v: 0.0 for v in VARIABLES}
         ns.update(values)
-        ns.update(_MATH)
+        ns.update(_IEEE_MATH)
         v = compiled(ns)
         if isinstance(v, complex):
             raise ValueError("a negative number to a fractional power")
