@@ -35,7 +35,7 @@ SELECTORS = ("all", "xmin", "xmax", "ymin", "ymax", "zmin", "zmax", "top", "bott
 point = list_of(number)
 matrix = list_of(list_of(number))
 segment_points = list_of(point, 2)
-modulus = at_most(1e15, "Pa")       # elastic moduli: diamond's is ~1.2e12 Pa
+modulus = at_most(1e21, "Pa")       # elastic moduli: diamond 1.2e12 Pa; stiffness contrasts up to 1e10
 
 
 @dataclass(frozen=True, kw_only=True)
