@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import ngsolve as ngs
 import numpy as np
 
+from .. import parallel
 from ..errors import SolverError
 from ..physics.coefficients import regions_regex
 from ..physics.thermal import HeatForms
@@ -218,30 +219,35 @@ class HeatSolver:
     def check_conductivity(self, where: str, state=None) -> None:
         """Raise SolverError naming the material and the temperature where f(T) = 1 + b (T - T_ref) of k(T) is
         not positive at a vertex of its region (``state``: a state vector, default the solver's). The vertex
-        dofs of the H1 temperature hold its values at the vertices."""
+        dofs of the H1 temperature hold its values at the vertices. On a distributed mesh raised on every rank
+        when a vertex of some rank fails."""
         f = self.f
         if self._region_vertices is None:
             self._region_vertices = {n: np.unique([v.nr for el in f.mesh.Materials(f"^{n}$").Elements()
-                                                   for v in el.vertices]) for n, p in f.setup.props.items()
-                                     if p.nonlinear}
-        T = f.temperature()
-        values = T.vec.FV().NumPy()
+                                                   for v in el.vertices]).astype(int)
+                                     for n, p in f.setup.props.items() if p.nonlinear}
+        values = f.temperature().vec.FV().NumPy()
         if state is not None:                   # a compound state (contacts) holds the temperature first
             values = state.FV().NumPy()[:len(values)]
+        errors = [e for e in parallel.allgather(f.mesh, self._conductivity_error(values)) if e is not None]
+        if errors:
+            raise SolverError(f"heat solve at {where}: {errors[0]}")
+
+    def _conductivity_error(self, values: np.ndarray) -> str | None:
+        """The message for the first region whose k(T) factor is not positive at a vertex (None: none)."""
         for name, verts in self._region_vertices.items():
-            p = f.setup.props[name]
+            p = self.f.setup.props[name]
             temps = values[verts]
             factor = 1 + p.b * (temps - p.t_ref)
             bad = np.nonzero(~(factor > 0))[0]
             if len(bad):
                 worst = temps[bad[np.argmin(factor[bad])]] if np.all(np.isfinite(factor[bad])) else temps[bad[0]]
-                limit = p.t_ref - 1 / p.b
-                raise SolverError(f"heat solve at {where}: the conductivity of material {name!r}, k(T) = k (1 + b "
-                                  f"(T - T_ref)) with b = {p.b:g} 1/K and T_ref = {p.t_ref:g}, is not positive at "
-                                  f"T = {worst:.6g} (it is positive only for T {'>' if p.b > 0 else '<'} "
-                                  f"{limit:.6g}). Check materials.{name}.conductivity_temperature_coefficient and "
-                                  "the temperatures the scene reaches (boundary values, sources).")
-
+                return (f"the conductivity of material {name!r}, k(T) = k (1 + b (T - T_ref)) with b = {p.b:g} 1/K "
+                        f"and T_ref = {p.t_ref:g}, is not positive at T = {worst:.6g} (it is positive only for T "
+                        f"{'>' if p.b > 0 else '<'} {p.t_ref - 1 / p.b:.6g}). Check materials.{name}."
+                        "conductivity_temperature_coefficient and the temperatures the scene reaches (boundary "
+                        "values, sources).")
+        return None
 
     def _linearized_solve(self, state, res, du, where: str) -> None:
         """Solve J du = res for the Newton step of the k(T) problem on a distributed mesh: J assembled at ``state``
