@@ -148,3 +148,34 @@ def test_bad_number_files_name_the_key():
     with pytest.raises(SceneError) as info:
         load_scene(BAD / "number_huge_integer.toml")
     assert info.value.problems[0].item == "materials.rock.conductivity"
+
+
+# -- what the sampling of validation misses shows on the mesh, named -------------------------------------------
+HOLE = "sqrt((x-0.3)**2 + (y+0.6)**2 - 9e-4)"      # NaN in a disk of radius 0.03 between the sampled points
+
+
+def test_run_names_an_initial_temperature_not_finite_between_the_sampled_points():
+    sc = _scene(mesh__maxh=0.05, initial__temperature=HOLE)
+    validate(sc)
+    with pytest.raises(SceneError) as info:
+        run(sc, None, progress=False, threads=1)
+    assert info.value.problems[0].item == "initial.temperature"
+    assert "not finite at some points of the mesh" in str(info.value)
+
+
+def test_run_names_a_boundary_temperature_not_finite_between_the_sampled_points():
+    sc = _scene(mesh__maxh=0.05, boundary_conditions__left__temperature="sqrt((y+0.6)**2 - 4e-4)")
+    validate(sc)
+    with pytest.raises(SolverError, match=r"boundary_conditions\.left\.temperature is not finite"):
+        run(sc, None, progress=False, threads=1)
+
+
+def test_stefan_run_names_an_initial_temperature_not_finite_between_the_sampled_points():
+    sc = _scene(mesh__maxh=0.05, initial__temperature=f"{HOLE} - 1",
+                materials__rock__phase_change_temperature=0.0, materials__rock__latent_heat_volumetric=1e6,
+                materials__rock__rho_c_liquid=2e6, materials__rock__conductivity_liquid=1.0)
+    validate(sc)
+    with pytest.raises(SceneError) as info:
+        run(sc, None, progress=False, threads=1)
+    assert info.value.problems[0].item == "initial.temperature"
+    assert "not finite at some vertices of the mesh" in str(info.value)       # the Stefan run's nodal check

@@ -131,7 +131,7 @@ def _first_not_finite(text: str, pts: np.ndarray, times: list, dim: int, with_t:
                 why = "(a function outside its domain, e.g. sqrt or log of a negative number)" \
                     if "domain" in str(exc) else f"({exc})"
             if why:
-                at = ", ".join(f"{n}={values[n]:.6g}" for n in names) + (f", t={t:.6g} s" if with_t else "")
+                at = ", ".join(f"{n}={values[n] + 0.0:.6g}" for n in names) + (f", t={t:.6g} s" if with_t else "")
                 return f"at {at} {why}"
     return ""
 

@@ -14,7 +14,7 @@ from ..errors import SolverError
 from ..physics.coefficients import regions_regex
 from ..physics.thermal import HeatForms
 from .iterative import DEFAULT_TOL, PCG, Preconditioned, choose_solver
-from .linear import check_finite, inverse, solve_watched
+from .linear import check_finite, inverse, not_finite, solve_watched
 
 
 @dataclass
@@ -84,9 +84,25 @@ class HeatSolver:
         if not (static and self._dirichlet_ready):
             cf = f.dirichlet_values(f.t_new)
             self._tmp.Set(cf, ngs.BND, definedon=f.mesh.Boundaries(regions_regex(f.setup.dirichlet)))
+            if not_finite(self._tmp.vec):
+                self._name_not_finite_dirichlet()
             self._dirichlet_ready = True
         T = f.temperature()
         T.vec.data += self._fixed * (self._tmp.vec - T.vec)
+
+    def _name_not_finite_dirichlet(self) -> None:
+        """Raise SolverError naming the boundary whose temperature is not finite at a point of its interpolation
+        (validation samples a coarse set of points; a singularity between them shows here)."""
+        f = self.f
+        g = ngs.GridFunction(f.V)
+        for name, tf in f.setup.dirichlet.items():
+            g.vec[:] = 0.0
+            g.Set(tf(f.t_new), ngs.BND, definedon=f.mesh.Boundaries(f"^{name}$"))
+            if not_finite(g.vec):
+                raise SolverError(f"boundary_conditions.{name}.temperature is not finite at some points of the "
+                                  f"boundary at t = {f.t_new.Get():g} s (between the points validation samples): "
+                                  "a singularity or a function outside its domain")
+        raise SolverError("the boundary temperatures are not finite at some points of the mesh")
 
     def _system(self, key: str):
         """(matrix, inverse) of the step operator for one dt, cached for the last two dts."""
