@@ -58,7 +58,7 @@ from .problems.contact_following import ContactFollowing, contact_statuses
 from .problems.contact_output import ContactOutput
 from .problems.coupled import KELVIN, DeformationHeating, relative_change
 from .problems.dynamic_run import DynamicsRun
-from .problems.heat import heat_setup, initial_temperature
+from .problems.heat import heat_setup, set_initial_temperature
 from .problems.mechanics import elastic_setup, mechanics_warnings, watch_small_strain
 from .problems.nested import NestedStart
 from .problems.stefan import StefanRun
@@ -336,7 +336,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         if cp is None:
             if heat is not None:
                 heat.t_new.Set(ts.start)
-                T.Set(initial_temperature(scene, mesh, heat.t_new))
+                set_initial_temperature(T, scene, mesh, heat.t_new)
                 solver.set_dirichlet()
             tic0 = _time.perf_counter()
             written = write_s

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from ngs_geomech.api import run
-from ngs_geomech.errors import SolverError
+from ngs_geomech.errors import SceneError, SolverError
 from ngs_geomech.physics.stefan import ConductivityRangeError, PhaseChangeMaterial, StefanForms, StefanSetup
 from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.solvers.stefan import StefanSolver
@@ -196,6 +196,17 @@ def test_scene_with_temperature_dependent_conductivity_runs():
 
 
 def test_scene_law_leaving_its_range_names_the_key():
-    with pytest.raises(SolverError, match=r"materials\.pcm\.conductivity_temperature_coefficient: conductivity of "
-                                          r"region\(s\) \['pcm'\].*is not positive at T = 1"):
+    # the boundary temperature T = 1 of the strip is outside the range where k(T) > 0: validation names it
+    with pytest.raises(SceneError, match=r"materials\.pcm\.conductivity_temperature_coefficient: k\(T\).*is not "
+                                         r"positive at T = 1 given by boundary_conditions\.hot\.temperature"):
         run(scene_from_dict(strip_scene(-1.2, end=0.05)), None, progress=False)
+
+
+def test_scene_heated_beyond_the_law_range_names_the_key():
+    # a flux heats the strip beyond T = 0.833 where k(T) = k (1 - 1.2 T) vanishes: the run names the key (Newton,
+    # held at the edge of the range, did not converge before)
+    data = strip_scene(-1.2, end=0.02)
+    data["boundary_conditions"]["hot"] = {"flux": 50.0}
+    with pytest.raises(SolverError, match=r"materials\.pcm\.conductivity_temperature_coefficient: conductivity of "
+                                          r"region\(s\) \['pcm'\].*k\(T\) = k \(1 \+ b \(T - T_ref\)\)"):
+        run(scene_from_dict(data), None, progress=False)

@@ -625,15 +625,17 @@ class StefanForms:
                 for g, m in enumerate(self.groups) if m.temperature_dependent]
         return np.column_stack(cols) if cols else np.full((self.n, 0), np.inf)
 
-    def check_conductivity(self, T: np.ndarray, where: str = "") -> None:
+    def check_conductivity(self, T: np.ndarray, where: str = "", floor: float = 0.0) -> None:
         """ConductivityRangeError naming the regions, the temperature and the law when a temperature-dependent
         conductivity k (1 + b (T - T_ref)) is not positive at a node of its regions (``where``: added to the
-        message, e.g. the time). On a distributed mesh raised on every rank when a node of some rank fails."""
+        message, e.g. the time; ``floor`` > 0: when its factor 1 + b (T - T_ref) is not above it, the edge of
+        the range a Newton iteration is held in). On a distributed mesh raised on every rank when a node of some
+        rank fails."""
         if not self.temperature_dependent:
             return
         if self.distributed:
             try:
-                self._check_conductivity(T, where)
+                self._check_conductivity(T, where, floor)
                 error = None
             except ConductivityRangeError as exc:
                 error = (str(exc), exc.regions)
@@ -641,23 +643,25 @@ class StefanForms:
             if errors:
                 raise ConductivityRangeError(*errors[0])
             return
-        self._check_conductivity(T, where)
+        self._check_conductivity(T, where, floor)
 
-    def _check_conductivity(self, T: np.ndarray, where: str) -> None:
+    def _check_conductivity(self, T: np.ndarray, where: str, floor: float = 0.0) -> None:
         for g, m in enumerate(self.groups):
             if not m.temperature_dependent:
                 continue
             on = self.weights[:, g] > 0
             f = m.conductivity_factor(T[on])
-            bad = np.nonzero(~(f > 0))[0]
+            bad = np.nonzero(~(f > floor))[0]
             if len(bad):
                 i = bad[np.argmin(f[bad])]
                 b, tr = m.conductivity_temperature_coefficient, m.reference_temperature
                 limit = tr - 1.0 / b
                 names = self.group_regions[g]
+                what = "is not positive" if not f[i] > 0 else ("vanishes (the Newton iteration is held at the "
+                                                               "edge of the range where k > 0: the step needs k <= 0)")
                 raise ConductivityRangeError(
                     f"conductivity of region(s) {names}{where}: the factor 1 + b (T - T_ref) = {f[i]:.3g} of "
-                    f"k(T) = k (1 + b (T - T_ref)) is not positive at T = {T[on][i]:.6g} "
+                    f"k(T) = k (1 + b (T - T_ref)) {what} at T = {T[on][i]:.6g} "
                     f"(conductivity_temperature_coefficient b = {b:g} 1/K, reference_temperature T_ref = {tr:g}: "
                     f"k > 0 only for T {'>' if b > 0 else '<'} {limit:.6g}): the linear temperature law has left "
                     "its range; change conductivity_temperature_coefficient or reference_temperature", names)

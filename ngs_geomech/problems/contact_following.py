@@ -82,7 +82,7 @@ from ..errors import SolverError
 from ..geometry.assemble import GeometryModel
 from ..geometry.mesh import make_mesh
 from ..scene.model import Scene
-from .heat import initial_temperature
+from .heat import set_initial_temperature
 from .stefan_adaptive import TRANSFER_ORDER, phase_change_size
 
 BAND_FACTOR = 1.25
@@ -457,7 +457,7 @@ def _transfer_temperature(old, new, scene: Scene, t0: float | None) -> tuple[flo
         T_new.Set(T_old)
     else:
         new.heat.t_new.Set(t0)
-        T_new.Set(initial_temperature(scene, new.mesh, new.heat.t_new))
+        set_initial_temperature(T_new, scene, new.mesh, new.heat.t_new)
         new.solver.set_dirichlet()
     new.solver.backward_euler_steps = 1      # (the run's next heat step copies the state into gf_old)
     mesh = new.mesh

@@ -7,11 +7,14 @@ from itertools import islice
 
 import ngsolve as ngs
 
+from ..errors import Problem, SceneError
+from ..expressions import short
 from ..geometry.assemble import GeometryModel
 from ..materials import thermal_properties
 from ..physics.coefficients import Separable, expression_function, region_cf
 from ..physics.thermal import HeatSetup
 from ..scene.model import Scene, Source
+from ..solvers.linear import not_finite
 from ..solvers.timesteps import schedule
 
 THETA = {"backward_euler": 1.0, "crank_nicolson": 0.5}
@@ -83,6 +86,25 @@ def pressure_coefficients(scene: Scene) -> dict[str, float]:
     """Region -> c_p (1/Pa) of the regions with a pressure-dependent conductivity."""
     return {n: float(m.conductivity_pressure_coefficient) for n, m in scene.materials.items()
             if m.conductivity_pressure_coefficient != 0.0}
+
+
+def set_initial_temperature(gf, scene: Scene, mesh, t_param) -> None:
+    """``gf.Set`` the initial temperature; SceneError naming its key when it is not finite at a point of the
+    interpolation (validation samples a coarse grid; a singularity between its points shows here). Collective on
+    a distributed mesh."""
+    gf.Set(initial_temperature(scene, mesh, t_param))
+    if not not_finite(gf.vec):
+        return
+    key, value = "initial.temperature", scene.initial.temperature
+    for name, v in scene.initial.regions.items():
+        g = ngs.GridFunction(gf.space)
+        g.Set(expression_function(v)(t_param), definedon=mesh.Materials(f"^{name}$"))
+        if not_finite(g.vec):
+            key, value = f"initial.regions.{name}", v
+            break
+    raise SceneError([Problem(key, f"{short(str(value))!r} is not finite at some points of the mesh (between "
+                              "the points validation samples): a singularity or a function outside its domain")],
+                     source=f"scene {scene.scene.name!r}")
 
 
 def initial_temperature(scene: Scene, mesh, t_param):

@@ -30,7 +30,8 @@ import ngsolve as ngs
 import numpy as np
 
 from .. import parallel
-from ..errors import SolverError
+from ..errors import Problem, SceneError, SolverError
+from ..expressions import short
 from ..geometry.assemble import GeometryModel
 from ..geometry.isolines import IsoLines, iso_segments
 from ..io.meshdata import mesh_arrays, vertex_values
@@ -113,6 +114,11 @@ def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> Stefan
     return setup
 
 
+def _region_vertices(mesh, name: str) -> np.ndarray:
+    """The vertex numbers of a region's elements."""
+    return np.unique([v.nr for el in mesh.Materials(f"^{name}$").Elements() for v in el.vertices]).astype(int)
+
+
 def _nodal(mesh, cf) -> np.ndarray:
     """A CoefficientFunction at the mesh vertices (this rank's vertices on a distributed mesh)."""
     if mesh.nv == 0:                                  # rank 0 of a distributed mesh holds no vertices
@@ -176,12 +182,27 @@ class StefanRun:
         boundary nodes already at T_L at t0 (their latent heat then appears from nowhere); the later states are
         the same."""
         T = _nodal(self.mesh, initial_temperature(self.scene, self.mesh, ngs.Parameter(t0)))
+        if sum(parallel.allgather(self.mesh, int(np.count_nonzero(~np.isfinite(T))))):
+            raise SceneError([Problem(*self._not_finite_initial(t0))], source=f"scene {self.scene.scene.name!r}")
         try:
             self.solver.set_initial(T)
         except ConductivityRangeError as exc:
             raise SolverError("; ".join(f"materials.{r}.conductivity_temperature_coefficient" for r in exc.regions)
                               + f": {exc}") from None
         self.initial_heat = self.forms.heat_content(self.solver.e)
+
+    def _not_finite_initial(self, t0: float) -> tuple[str, str]:
+        """(key, message) of the initial temperature that is not finite at a vertex (collective)."""
+        ini = self.scene.initial
+        key, value = "initial.temperature", ini.temperature
+        for name, v in ini.regions.items():
+            values = _nodal(self.mesh, expression_function(v)(ngs.Parameter(t0)))
+            local = len(values) and not np.all(np.isfinite(values[_region_vertices(self.mesh, name)]))
+            if any(parallel.allgather(self.mesh, bool(local))):
+                key, value = f"initial.regions.{name}", v
+                break
+        return key, (f"{short(str(value))!r} is not finite at some vertices of the mesh (between the points "
+                     "validation samples): a singularity or a function outside its domain")
 
     def step(self, a: float, b: float, where: str, extra_load: np.ndarray | None = None, _depth: int = 0):
         """One step from a to b (s); ``extra_load``: a nodal source vector (e.g. deformation heating, W: the same

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .schema import (
+    at_most,
     boolean,
     dict_of,
     either,
@@ -34,6 +35,7 @@ SELECTORS = ("all", "xmin", "xmax", "ymin", "ymax", "zmin", "zmax", "top", "bott
 point = list_of(number)
 matrix = list_of(list_of(number))
 segment_points = list_of(point, 2)
+modulus = at_most(1e21, "Pa")       # elastic moduli: diamond 1.2e12 Pa; stiffness contrasts up to 1e10
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -212,20 +214,20 @@ class PronyTerm:
 class Orthotropic:
     """Orthotropic engineering constants in the material axes 1, 2, 3 (Pa); nu_ij = -eps_j / eps_i."""
 
-    E: list = field(list_of(number, 3), doc="[E1, E2, E3], Pa")
+    E: list = field(list_of(modulus, 3), doc="[E1, E2, E3], Pa")
     nu: list = field(list_of(number, 3), doc="[nu12, nu13, nu23]")
-    G: list = field(list_of(number, 3), doc="[G12, G13, G23], Pa")
+    G: list = field(list_of(modulus, 3), doc="[G12, G13, G23], Pa")
 
 
 @dataclass(frozen=True, kw_only=True)
 class TransverselyIsotropic:
     """Transversely isotropic constants: isotropic in the 1-2 plane, axis 3 (e.g. bedding normal)."""
 
-    E_plane: float = field(number, doc="Young's modulus in the plane of isotropy, Pa")
-    E_axis: float = field(number, doc="Young's modulus along the axis, Pa")
+    E_plane: float = field(modulus, doc="Young's modulus in the plane of isotropy, Pa")
+    E_axis: float = field(modulus, doc="Young's modulus along the axis, Pa")
     nu_plane: float = field(number, doc="Poisson ratio in the plane (nu12)")
     nu_axis: float = field(number, doc="Poisson ratio nu31 = -eps_1/eps_3 under axial load")
-    G_axis: float = field(number, doc="shear modulus in planes containing the axis (G13), Pa")
+    G_axis: float = field(modulus, doc="shear modulus in planes containing the axis (G13), Pa")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -266,14 +268,14 @@ class Material:
     rho_c: float | None = field(optional(number), None, doc="volumetric heat capacity rho*c, J/(m^3 K)")
     density: float | None = field(optional(number), None, doc="rho, kg/m^3 (with specific_heat)")
     specific_heat: float | None = field(optional(number), None, doc="c, J/(kg K) (with density)")
-    youngs_modulus: float | None = field(optional(number), None, doc="E, Pa (isotropic, with poisson_ratio)")
+    youngs_modulus: float | None = field(optional(modulus), None, doc="E, Pa (isotropic, with poisson_ratio)")
     poisson_ratio: float | None = field(optional(number), None, doc="nu in (-1, 0.5) (isotropic)")
-    lame_lambda: float | None = field(optional(number), None, doc="Lame lambda, Pa (with lame_mu)")
-    lame_mu: float | None = field(optional(number), None, doc="shear modulus mu, Pa (with lame_lambda)")
+    lame_lambda: float | None = field(optional(modulus), None, doc="Lame lambda, Pa (with lame_mu)")
+    lame_mu: float | None = field(optional(modulus), None, doc="shear modulus mu, Pa (with lame_lambda)")
     orthotropic: Orthotropic | None = field(optional(nested(Orthotropic)), None, doc="orthotropic constants")
     transversely_isotropic: TransverselyIsotropic | None = field(optional(nested(TransverselyIsotropic)), None,
                                                                  doc="transversely isotropic constants")
-    stiffness_voigt: list | None = field(optional(matrix), None,
+    stiffness_voigt: list | None = field(optional(list_of(list_of(modulus))), None,
                                          doc="full 6x6 stiffness c_ijkl in Voigt order xx, yy, zz, yz, xz, xy "
                                              "(engineering shear strains), Pa; symmetric positive definite (2.38)")
     elastic_rotation: object = field(optional(either(number, point, what="an angle or 3 angles")), None,

@@ -41,51 +41,88 @@ def field(conv: Conv, default: Any = MISSING, doc: str = "") -> Any:
 
 # -- leaf converters: raise Invalid ------------------------------------------------------------------
 
+LARGEST = 1e30
+"""Largest magnitude of a number in a scene (SI units): well above any physical datum (moduli ~1e12 Pa, a
+billion years ~3e16 s), and far enough below the double-precision limit 1e308 that products of data in the forms
+(e.g. modulus * expansion * temperature, squared residual norms) stay finite."""
+
+
+def _show(v) -> str:
+    """The repr of a value, shortened (a 400-digit integer is not echoed whole)."""
+    r = repr(v)
+    return r if len(r) <= 40 else f"{r[:24]}... ({len(r)} characters)"
+
+
 def number(v, path, problems):
+    """A finite number of magnitude at most :data:`LARGEST` (integers of any size are compared exactly, before
+    a conversion to float could overflow)."""
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise Invalid(f"expected a number, got {v!r}")
-    if not math.isfinite(v):
+        raise Invalid(f"expected a number, got {_show(v)}")
+    if isinstance(v, float) and not math.isfinite(v):
         raise Invalid(f"value {v!r} is not finite")
+    if abs(v) > LARGEST:
+        raise Invalid(f"value {_show(v)} is too large (at most {LARGEST:g} in magnitude)")
     return float(v)
+
+
+def at_most(limit: float, unit: str) -> Conv:
+    """A number of magnitude at most ``limit`` (a physical bound declared with the key)."""
+    def conv(v, path, problems):
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and not v != v and abs(v) > limit:
+            raise Invalid(f"{float(min(abs(v), 1e308)) * (1 if v > 0 else -1):g} {unit} is beyond the physical "
+                          f"range (magnitude at most {limit:g} {unit})")
+        return number(v, path, problems)
+    return conv
 
 
 def integer(v, path, problems):
     if isinstance(v, bool) or not isinstance(v, int):
-        raise Invalid(f"expected an integer, got {v!r}")
+        raise Invalid(f"expected an integer, got {_show(v)}")
+    if abs(v) > 2 ** 53:
+        raise Invalid(f"value {_show(v)} is too large (at most 2^53 in magnitude)")
     return int(v)
 
 
 def string(v, path, problems):
     if not isinstance(v, str):
-        raise Invalid(f"expected a string, got {v!r}")
+        raise Invalid(f"expected a string, got {_show(v)}")
     return v
 
 
 def boolean(v, path, problems):
     if not isinstance(v, bool):
-        raise Invalid(f"expected true or false, got {v!r}")
+        raise Invalid(f"expected true or false, got {_show(v)}")
     return v
 
 
 def time(v, path, problems):
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        number(v, path, problems)
     try:
-        return parse_time(v)
+        t = parse_time(v)
     except ValueError as exc:
         raise Invalid(str(exc)) from None
+    if abs(t) > LARGEST:
+        raise Invalid(f"time {_show(v)} is too large (at most {LARGEST:g} s)")
+    return t
+
+
+class Expression(str):
+    """An expression string read by :func:`expr` (marks it for the value checks of validation)."""
 
 
 def expr(v, path, problems):
     """A number or an expression string (see :mod:`ngs_geomech.expressions`)."""
     if isinstance(v, bool):
-        raise Invalid(f"expected a number or an expression string, got {v!r}")
+        raise Invalid(f"expected a number or an expression string, got {_show(v)}")
     if isinstance(v, (int, float)):
         return number(v, path, problems)
     if isinstance(v, str):
         msgs = expressions.check(v)
         if msgs:
             raise Invalid("; ".join(msgs))
-        return v
-    raise Invalid(f"expected a number or an expression string, got {v!r}")
+        return Expression(v)
+    raise Invalid(f"expected a number or an expression string, got {_show(v)}")
 
 
 def one_of(*choices: str) -> Conv:
@@ -93,7 +130,7 @@ def one_of(*choices: str) -> Conv:
         if v not in choices:
             hint = difflib.get_close_matches(str(v), choices, n=1)
             extra = f" (did you mean {hint[0]!r}?)" if hint else ""
-            raise Invalid(f"{v!r} is not one of {', '.join(map(repr, choices))}{extra}")
+            raise Invalid(f"{_show(v)} is not one of {', '.join(map(repr, choices))}{extra}")
         return v
     return conv
 
@@ -107,7 +144,7 @@ def optional(conv: Conv) -> Conv:
 def list_of(conv: Conv, length: int | None = None) -> Conv:
     def c(v, path, problems):
         if not isinstance(v, (list, tuple)):
-            raise Invalid(f"expected a list, got {v!r}")
+            raise Invalid(f"expected a list, got {_show(v)}")
         if length is not None and len(v) != length:
             raise Invalid(f"expected a list of {length} items, got {len(v)}")
         out = []
@@ -121,22 +158,25 @@ def list_of(conv: Conv, length: int | None = None) -> Conv:
 def dict_of(conv: Conv) -> Conv:
     def c(v, path, problems):
         if not isinstance(v, dict):
-            raise Invalid(f"expected a table, got {v!r}")
+            raise Invalid(f"expected a table, got {_show(v)}")
         return {str(k): convert(conv, item, f"{path}.{k}", problems) for k, item in v.items()}
     return c
 
 
 def either(*convs: Conv, what: str) -> Conv:
     def c(v, path, problems):
+        why = []          # messages other than a type mismatch: the value has the right type but is refused
         for conv in convs:
             try:
                 sub: list = []
                 r = conv(v, path, sub)
                 if not sub:
                     return r
-            except Invalid:
+            except Invalid as exc:
+                if not str(exc).startswith("expected "):
+                    why.append(str(exc))
                 continue
-        raise Invalid(f"expected {what}, got {v!r}")
+        raise Invalid(why[0] if why else f"expected {what}, got {_show(v)}")
     return c
 
 

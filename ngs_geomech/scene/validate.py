@@ -27,6 +27,7 @@ from ..materials import (
 )
 from ..names import name_problem
 from ..units import KELVIN
+from .expression_values import check_expression_values, value_range
 from .model import Scene
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -49,6 +50,9 @@ def validate(scene: Scene) -> GeometryModel:
     if geo is not None:
         _check_references(scene, geo, problems)
         _check_mesh_size(scene, geo, problems)
+        check_expression_values(scene, geo, problems)
+        if not problems:
+            _check_conductivity_range(scene, geo, problems)
     if problems:
         raise SceneError(problems, source=f"scene {scene.scene.name!r}")
     return geo
@@ -664,6 +668,33 @@ def _check_phase_change(scene: Scene, problems: list[Problem]) -> None:
         except ValueError as exc:
             key = "conductivity_principal" if mat.conductivity_principal is not None else "conductivity"
             problems.append(Problem(f"materials.{name}.{key}", str(exc)))
+
+
+def _check_conductivity_range(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
+    """k(T) = k (1 + b (T - T_ref)) must be positive at the temperatures a region surely takes: its initial
+    temperature and the prescribed temperatures on its block's boundaries."""
+    if scene.physics.thermal is None:
+        return
+    for name, mat in scene.materials.items():
+        b, t_ref = mat.conductivity_temperature_coefficient, mat.reference_temperature
+        if b == 0.0 or name not in geo.regions:
+            continue
+        data = [(f"initial.regions.{name}" if name in scene.initial.regions else "initial.temperature",
+                 scene.initial.regions.get(name, scene.initial.temperature), ("region", (name,)))]
+        if scene.physics.thermal == "steady":
+            data = []
+        data += [(f"boundary_conditions.{n}.temperature", bc.temperature, ("boundary", (n,)))
+                 for n, bc in scene.boundary_conditions.items()
+                 if bc.temperature is not None and n in geo.block_boundaries.get(name, ())]
+        for key, value, target in data:
+            r = value_range(geo, value, target)
+            bad = [T for T in (r or ()) if not 1 + b * (T - t_ref) > 0]
+            if bad:
+                problems.append(Problem(f"materials.{name}.conductivity_temperature_coefficient", f"k(T) = k (1 + b "
+                                        f"(T - T_ref)) with b = {b:g} 1/K, T_ref = {t_ref:g} is not positive at "
+                                        f"T = {bad[0]:g} given by {key} (positive only for T "
+                                        f"{'>' if b > 0 else '<'} {t_ref - 1 / b:.6g})"))
+                break
 
 
 def _mechanical_kinds(bc) -> list[str]:

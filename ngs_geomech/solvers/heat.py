@@ -9,11 +9,12 @@ from dataclasses import dataclass
 import ngsolve as ngs
 import numpy as np
 
+from .. import parallel
 from ..errors import SolverError
 from ..physics.coefficients import regions_regex
 from ..physics.thermal import HeatForms
 from .iterative import DEFAULT_TOL, PCG, Preconditioned, choose_solver
-from .linear import check_finite, inverse, solve_watched
+from .linear import check_finite, inverse, not_finite, solve_watched
 
 
 @dataclass
@@ -56,6 +57,7 @@ class HeatSolver:
         self._dirichlet_ready = False
         self.factorizations = 0
         self._free_mask = None
+        self._region_vertices = None
         self.backward_euler_steps = 0
         """The next this many steps take theta = 1 whatever the scheme (a restart after the state was carried to
         a new mesh without the old interface multipliers: :mod:`ngs_geomech.problems.contact_following`)."""
@@ -82,9 +84,25 @@ class HeatSolver:
         if not (static and self._dirichlet_ready):
             cf = f.dirichlet_values(f.t_new)
             self._tmp.Set(cf, ngs.BND, definedon=f.mesh.Boundaries(regions_regex(f.setup.dirichlet)))
+            if not_finite(self._tmp.vec):
+                self._name_not_finite_dirichlet()
             self._dirichlet_ready = True
         T = f.temperature()
         T.vec.data += self._fixed * (self._tmp.vec - T.vec)
+
+    def _name_not_finite_dirichlet(self) -> None:
+        """Raise SolverError naming the boundary whose temperature is not finite at a point of its interpolation
+        (validation samples a coarse set of points; a singularity between them shows here)."""
+        f = self.f
+        g = ngs.GridFunction(f.V)
+        for name, tf in f.setup.dirichlet.items():
+            g.vec[:] = 0.0
+            g.Set(tf(f.t_new), ngs.BND, definedon=f.mesh.Boundaries(f"^{name}$"))
+            if not_finite(g.vec):
+                raise SolverError(f"boundary_conditions.{name}.temperature is not finite at some points of the "
+                                  f"boundary at t = {f.t_new.Get():g} s (between the points validation samples): "
+                                  "a singularity or a function outside its domain")
+        raise SolverError("the boundary temperatures are not finite at some points of the mesh")
 
     def _system(self, key: str):
         """(matrix, inverse) of the step operator for one dt, cached for the last two dts."""
@@ -203,14 +221,49 @@ class HeatSolver:
             if not math.isfinite(new_rel) or new_rel >= rel:
                 if rel < 1e3 * self.newton_tol:
                     break
+                self.check_conductivity(where, trial)
+                self.check_conductivity(where)
                 raise SolverError(f"Newton for the k(T) heat problem at {where} stagnated at relative "
                                   f"residual {rel:.3e}. Reduce the time step or check kappa(T) > 0.")
             gf.vec.data = trial
             rel = new_rel
             it += 1
         check_finite(gf.vec, f"heat solve at {where}")
+        self.check_conductivity(where)
         return StepInfo(max(it, 1), rel, True)
 
+    def check_conductivity(self, where: str, state=None) -> None:
+        """Raise SolverError naming the material and the temperature where f(T) = 1 + b (T - T_ref) of k(T) is
+        not positive at a vertex of its region (``state``: a state vector, default the solver's). The vertex
+        dofs of the H1 temperature hold its values at the vertices. On a distributed mesh raised on every rank
+        when a vertex of some rank fails."""
+        f = self.f
+        if self._region_vertices is None:
+            self._region_vertices = {n: np.unique([v.nr for el in f.mesh.Materials(f"^{n}$").Elements()
+                                                   for v in el.vertices]).astype(int)
+                                     for n, p in f.setup.props.items() if p.nonlinear}
+        values = f.temperature().vec.FV().NumPy()
+        if state is not None:                   # a compound state (contacts) holds the temperature first
+            values = state.FV().NumPy()[:len(values)]
+        errors = [e for e in parallel.allgather(f.mesh, self._conductivity_error(values)) if e is not None]
+        if errors:
+            raise SolverError(f"heat solve at {where}: {errors[0]}")
+
+    def _conductivity_error(self, values: np.ndarray) -> str | None:
+        """The message for the first region whose k(T) factor is not positive at a vertex (None: none)."""
+        for name, verts in self._region_vertices.items():
+            p = self.f.setup.props[name]
+            temps = values[verts]
+            factor = 1 + p.b * (temps - p.t_ref)
+            bad = np.nonzero(~(factor > 0))[0]
+            if len(bad):
+                worst = temps[bad[np.argmin(factor[bad])]] if np.all(np.isfinite(factor[bad])) else temps[bad[0]]
+                return (f"the conductivity of material {name!r}, k(T) = k (1 + b (T - T_ref)) with b = {p.b:g} 1/K "
+                        f"and T_ref = {p.t_ref:g}, is not positive at T = {worst:.6g} (it is positive only for T "
+                        f"{'>' if p.b > 0 else '<'} {p.t_ref - 1 / p.b:.6g}). Check materials.{name}."
+                        "conductivity_temperature_coefficient and the temperatures the scene reaches (boundary "
+                        "values, sources).")
+        return None
 
     def _linearized_solve(self, state, res, du, where: str) -> None:
         """Solve J du = res for the Newton step of the k(T) problem on a distributed mesh: J assembled at ``state``

@@ -18,12 +18,18 @@ def inverse(mat, freedofs, symmetric: bool, what: str = "linear solve", hint: st
                           f"{hint or 'check the boundary conditions and material data.'}") from None
 
 
+def not_finite(vec) -> int:
+    """The number of NaN or infinite entries of a vector (summed over the ranks of a distributed vector, so that
+    every rank sees the same count)."""
+    bad = int(np.count_nonzero(~np.isfinite(vec.FV().NumPy())))
+    if vec.comm is not None and vec.comm.size > 1:
+        bad = int(vec.comm.Sum(bad))
+    return bad
+
+
 def check_finite(vec, what: str, hint: str = "") -> None:
     """Raise SolverError when a vector holds NaN or Inf (never let NaN reach the output)."""
-    a = vec.FV().NumPy()
-    bad = int(np.count_nonzero(~np.isfinite(a)))
-    if vec.comm is not None and vec.comm.size > 1:       # a distributed vector: every rank raises (or none)
-        bad = int(vec.comm.Sum(bad))
+    bad = not_finite(vec)
     if bad:
         raise SolverError(f"{what}: {bad} values are NaN or infinite. {hint}".strip())
 

@@ -1156,6 +1156,7 @@ class StefanSolver:
                 if res <= floor:
                     break
             if it >= self.maxit:
+                f.check_conductivity(st.T, f" at {where}", floor=self.RANGE_FLOOR)
                 switching = (np.zeros(0, dtype=int) if prev_st is None
                              else np.nonzero(_branch(st) != _branch(prev_st))[0])
                 raise SolverError(self._diagnosis(where, history, switching, st, scale))
@@ -1239,6 +1240,11 @@ class StefanSolver:
             d = np.where(disc > 0, 2.0 * target / (a + np.sqrt(np.maximum(disc, 0.0))),
                          np.where(c != 0, -a / np.where(c != 0, c, 1.0), dT))
         return np.where(a > 0, d, dT)
+
+    RANGE_FLOOR = 1e-6
+    """A step that does not converge with a node's factor 1 + b (T - T_ref) below this was held at the edge of
+    the range by :meth:`_in_range` (each iteration keeps RANGE_FRACTION of the factor): its solution needs k <= 0,
+    reported as such (ConductivityRangeError naming the key) instead of a non-converging Newton."""
 
     RANGE_FRACTION = 0.1
     """A Newton update keeps every free node's conductivity factor 1 + b (T - T_ref) at least this fraction of
