@@ -9,6 +9,17 @@ import sys
 from .errors import GeomechError
 
 
+def _count(text: str) -> int:
+    """A positive integer option value (threads, workers)."""
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive integer")
+    return n
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ngs-geomech", description="Coupled thermo-mechanics in geomechanics "
                                      "(NGSolve). Scenes are TOML files or built-in names (see 'list').")
@@ -23,7 +34,7 @@ def main(argv: list[str] | None = None) -> int:
     p_run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                        help="override a scene value, e.g. --set mesh.maxh=2 --set time.end='10 year'")
     p_run.add_argument("--quiet", action="store_true", help="no progress display")
-    p_run.add_argument("--threads", type=int, default=None, help="number of threads (default: NGSolve's)")
+    p_run.add_argument("--threads", type=_count, default=None, help="number of threads (default: NGSolve's)")
     p_val = sub.add_parser("validate", help="check a scene (no meshing, no solving)")
     p_val.add_argument("scene")
     p_val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
@@ -40,9 +51,9 @@ def main(argv: list[str] | None = None) -> int:
                        help="where samples run: 'process' (default: a pool of --workers processes on this "
                             "machine), 'serial', or 'mpi' (the ranks of 'mpiexec -n N python -m mpi4py.futures "
                             "-m ngs_geomech.cli uncertain ...', one machine or a cluster)")
-    p_unc.add_argument("--workers", type=int, default=None,
+    p_unc.add_argument("--workers", type=_count, default=None,
                        help="worker processes (default: the number of cores); one NGSolve thread each")
-    p_unc.add_argument("--threads", type=int, default=None,
+    p_unc.add_argument("--threads", type=_count, default=None,
                        help="NGSolve threads of a serial study (default: NGSolve's); pools use one per worker")
     p_unc.add_argument("--resume", action="store_true",
                        help="continue the killed study in --out from its samples.jsonl (same scene and --set)")
