@@ -8,6 +8,9 @@ import sys
 
 from .errors import GeomechError
 
+OVERWRITE = ("allow an --out directory that holds other files: the outputs are written into it, files of the same "
+             "names replaced, no other file removed")
+
 
 def _count(text: str) -> int:
     """A positive integer option value (threads, workers)."""
@@ -26,7 +29,10 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     p_run = sub.add_parser("run", help="run a scene and write VTK, figures and summary.json")
     p_run.add_argument("scene", help="scene file or built-in scene name")
-    p_run.add_argument("--out", help="output directory (replaced when the run succeeds)")
+    p_run.add_argument("--out", help="output directory: new, empty, or the output of an earlier run (its files "
+                                     "are replaced when the run succeeds, other files in it are kept); an existing "
+                                     "file, / and mount points are refused")
+    p_run.add_argument("--overwrite", action="store_true", help=OVERWRITE)
     p_run.add_argument("--resume", nargs="?", const=True, default=None, metavar="DIR",
                        help="continue the interrupted (killed, failed) time-dependent run into --out (or DIR) from "
                             "its last checkpoint; give the same scene and --set values (time steps, solver and "
@@ -43,7 +49,8 @@ def main(argv: list[str] | None = None) -> int:
                                              "table: results.json, table.md/.csv, figures, samples.jsonl")
     p_unc.add_argument("scene", help="scene file or built-in scene name (with an [uncertainty] table)")
     p_unc.add_argument("--out", required=True, help="output directory (its samples.jsonl keeps every finished "
-                                                    "sample)")
+                                                    "sample): new, empty, or the output of an earlier study")
+    p_unc.add_argument("--overwrite", action="store_true", help=OVERWRITE + "; an earlier study there starts over")
     p_unc.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                        help="override a scene value for every sample, e.g. --set mesh.maxh=50 or "
                             "--set uncertainty.mode=monte_carlo")
@@ -83,11 +90,12 @@ def main(argv: list[str] | None = None) -> int:
             from .uncertainty.study import run_uncertainty
             res = run_uncertainty(args.scene, args.out, overrides=args.overrides, executor=args.executor,
                                   workers=args.workers, threads=args.threads, resume=args.resume,
+                                  overwrite=args.overwrite,
                                   progress=not args.quiet, figures=not args.no_figures)
             print(_uncertainty_report(res, args.out))
             return 0
         result = run(args.scene, args.out, overrides=args.overrides, progress=not args.quiet,
-                     threads=args.threads, resume=bool(args.resume), comm=world())
+                     threads=args.threads, resume=bool(args.resume), overwrite=args.overwrite, comm=world())
         resumed = result.summary.get("resumed")
         note = f", resumed at step {resumed[-1]['step']} of {result.summary['steps']}" if resumed else ""
         ranks = result.summary["mesh"].get("ranks")

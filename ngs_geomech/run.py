@@ -1,7 +1,10 @@
 """Running a scene: validate, mesh, build only the physics it declares, solve, write the output.
 
 Output (into ``out``, written completely or not at all): ``<scene>.pvd`` + ``<scene>_stepNNNNN.vtu``
-(VTK series with every computed field and the region id), ``figures/*.png`` and ``summary.json``.
+(VTK series with every computed field and the region id), ``figures/*.png``, ``summary.json`` and the marker
+``ngs-geomech-output.json`` listing these files. ``out`` is checked before any meshing (:mod:`.io.outdir`: an
+existing file, ``/``, a mount point, a directory not writable or of other files without ``overwrite`` are
+refused); the files of an earlier output in ``out`` are replaced, no other file there is touched.
 Scenes with phase change (a material with ``phase_change_temperature``, physics.thermal = 'transient') are
 solved by the Stefan solver (:mod:`ngs_geomech.problems.stefan`) instead of the heat solver; they also write
 the phase boundary (liquid fraction 1/2) per output time as ``<scene>_phase_boundary.pvd`` + ``.vtp`` (2D),
@@ -89,12 +92,14 @@ class RunResult:
 
 
 def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, threads: int | None = None,
-              geometry: GeometryModel | None = None, resume: bool = False, comm=None) -> RunResult:
-    """Run a scene. ``out=None`` writes nothing (for tests and studies). ``resume=True`` continues the
-    interrupted run into ``out`` from its last checkpoint (:class:`ResumeError` when there is none, or when
-    the scene or the mesh differs from the checkpointed run's). ``comm`` (an mpi4py communicator of several
-    ranks, every rank calling this): a distributed run (module docstring); None: serial, also inside an MPI job
-    whose ranks run separate scenes (``mpi4py.futures`` samples)."""
+              geometry: GeometryModel | None = None, resume: bool = False, overwrite: bool = False,
+              comm=None) -> RunResult:
+    """Run a scene. ``out=None`` writes nothing (for tests and studies). ``overwrite=True`` allows an ``out``
+    that holds files other than an earlier output (they are kept; same-named ones replaced). ``resume=True``
+    continues the interrupted run into ``out`` from its last checkpoint (:class:`ResumeError` when there is
+    none, or when the scene or the mesh differs from the checkpointed run's). ``comm`` (an mpi4py communicator
+    of several ranks, every rank calling this): a distributed run (module docstring); None: serial, also inside
+    an MPI job whose ranks run separate scenes (``mpi4py.futures`` samples)."""
     timings: dict[str, float] = {}
     t0 = _time.perf_counter()
     if comm is not None and comm.size < 2:
@@ -118,7 +123,7 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
         if cp is None and progress and root:
             _note_resumable(Path(out))
         try:
-            staging = _staging(Path(out), cp, comm)
+            staging = _staging(Path(out), cp, comm, overwrite, scene.scene.name)
         except BlockingIOError as exc:
             raise ResumeError(f"cannot resume: {exc}") from None
     try:
@@ -149,13 +154,13 @@ class _RankStaging:
     path: Path
 
 
-def _staging(out: Path, cp: Checkpoint | None, comm):
-    """The run's staging directory (rank 0 creates it and tells the others its path)."""
+def _staging(out: Path, cp: Checkpoint | None, comm, overwrite: bool, name: str):
+    """The run's staging directory (rank 0 checks ``out``, creates it and tells the others its path)."""
     if comm is None:
-        return OutputDir(out, resume=cp.staging if cp is not None else None)
+        return OutputDir(out, resume=cp.staging if cp is not None else None, overwrite=overwrite, scene=name)
     if comm.rank == 0:
         try:
-            staging = OutputDir(out)
+            staging = OutputDir(out, overwrite=overwrite, scene=name)
         except BaseException:
             comm.bcast(None, root=0)
             raise
