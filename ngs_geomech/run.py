@@ -14,7 +14,8 @@ Time-dependent runs write checkpoints (:mod:`ngs_geomech.checkpoint`) into ``che
 directory ``.<out>.partial-*``: every ``output.checkpoint_every`` steps (default every tenth of the steps
 and after any step ending 5 minutes of wall time after the last checkpoint), and the last good state when a
 step fails or the run is interrupted (Ctrl-C). A killed, failed or interrupted run that holds a checkpoint
-leaves its staging directory behind (``out`` itself is untouched); ``run_scene(..., resume=True)`` (the
+leaves its staging directory behind (``out`` itself is untouched; a disk that fills up stops the run with
+:class:`~.errors.OutputError` naming the kept checkpoint); ``run_scene(..., resume=True)`` (the
 command line's ``--resume``) continues it from its last checkpoint and commits ``out`` at the end as usual.
 
 Distributed runs (``mpiexec -n N``, N >= 2; :mod:`ngs_geomech.parallel`): every rank runs this module on its part
@@ -40,7 +41,7 @@ from .adapt.loop import adaptive_solve, refine_mesh
 from .adapt.marking import StopRule
 from .checkpoint import CHECKPOINT_WALL_S, Plan, RunState, Snapshot, check_scene, plan_steps
 from .checkpoint import where as checkpoint_where
-from .errors import Problem, ResumeError, SceneError, SolverError
+from .errors import OutputError, Problem, ResumeError, SceneError, SolverError
 from .geometry.assemble import GeometryModel
 from .geometry.mesh import make_mesh
 from .io import figures, stress_figures
@@ -48,6 +49,7 @@ from .io.atomic import OutputDir, is_locked, staging_dirs, write_json_atomic
 from .io.checkpoint import Checkpoint, find_resumable, has_checkpoint, scene_hash
 from .io.lines_vtk import LineSeries
 from .io.meshdata import mesh_arrays, vertex_values
+from .io.outdir import disk_full
 from .io.progress import Progress
 from .io.summary import finite, probe_statistics, versions
 from .io.vtk import VtkSeries
@@ -139,10 +141,15 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
         elif staging is not None:
             result.out = Path(out)
         return result
-    except BaseException:
+    except BaseException as exc:
         if staging is not None and root:
             # a staging directory with a checkpoint stays for --resume (out itself is untouched)
-            staging.abort(keep=has_checkpoint(staging.path))
+            kept = has_checkpoint(staging.path)
+            staging.abort(keep=kept)
+            if disk_full(exc):
+                raise OutputError(f"disk full: checkpoint kept in {staging.scratch}, --resume after freeing space"
+                                  if kept else f"disk full: {out} was not written and its staging directory was "
+                                  "removed; free space and run again") from None
         raise
 
 

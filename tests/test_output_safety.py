@@ -1,8 +1,8 @@
 """What ``--out`` may be and what the program may touch there (ngs_geomech/io/outdir.py): a directory of the
 user's files is refused without ``--overwrite`` and keeps every file with it, an earlier output is replaced
 without touching the user's files in it, an existing file, ``/``, a mount point, a non-writable or impossible
-parent and a dangling link are refused with one line before any meshing; bad ``--threads``/``--workers`` name
-the option.
+parent and a dangling link are refused with one line before any meshing; a full disk stops a run with one line
+naming the kept checkpoint; bad ``--threads``/``--workers`` name the option.
 
 Runs use the steady slab of tests/scenes/uncertainty/slab.toml (well under a second), made transient where a
 checkpoint is needed; the refusals are checked with meshing made to fail.
@@ -20,8 +20,10 @@ import pytest
 from ngs_geomech import cli
 from ngs_geomech import run as run_module
 from ngs_geomech.errors import OutputError
+from ngs_geomech.io import vtk
 from ngs_geomech.io.atomic import OutputDir
 from ngs_geomech.io.outdir import MARKER, check_output
+from ngs_geomech.io.sample_log import SampleLog
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -224,7 +226,7 @@ def test_check_output_allows_resume_and_earlier_outputs(tmp_path):
     assert check_output(out, command="uncertain") == out
 
 
-# -- end to end ------------------------------------------------------------------------
+# -- end to end: overwrite, disk full ------------------------------------------------------------------------
 
 def test_run_overwrite_into_cwd_keeps_the_users_files(tmp_path, monkeypatch, capsys):
     before = files(user_dir(tmp_path))
@@ -240,6 +242,38 @@ def test_run_overwrite_into_cwd_keeps_the_users_files(tmp_path, monkeypatch, cap
     assert cli.main(["run", "myscene.toml", "--out", ".", *QUICK, "--set", "output.vtk=false"]) == 0
     after = files(tmp_path)
     assert {k: after[k] for k in before} == before and "uncertain_slab.vtu" not in after
+
+
+def vtk_disk_full_at(monkeypatch, n: int) -> None:
+    original = vtk.VtkSeries.write
+    calls = {"n": 0}
+
+    def write(self, time):
+        calls["n"] += 1
+        if calls["n"] == n:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return original(self, time)
+    monkeypatch.setattr(vtk.VtkSeries, "write", write)
+
+
+def test_disk_full_keeps_the_checkpoint(tmp_path, monkeypatch, capsys):
+    vtk_disk_full_at(monkeypatch, 4)
+    monkeypatch.chdir(tmp_path)
+    line = refused(capsys, ["run", SLAB, "--out", "D", *TRANSIENT], "disk full: checkpoint kept in",
+                   "--resume after freeing space")
+    (staging,) = [p for p in tmp_path.iterdir() if p.is_dir()]
+    assert str(staging / "checkpoint") in line and (staging / "checkpoint" / "checkpoint.npz").is_file()
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["run", SLAB, "--out", "D", *TRANSIENT, "--resume"]) == 0
+    assert (tmp_path / "D" / "summary.json").is_file()
+
+
+def test_disk_full_before_a_checkpoint_leaves_nothing(tmp_path, monkeypatch, capsys):
+    vtk_disk_full_at(monkeypatch, 1)
+    monkeypatch.chdir(tmp_path)
+    refused(capsys, ["run", SLAB, "--out", "D", *TRANSIENT], "disk full: D was not written")
+    assert list(tmp_path.iterdir()) == []
 
 
 # -- uncertain --out -----------------------------------------------------------------------------------------
@@ -266,3 +300,11 @@ def test_uncertain_refuses_user_directory_and_overwrite_keeps_other_files(tmp_pa
     assert cli.main(["uncertain", "myscene.toml", "--out", ".", "--overwrite", *UNC]) == 0
     after = files(tmp_path)
     assert {k: after[k] for k in before} == before and "old.png" not in after and "results.json" in after
+
+
+def test_uncertain_disk_full_is_one_line(tmp_path, monkeypatch, capsys):
+    def append(self, record):
+        raise OSError(errno.ENOSPC, "No space left on device")
+    monkeypatch.setattr(SampleLog, "append", append)
+    monkeypatch.chdir(tmp_path)
+    refused(capsys, ["uncertain", SLAB, "--out", "U", *UNC], "disk full", "samples.jsonl", "--resume")

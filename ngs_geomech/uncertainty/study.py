@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import Problem, ResumeError, SceneError, SolverError
+from ..errors import OutputError, Problem, ResumeError, SceneError, SolverError
 from ..io.atomic import write_json_atomic, write_marker, write_text_atomic
-from ..io.outdir import check_output, creating, owned_files
+from ..io.outdir import check_output, creating, disk_full, owned_files
 from ..io.sample_log import SampleLog, differing_items, fingerprint, flatten
 from ..io.summary import json_safe
 from ..io.uncertainty_figures import distribution_figure, ranges_figure, scatter_figure
@@ -103,6 +103,15 @@ class Study:
 
     def run(self, *, executor: str = "serial", workers: int | None = None, threads: int | None = None,
             progress: bool = True, figures: bool = True) -> dict:
+        try:
+            return self._run(executor, workers, threads, progress, figures)
+        except OSError as exc:
+            if not disk_full(exc):
+                raise
+            raise OutputError(f"disk full: the finished samples are kept in {self.log.path}, --resume after freeing "
+                              "space") from None
+
+    def _run(self, executor: str, workers: int | None, threads: int | None, progress: bool, figures: bool) -> dict:
         t0 = time.perf_counter()
         self._start()
         with Runner(executor, workers, threads) as runner:
