@@ -137,13 +137,15 @@ def test_symlinks_name_their_target(tmp_path, monkeypatch, capsys, no_meshing):
                                   ["run", SLAB, "--out", "D", "--threads", "0"],
                                   ["uncertain", SLAB, "--out", "D", "--workers", "-3"],
                                   ["uncertain", SLAB, "--out", "D", "--threads", "x"]])
-def test_thread_and_worker_counts_must_be_positive(argv, capsys):
+def test_thread_and_worker_counts_must_be_positive(argv, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
     with pytest.raises(SystemExit) as exc:
         cli.main(argv)
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err
     assert f"argument {argv[4]}: '{argv[5]}' is not a positive integer" in err
+    assert list(tmp_path.iterdir()) == []
 
 
 # -- what a commit replaces, keeps and removes (OutputDir, no run) ---------------------------------------------

@@ -83,7 +83,10 @@ def check_output(out: str | Path, *, command: str, overwrite: bool = False, resu
         raise OutputError(f"--out {given} is an existing file, not a directory: give another --out (the file is "
                           "left as it is)")
     if real.is_dir():
-        found = [] if resume or overwrite else others(real, command)
+        try:
+            found = [] if resume or overwrite else others(real, command)
+        except PermissionError:
+            raise OutputError(f"--out {given}: {real} is not readable: give another --out") from None
         if found:
             shown = ", ".join(found[:3]) + (f" and {len(found) - 3} more" if len(found) > 3 else "")
             raise OutputError(f"--out {given} is a directory of other files ({shown}), not an output of "
