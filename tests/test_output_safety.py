@@ -259,16 +259,24 @@ def vtk_disk_full_at(monkeypatch, n: int) -> None:
 
 
 def test_disk_full_keeps_the_checkpoint(tmp_path, monkeypatch, capsys):
-    vtk_disk_full_at(monkeypatch, 4)
+    """The earlier output in D (and the user's note there) stays as it was; --resume then commits into D."""
     monkeypatch.chdir(tmp_path)
+    assert cli.main(["run", SLAB, "--out", "D", *QUICK]) == 0
+    (tmp_path / "D" / "notes.txt").write_text("mine")
+    before = files(tmp_path / "D")
+    vtk_disk_full_at(monkeypatch, 4)
     line = refused(capsys, ["run", SLAB, "--out", "D", *TRANSIENT], "disk full: checkpoint kept in",
                    "--resume after freeing space")
-    (staging,) = [p for p in tmp_path.iterdir() if p.is_dir()]
+    assert files(tmp_path / "D") == before
+    (staging,) = [p for p in tmp_path.iterdir() if p.is_dir() and p.name != "D"]
     assert str(staging / "checkpoint") in line and (staging / "checkpoint" / "checkpoint.npz").is_file()
     monkeypatch.undo()
     monkeypatch.chdir(tmp_path)
     assert cli.main(["run", SLAB, "--out", "D", *TRANSIENT, "--resume"]) == 0
-    assert (tmp_path / "D" / "summary.json").is_file()
+    after = files(tmp_path / "D")
+    assert after["notes.txt"] == b"mine" and "uncertain_slab_step00004.vtu" in after
+    assert json.loads(after["summary.json"])["resumed"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["D"]
 
 
 def test_disk_full_before_a_checkpoint_leaves_nothing(tmp_path, monkeypatch, capsys):
