@@ -25,10 +25,12 @@ def validate_scene(scene: str | Path | Scene, overrides: list[str] | None = None
 
 
 def run(scene: str | Path | Scene, out: str | Path | None, *, overrides: list[str] | None = None,
-        progress: bool = True, threads: int | None = None, resume: bool = False, comm=None) -> RunResult:
-    """Load (if needed) and run a scene, writing into ``out`` (None: write nothing). ``resume=True`` continues
-    the interrupted time-dependent run into ``out`` from its last checkpoint. ``comm``: an mpi4py communicator of
-    several ranks that run the scene together on a distributed mesh (:func:`ngs_geomech.parallel.world` under
-    ``mpiexec``); None: this process alone."""
+        progress: bool = True, threads: int | None = None, resume: bool = False, overwrite: bool = False,
+        comm=None) -> RunResult:
+    """Load (if needed) and run a scene, writing into ``out`` (None: write nothing; an ``out`` holding files
+    other than an earlier output needs ``overwrite=True``, see :mod:`ngs_geomech.io.outdir`). ``resume=True``
+    continues the interrupted time-dependent run into ``out`` from its last checkpoint. ``comm``: an mpi4py
+    communicator of several ranks that run the scene together on a distributed mesh
+    (:func:`ngs_geomech.parallel.world` under ``mpiexec``); None: this process alone."""
     sc = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
-    return run_scene(sc, out, progress=progress, threads=threads, resume=resume, comm=comm)
+    return run_scene(sc, out, progress=progress, threads=threads, resume=resume, overwrite=overwrite, comm=comm)

@@ -8,6 +8,20 @@ import sys
 
 from .errors import GeomechError
 
+OVERWRITE = ("allow an --out directory that holds other files: the outputs are written into it, files of the same "
+             "names replaced, no other file removed")
+
+
+def _count(text: str) -> int:
+    """A positive integer option value (threads, workers)."""
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive integer")
+    return n
+
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ngs-geomech", description="Coupled thermo-mechanics in geomechanics "
@@ -15,7 +29,10 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     p_run = sub.add_parser("run", help="run a scene and write VTK, figures and summary.json")
     p_run.add_argument("scene", help="scene file or built-in scene name")
-    p_run.add_argument("--out", help="output directory (replaced when the run succeeds)")
+    p_run.add_argument("--out", help="output directory: new, empty, or the output of an earlier run (its files "
+                                     "are replaced when the run succeeds, other files in it are kept); an existing "
+                                     "file, / and mount points are refused")
+    p_run.add_argument("--overwrite", action="store_true", help=OVERWRITE)
     p_run.add_argument("--resume", nargs="?", const=True, default=None, metavar="DIR",
                        help="continue the interrupted (killed, failed) time-dependent run into --out (or DIR) from "
                             "its last checkpoint; give the same scene and --set values (time steps, solver and "
@@ -23,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     p_run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                        help="override a scene value, e.g. --set mesh.maxh=2 --set time.end='10 year'")
     p_run.add_argument("--quiet", action="store_true", help="no progress display")
-    p_run.add_argument("--threads", type=int, default=None, help="number of threads (default: NGSolve's)")
+    p_run.add_argument("--threads", type=_count, default=None, help="number of threads (default: NGSolve's)")
     p_val = sub.add_parser("validate", help="check a scene (no meshing, no solving)")
     p_val.add_argument("scene")
     p_val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
@@ -32,7 +49,8 @@ def main(argv: list[str] | None = None) -> int:
                                              "table: results.json, table.md/.csv, figures, samples.jsonl")
     p_unc.add_argument("scene", help="scene file or built-in scene name (with an [uncertainty] table)")
     p_unc.add_argument("--out", required=True, help="output directory (its samples.jsonl keeps every finished "
-                                                    "sample)")
+                                                    "sample): new, empty, or the output of an earlier study")
+    p_unc.add_argument("--overwrite", action="store_true", help=OVERWRITE + "; an earlier study there starts over")
     p_unc.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                        help="override a scene value for every sample, e.g. --set mesh.maxh=50 or "
                             "--set uncertainty.mode=monte_carlo")
@@ -40,9 +58,9 @@ def main(argv: list[str] | None = None) -> int:
                        help="where samples run: 'process' (default: a pool of --workers processes on this "
                             "machine), 'serial', or 'mpi' (the ranks of 'mpiexec -n N python -m mpi4py.futures "
                             "-m ngs_geomech.cli uncertain ...', one machine or a cluster)")
-    p_unc.add_argument("--workers", type=int, default=None,
+    p_unc.add_argument("--workers", type=_count, default=None,
                        help="worker processes (default: the number of cores); one NGSolve thread each")
-    p_unc.add_argument("--threads", type=int, default=None,
+    p_unc.add_argument("--threads", type=_count, default=None,
                        help="NGSolve threads of a serial study (default: NGSolve's); pools use one per worker")
     p_unc.add_argument("--resume", action="store_true",
                        help="continue the killed study in --out from its samples.jsonl (same scene and --set)")
@@ -72,11 +90,12 @@ def main(argv: list[str] | None = None) -> int:
             from .uncertainty.study import run_uncertainty
             res = run_uncertainty(args.scene, args.out, overrides=args.overrides, executor=args.executor,
                                   workers=args.workers, threads=args.threads, resume=args.resume,
+                                  overwrite=args.overwrite,
                                   progress=not args.quiet, figures=not args.no_figures)
             print(_uncertainty_report(res, args.out))
             return 0
         result = run(args.scene, args.out, overrides=args.overrides, progress=not args.quiet,
-                     threads=args.threads, resume=bool(args.resume), comm=world())
+                     threads=args.threads, resume=bool(args.resume), overwrite=args.overwrite, comm=world())
         resumed = result.summary.get("resumed")
         note = f", resumed at step {resumed[-1]['step']} of {result.summary['steps']}" if resumed else ""
         ranks = result.summary["mesh"].get("ranks")

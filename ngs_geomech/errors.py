@@ -40,3 +40,8 @@ class SolverError(GeomechError):
 
 class ResumeError(GeomechError):
     """A run cannot be resumed: no checkpoint, or the scene or mesh differs from the checkpointed run's."""
+
+
+class OutputError(GeomechError):
+    """The output directory cannot be used as asked (an existing file, ``/`` or a mount point, not writable, a
+    directory of the user's files without ``--overwrite``), or the disk filled up while writing it."""

@@ -1,7 +1,10 @@
 """Running a scene: validate, mesh, build only the physics it declares, solve, write the output.
 
 Output (into ``out``, written completely or not at all): ``<scene>.pvd`` + ``<scene>_stepNNNNN.vtu``
-(VTK series with every computed field and the region id), ``figures/*.png`` and ``summary.json``.
+(VTK series with every computed field and the region id), ``figures/*.png``, ``summary.json`` and the marker
+``ngs-geomech-output.json`` listing these files. ``out`` is checked before any meshing (:mod:`.io.outdir`: an
+existing file, ``/``, a mount point, a directory not writable or of other files without ``overwrite`` are
+refused); the files of an earlier output in ``out`` are replaced, no other file there is touched.
 Scenes with phase change (a material with ``phase_change_temperature``, physics.thermal = 'transient') are
 solved by the Stefan solver (:mod:`ngs_geomech.problems.stefan`) instead of the heat solver; they also write
 the phase boundary (liquid fraction 1/2) per output time as ``<scene>_phase_boundary.pvd`` + ``.vtp`` (2D),
@@ -11,7 +14,8 @@ Time-dependent runs write checkpoints (:mod:`ngs_geomech.checkpoint`) into ``che
 directory ``.<out>.partial-*``: every ``output.checkpoint_every`` steps (default every tenth of the steps
 and after any step ending 5 minutes of wall time after the last checkpoint), and the last good state when a
 step fails or the run is interrupted (Ctrl-C). A killed, failed or interrupted run that holds a checkpoint
-leaves its staging directory behind (``out`` itself is untouched); ``run_scene(..., resume=True)`` (the
+leaves its staging directory behind (``out`` itself is untouched; a disk that fills up stops the run with
+:class:`~.errors.OutputError` naming the kept checkpoint); ``run_scene(..., resume=True)`` (the
 command line's ``--resume``) continues it from its last checkpoint and commits ``out`` at the end as usual.
 
 Distributed runs (``mpiexec -n N``, N >= 2; :mod:`ngs_geomech.parallel`): every rank runs this module on its part
@@ -37,7 +41,7 @@ from .adapt.loop import adaptive_solve, refine_mesh
 from .adapt.marking import StopRule
 from .checkpoint import CHECKPOINT_WALL_S, Plan, RunState, Snapshot, check_scene, plan_steps
 from .checkpoint import where as checkpoint_where
-from .errors import Problem, ResumeError, SceneError, SolverError
+from .errors import OutputError, Problem, ResumeError, SceneError, SolverError
 from .geometry.assemble import GeometryModel
 from .geometry.mesh import make_mesh
 from .io import figures, stress_figures
@@ -45,6 +49,7 @@ from .io.atomic import OutputDir, is_locked, staging_dirs, write_json_atomic
 from .io.checkpoint import Checkpoint, find_resumable, has_checkpoint, scene_hash
 from .io.lines_vtk import LineSeries
 from .io.meshdata import mesh_arrays, vertex_values
+from .io.outdir import disk_full
 from .io.progress import Progress
 from .io.summary import finite, probe_statistics, versions
 from .io.vtk import VtkSeries
@@ -90,12 +95,14 @@ class RunResult:
 
 
 def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, threads: int | None = None,
-              geometry: GeometryModel | None = None, resume: bool = False, comm=None) -> RunResult:
-    """Run a scene. ``out=None`` writes nothing (for tests and studies). ``resume=True`` continues the
-    interrupted run into ``out`` from its last checkpoint (:class:`ResumeError` when there is none, or when
-    the scene or the mesh differs from the checkpointed run's). ``comm`` (an mpi4py communicator of several
-    ranks, every rank calling this): a distributed run (module docstring); None: serial, also inside an MPI job
-    whose ranks run separate scenes (``mpi4py.futures`` samples)."""
+              geometry: GeometryModel | None = None, resume: bool = False, overwrite: bool = False,
+              comm=None) -> RunResult:
+    """Run a scene. ``out=None`` writes nothing (for tests and studies). ``overwrite=True`` allows an ``out``
+    that holds files other than an earlier output (they are kept; same-named ones replaced). ``resume=True``
+    continues the interrupted run into ``out`` from its last checkpoint (:class:`ResumeError` when there is
+    none, or when the scene or the mesh differs from the checkpointed run's). ``comm`` (an mpi4py communicator
+    of several ranks, every rank calling this): a distributed run (module docstring); None: serial, also inside
+    an MPI job whose ranks run separate scenes (``mpi4py.futures`` samples)."""
     timings: dict[str, float] = {}
     t0 = _time.perf_counter()
     if comm is not None and comm.size < 2:
@@ -119,7 +126,7 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
         if cp is None and progress and root:
             _note_resumable(Path(out))
         try:
-            staging = _staging(Path(out), cp, comm)
+            staging = _staging(Path(out), cp, comm, overwrite, scene.scene.name)
         except BlockingIOError as exc:
             raise ResumeError(f"cannot resume: {exc}") from None
     try:
@@ -135,10 +142,15 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
         elif staging is not None:
             result.out = Path(out)
         return result
-    except BaseException:
+    except BaseException as exc:
         if staging is not None and root:
             # a staging directory with a checkpoint stays for --resume (out itself is untouched)
-            staging.abort(keep=has_checkpoint(staging.path))
+            kept = has_checkpoint(staging.path)
+            staging.abort(keep=kept)
+            if disk_full(exc):
+                raise OutputError(f"disk full: checkpoint kept in {staging.scratch}, --resume after freeing space"
+                                  if kept else f"disk full: {out} was not written and its staging directory was "
+                                  "removed; free space and run again") from None
         raise
 
 
@@ -150,13 +162,13 @@ class _RankStaging:
     path: Path
 
 
-def _staging(out: Path, cp: Checkpoint | None, comm):
-    """The run's staging directory (rank 0 creates it and tells the others its path)."""
+def _staging(out: Path, cp: Checkpoint | None, comm, overwrite: bool, name: str):
+    """The run's staging directory (rank 0 checks ``out``, creates it and tells the others its path)."""
     if comm is None:
-        return OutputDir(out, resume=cp.staging if cp is not None else None)
+        return OutputDir(out, resume=cp.staging if cp is not None else None, overwrite=overwrite, scene=name)
     if comm.rank == 0:
         try:
-            staging = OutputDir(out)
+            staging = OutputDir(out, overwrite=overwrite, scene=name)
         except BaseException:
             comm.bcast(None, root=0)
             raise

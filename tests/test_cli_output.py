@@ -119,16 +119,18 @@ def test_run_output_is_clean_with_ordinary_permissions(canister_run):
 
 
 def test_second_run_replaces_the_output(tmp_path, monkeypatch, capsys):
+    """The files of the first run are replaced or removed (its longer VTK series); a file the user put into
+    the output directory stays."""
     monkeypatch.chdir(tmp_path)
     assert cli.main(["run", "canister", "--out", "DIR", "--set", "time.end='60 day'", "--quiet"]) == 0
-    (tmp_path / "DIR" / "stale.txt").write_text("from an older run")
+    (tmp_path / "DIR" / "notes.txt").write_text("the user's")
     first = json.loads((tmp_path / "DIR" / "summary.json").read_text())
     assert cli.main(["run", "canister", "--out", "DIR", "--set", "time.end='30 day'", "--quiet"]) == 0
     out, err = capsys.readouterr()
     assert err == ""
     assert "wrote" in out
     second = json.loads((tmp_path / "DIR" / "summary.json").read_text())
-    assert not (tmp_path / "DIR" / "stale.txt").exists()
+    assert (tmp_path / "DIR" / "notes.txt").read_text() == "the user's"
     assert second["scene"]["time"]["end"] == pytest.approx(first["scene"]["time"]["end"] / 2)
     assert sorted(p.name for p in (tmp_path / "DIR").glob("*.vtu")) == sorted(pvd_files(tmp_path / "DIR" /
                                                                                           "canister.pvd"))

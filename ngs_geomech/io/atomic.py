@@ -1,21 +1,27 @@
-"""Writing output completely or not at all.
+"""Writing output completely or not at all, and never touching a file the program did not write.
 
-A run writes into a staging directory ``.<target>.partial-XXXX`` beside the target; :meth:`OutputDir.commit`
-renames it into place in one step, :meth:`OutputDir.abort` removes it (or keeps it, when it holds a
-checkpoint a later run may resume from). While a run lives it holds an exclusive ``flock`` on the file
-``.<target>.partial-XXXX.lock`` beside its staging directory (released by the kernel when the process dies,
-also by SIGKILL): a staging directory whose lock can be taken belongs to no running process. Single files
-are written to a temporary name and renamed.
+A run writes into a staging directory ``.<target>.partial-XXXX`` beside the target (inside an existing target,
+as ``.ngs-geomech.partial-XXXX``, when its parent is not writable); :meth:`OutputDir.commit` renames a new
+target into place in one step, or moves the staged files into an existing target (:mod:`.outdir`: which
+targets are allowed, what in them the program owns); :meth:`OutputDir.abort` removes the staging directory
+(or keeps it, when it holds a checkpoint a later run may resume from). While a run lives it holds an exclusive
+``flock`` on the file ``<staging>.lock`` beside its staging directory (released by the kernel when the process
+dies, also by SIGKILL): a staging directory whose lock can be taken belongs to no running process. Single
+files are written to a temporary name and renamed.
 """
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import fcntl
 import json
 import os
 import shutil
 import tempfile
 from pathlib import Path
+
+from .outdir import INNER_STAGING, MARKER, check_output, creating, owned_files
 
 
 def write_text_atomic(path: Path, text: str) -> None:
@@ -48,11 +54,15 @@ def write_json_atomic(path: Path, data: object) -> None:
 
 def staging_dirs(target: Path) -> list[Path]:
     """The staging directories of runs into ``target`` (running, killed or failed), oldest first."""
-    target = Path(target).resolve()
-    if not target.parent.is_dir():
-        return []
-    dirs = [p for p in target.parent.glob(f".{target.name}.partial-*") if p.is_dir()]
+    dirs = [p for d, pattern in _staging_places(target) for p in d.glob(pattern) if p.is_dir()]
     return sorted(dirs, key=lambda p: p.stat().st_mtime)
+
+
+def _staging_places(target: Path) -> list[tuple[Path, str]]:
+    """Where staging directories of ``target`` are: (directory, glob pattern) pairs."""
+    target = Path(target).resolve()
+    return [(d, pattern) for d, pattern in ((target.parent, f".{target.name}.partial-*"),
+                                            (target, f"{INNER_STAGING}*")) if d.is_dir()]
 
 
 def _lock_path(staging: Path) -> Path:
@@ -100,8 +110,8 @@ def remove_stale_staging(target: Path, keep: Path | None = None) -> list[Path]:
             removed.append(d)
         finally:
             os.close(fd)
-    if target.parent.is_dir():          # lock files whose directory is gone
-        for lock in target.parent.glob(f".{target.name}.partial-*.lock"):
+    for d, pattern in _staging_places(target):          # lock files whose directory is gone
+        for lock in d.glob(f"{pattern}.lock"):
             if not lock.with_suffix("").exists():
                 fd = _try_lock(lock)
                 if fd is not None:
@@ -110,23 +120,44 @@ def remove_stale_staging(target: Path, keep: Path | None = None) -> list[Path]:
     return removed
 
 
+def write_marker(directory: Path, command: str, files, scene: str | None = None, complete: bool = True) -> None:
+    """Write the marker of an output directory (:mod:`.outdir`): the program wrote ``files`` there."""
+    from .. import __version__
+    write_json_atomic(Path(directory) / MARKER, {"program": "ngs-geomech", "version": __version__,
+                                                 "command": command, "scene": scene, "complete": complete,
+                                                 "files": sorted(set(files))})
+
+
+def _files(directory: Path) -> list[str]:
+    """The files under ``directory`` as relative POSIX paths, the marker excluded."""
+    return sorted(p.relative_to(directory).as_posix() for p in directory.rglob("*")
+                  if p.is_file() and p.name != MARKER)
+
+
 class OutputDir:
     """A staging directory for one run's output; ``path`` is where files go while the run lasts.
 
-    ``OutputDir(target)`` makes a new staging directory; ``OutputDir(target, resume=staging)`` takes over the
-    staging directory an interrupted run left (raises ``BlockingIOError`` when a running process holds it).
-    ``path / SCRATCH`` (the checkpoints) is removed before the output is committed.
+    ``OutputDir(target)`` checks ``target`` (:func:`.outdir.check_output`: :class:`OutputError` before any work
+    when it may not be used; ``overwrite`` allows a directory of other files) and makes a new staging
+    directory; ``OutputDir(target, resume=staging)`` takes over the staging directory an interrupted run left
+    (raises ``BlockingIOError`` when a running process holds it). ``path / SCRATCH`` (the checkpoints) is
+    removed before the output is committed. ``command`` and ``scene`` go into the output's marker.
     """
 
     SCRATCH = "checkpoint"
 
-    def __init__(self, target: Path, resume: Path | None = None):
-        self.target = Path(target).resolve()
+    def __init__(self, target: Path, resume: Path | None = None, *, overwrite: bool = False, command: str = "run",
+                 scene: str | None = None):
+        self.target = check_output(target, command=command, overwrite=overwrite, resume=resume is not None)
+        self.command, self.scene = command, scene
         self._made = [p for p in reversed(self.target.parents) if not p.exists()]  # removed again on abort
-        self.target.parent.mkdir(parents=True, exist_ok=True)
         if resume is None:
-            self.path = Path(tempfile.mkdtemp(dir=self.target.parent, prefix=f".{self.target.name}.partial-"))
-            os.chmod(self.path, 0o777 & ~_umask())  # mkdtemp creates 0700; the output is an ordinary directory
+            with creating(target):
+                try:
+                    self.path = self._create()
+                except BaseException:
+                    self._remove_made()
+                    raise
             self._lock = _try_lock(_lock_path(self.path))
         else:
             self.path = Path(resume).resolve()
@@ -135,6 +166,19 @@ class OutputDir:
                 raise BlockingIOError(f"{self.path} is held by a running process")
         for tmp in [p for p in self.path.rglob(".*") if p.is_file()]:    # temporary files of a killed run
             tmp.unlink(missing_ok=True)
+
+    def _create(self) -> Path:
+        """A new staging directory: beside the target (a new target then appears in one rename), or inside
+        an existing target whose parent is not writable (``--out .`` in a directory one may not write beside)."""
+        self.target.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            path = tempfile.mkdtemp(dir=self.target.parent, prefix=f".{self.target.name}.partial-")
+        except OSError as exc:
+            if exc.errno not in (errno.EACCES, errno.EPERM, errno.EROFS) or not self.target.is_dir():
+                raise
+            path = tempfile.mkdtemp(dir=self.target, prefix=INNER_STAGING)
+        os.chmod(path, 0o777 & ~_umask())  # mkdtemp creates 0700; the output is an ordinary directory
+        return Path(path)
 
     @property
     def scratch(self) -> Path:
@@ -147,25 +191,51 @@ class OutputDir:
             self._lock = None
 
     def commit(self) -> Path:
-        """Move the staged output to the target (replacing an older output there); remove the staging
-        directories that killed or failed runs into the same target left."""
-        shutil.rmtree(self.scratch, ignore_errors=True)
-        old = None
+        """Put the staged output in place: rename it to a new target, or move its files into an existing one
+        (:meth:`_move_into`); remove the staging directories that killed or failed runs into the same target
+        left."""
+        files = [f for f in _files(self.path) if not f.startswith(f"{self.SCRATCH}/")]
         if self.target.exists():
-            old = self.target.parent / f".{self.target.name}.old-{os.getpid()}"
-            os.replace(self.target, old)
-        staging = self.path
-        os.replace(self.path, self.target)
+            self._move_into(files)
+        else:
+            write_marker(self.path, self.command, files, self.scene)
+            shutil.rmtree(self.scratch, ignore_errors=True)
+            os.replace(self.path, self.target)
+            self._lock_file_moved()
         self.path = self.target
-        lock = _lock_path(staging)
-        if self._lock is not None:
-            lock.unlink(missing_ok=True)
-            os.close(self._lock)
-            self._lock = None
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
         remove_stale_staging(self.target)
         return self.target
+
+    def _lock_file_moved(self) -> None:
+        """Release the lock of a staging directory that is now the target (its lock file stays beside)."""
+        if self._lock is not None:
+            lock = _lock_path(self.path)
+            os.close(self._lock)
+            self._lock = None
+            lock.unlink(missing_ok=True)
+
+    def _move_into(self, files: list[str]) -> None:
+        """Move the staged ``files`` into the existing target: same-named files are replaced, the files an
+        earlier output of the same command wrote there (its marker) and this one does not are removed, every
+        other file is kept. The marker lists the old and new files (``complete: false``) while the files move
+        and ``summary.json`` moves last, so a commit cut short leaves every program file listed."""
+        old = owned_files(self.target, self.command)
+        write_marker(self.target, self.command, old + files, self.scene, complete=False)
+        shutil.rmtree(self.scratch, ignore_errors=True)
+        for rel in sorted(set(old) - set(files)):
+            with contextlib.suppress(IsADirectoryError, PermissionError, FileNotFoundError):
+                (self.target / rel).unlink()
+        for rel in sorted(files, key=lambda f: (f == "summary.json", f)):
+            dest = self.target / rel
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(self.path / rel, dest)
+        for d in sorted({(self.target / rel).parent for rel in old}, key=lambda p: -len(p.parts)):
+            if d != self.target:
+                with contextlib.suppress(OSError):
+                    d.rmdir()                       # only when empty: a directory of the old output's files
+        write_marker(self.target, self.command, files, self.scene)
+        shutil.rmtree(self.path)                    # empty directories only
+        self._release()
 
     def abort(self, keep: bool = False) -> None:
         """Remove the staged output and any parent directories this run created; ``keep=True`` leaves the
@@ -177,6 +247,9 @@ class OutputDir:
             return
         shutil.rmtree(self.path, ignore_errors=True)
         self._release()
+        self._remove_made()
+
+    def _remove_made(self) -> None:
         for p in reversed(self._made):
             try:
                 p.rmdir()

@@ -5,15 +5,20 @@ parameter sets) or the stochastic estimates (mean with confidence interval, quan
 a limit).
 
 Order of work: everything is checked before the first run (the scene and its ``[uncertainty]`` table, every
-parameter's scene items, the scene at both ends of the intervals, the output directory); then the nominal scene
+parameter's scene items, the scene at both ends of the intervals, the output directory by the rules of
+:mod:`ngs_geomech.io.outdir`: new, empty, an earlier study's output, or with ``overwrite`` a directory of other
+files, which are kept); then the nominal scene
 runs and each criterion's summary path is checked on its summary; then the samples. Every finished sample is
 appended to ``DIR/samples.jsonl`` at once; ``--resume`` continues a killed study from it (the samples are
 deterministic: the same seed gives the same points, so a resumed study reruns nothing it has). The results
-(``results.json``, ``table.md``, ``table.csv``, figures) are written at the end, each file atomically.
+(``results.json``, ``table.md``, ``table.csv``, figures) are written at the end, each file atomically; the
+marker ``ngs-geomech-output.json`` lists every file the study wrote (``complete`` once the results are written).
+A new study in the directory of an earlier one (``overwrite``) first removes the earlier study's files.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import time
@@ -21,8 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import Problem, ResumeError, SceneError, SolverError
-from ..io.atomic import write_json_atomic, write_text_atomic
+from ..errors import OutputError, Problem, ResumeError, SceneError, SolverError
+from ..io.atomic import write_json_atomic, write_marker, write_text_atomic
+from ..io.outdir import check_output, creating, disk_full, owned_files
 from ..io.sample_log import SampleLog, differing_items, fingerprint, flatten
 from ..io.summary import json_safe
 from ..io.uncertainty_figures import distribution_figure, ranges_figure, scatter_figure
@@ -41,7 +47,7 @@ class Study:
     """A checked study, ready to run: scene data, parameter space, criteria and the sample log."""
 
     def __init__(self, scene: str | Path | dict, out: str | Path, overrides: list[str] | None = None,
-                 resume: bool = False):
+                 resume: bool = False, overwrite: bool = False):
         if isinstance(scene, dict):          # the scene's data, as read from TOML (studies edit it first)
             path, raw = "scene", scene
         else:
@@ -62,8 +68,12 @@ class Study:
         if problems:
             raise SceneError(problems, source=str(path))
         self._check_ends(str(path))
-        self.out = Path(out)
+        if not resume and not overwrite and SampleLog(Path(out) / LOG_NAME).exists():
+            raise ResumeError(f"{out} holds the samples of an earlier study ({LOG_NAME}); give --resume to "
+                              "continue it, --overwrite to start a new one, or another --out")
+        self.out = check_output(out, command="uncertain", overwrite=overwrite, resume=resume)
         self.log = SampleLog(self.out / LOG_NAME)
+        self.written = {LOG_NAME}
         self.header = {"scene": sc.scene.name,
                        "items": flatten({"scene": self.raw, "parameters": self.space.describe(),
                                          "criteria": self.criteria})}
@@ -78,9 +88,6 @@ class Study:
                 raise ResumeError(f"{self.out}: the samples were computed with other data; differing items:\n  "
                                   + "\n  ".join(diff) + "\nGive the same scene and --set values, or another --out")
             self.previous = records
-        elif self.log.exists():
-            raise ResumeError(f"{self.out} holds the samples of an earlier study ({LOG_NAME}); give --resume to "
-                              "continue it, or another --out")
 
     def _check_ends(self, source: str) -> None:
         """The scene must be valid with every parameter at its lower and at its upper end."""
@@ -97,9 +104,17 @@ class Study:
 
     def run(self, *, executor: str = "serial", workers: int | None = None, threads: int | None = None,
             progress: bool = True, figures: bool = True) -> dict:
+        try:
+            return self._run(executor, workers, threads, progress, figures)
+        except OSError as exc:
+            if not disk_full(exc):
+                raise
+            raise OutputError(f"disk full: the finished samples are kept in {self.log.path}, --resume after freeing "
+                              "space") from None
+
+    def _run(self, executor: str, workers: int | None, threads: int | None, progress: bool, figures: bool) -> dict:
         t0 = time.perf_counter()
-        if not self.previous:
-            self.log.start({k: v for k, v in self.header.items()})
+        self._start()
         with Runner(executor, workers, threads) as runner:
             values_of = (self.space.box_values if self.unc.mode == "worst_scenario" else self.space.random_values)
             sampler = Sampler(self.space, self.raw, self.criteria, runner, self.log, values_of, progress=progress)
@@ -112,6 +127,30 @@ class Study:
         results = self._results(sampler, runner, nominal, body, time.perf_counter() - t0)
         self._write(results, sampler, figures)
         return results
+
+    def _start(self) -> None:
+        """Mark the output directory as the study's (``complete: false``) and begin the sample log; a new study
+        first removes the files of an earlier one there (its marker's list)."""
+        with creating(self.out):
+            self.out.mkdir(parents=True, exist_ok=True)
+        earlier = owned_files(self.out, "uncertain")
+        if self.previous:
+            self.written.update(earlier)
+        else:
+            for rel in earlier:
+                with contextlib.suppress(IsADirectoryError, FileNotFoundError):
+                    (self.out / rel).unlink()
+        self._mark(complete=False)
+        if not self.previous:
+            self.log.start({k: v for k, v in self.header.items()})
+
+    def _mark(self, complete: bool) -> None:
+        write_marker(self.out, "uncertain", self.written, self.scene.scene.name, complete)
+
+    def _file(self, rel: str) -> Path:
+        """The path of the output file ``rel``, recorded in the marker's list."""
+        self.written.add(rel)
+        return self.out / rel
 
     # -- the nominal run: the criteria's paths must exist in its summary --------------------------------------
     def _nominal(self, sampler: Sampler) -> Sample:
@@ -233,16 +272,17 @@ class Study:
                                                                "seed")}}
 
     def _write(self, results: dict, sampler: Sampler, figures: bool) -> None:
-        write_json_atomic(self.out / "results.json", json_safe(results))
+        write_json_atomic(self._file("results.json"), json_safe(results))
         md, rows = _table(results)
-        write_text_atomic(self.out / "table.md", md)
+        write_text_atomic(self._file("table.md"), md)
         buf = io.StringIO()
         w = csv.writer(buf)
         w.writerows(rows)
-        write_text_atomic(self.out / "table.csv", buf.getvalue())
+        write_text_atomic(self._file("table.csv"), buf.getvalue())
         if figures:
             (self.out / "figures").mkdir(parents=True, exist_ok=True)
             self._figures(results, sampler)
+        self._mark(complete=True)
 
     def _figures(self, results: dict, sampler: Sampler) -> None:
         ok = [s for s in sampler.done.values() if s.ok]
@@ -256,8 +296,8 @@ class Study:
                 marks = {"max": e["max_over_all_samples"], "min": e["min_over_all_samples"]}
                 scatter_figure({n: np.array([s.params[n] for s in ok]) for n in self.space.names},
                                np.array([s.values[c.name] for s in ok]), [s.tag for s in ok],
-                               self.out / "figures" / f"samples_{c.name}.png", criterion=c.name, marks=marks)
-            ranges_figure(rows, self.out / "figures" / "worst_scenario.png",
+                               self._file(f"figures/samples_{c.name}.png"), criterion=c.name, marks=marks)
+            ranges_figure(rows, self._file("figures/worst_scenario.png"),
                           title=f"{self.scene.scene.name}: worst scenario over the admissible data")
         else:
             for c in self.unc.criteria:
@@ -265,16 +305,17 @@ class Study:
                 if e.get("n", 0) < 2:
                     continue
                 v = np.array([s.values[c.name] for s in ok if s.tag == self.unc.mode])
-                distribution_figure(v, e["running"], self.out / "figures" / f"distribution_{c.name}.png",
+                distribution_figure(v, e["running"], self._file(f"figures/distribution_{c.name}.png"),
                                     criterion=c.name, unit=c.unit, mean_ci=e["mean_ci"], limit=c.limit)
 
 
 def run_uncertainty(scene: str | Path | dict, out: str | Path, *, overrides: list[str] | None = None,
                     executor: str = "serial", workers: int | None = None, threads: int | None = None,
-                    resume: bool = False, progress: bool = True, figures: bool = True) -> dict:
+                    resume: bool = False, overwrite: bool = False, progress: bool = True,
+                    figures: bool = True) -> dict:
     """Check, run and write an uncertainty study (see the module docstring); returns ``results.json``'s data.
     ``threads``: NGSolve threads of a serial study (pools use one per worker)."""
-    return Study(scene, out, overrides, resume).run(executor=executor, workers=workers, threads=threads,
+    return Study(scene, out, overrides, resume, overwrite).run(executor=executor, workers=workers, threads=threads,
                                                     progress=progress, figures=figures)
 
 
