@@ -79,6 +79,10 @@ def make_block(block: Block, dim: int):
         for i, seg in enumerate(segs):
             if (seg.line is None) == (seg.spline is None):
                 raise ValueError(f"segments[{i}] must have exactly one of 'line' or 'spline'")
+            if seg.line is not None and len(seg.line) != 2:
+                raise ValueError(f"segments[{i}].line must be an end point [x, y]")
+            if seg.spline is not None and (not seg.spline or any(len(p) != 2 for p in seg.spline)):
+                raise ValueError(f"segments[{i}].spline must hold at least one point [x, y] (the last is its end)")
             if seg.line is not None:
                 end = np.array(seg.line, float)
                 wp.LineTo(*end, name=seg.name or None)
@@ -109,7 +113,9 @@ def make_block(block: Block, dim: int):
         _need(block, "center", 3)
         if block.radius is None or block.radius <= 0 or block.height is None or block.height <= 0:
             raise ValueError("cylinder needs positive radius and height")
-        axis = block.axis or [0.0, 0.0, 1.0]
+        axis = [0.0, 0.0, 1.0] if block.axis is None else block.axis
+        if len(axis) != 3 or not np.linalg.norm(np.asarray(axis, float)) > 0:
+            raise ValueError(f"'axis' must be a direction of 3 numbers, not the zero vector, got {axis}")
         shape = occ.Cylinder(occ.Pnt(*block.center), occ.Dir(*axis), block.radius, block.height)
     box = declared_extent(block, dim)
     if box is not None and not 0 < abs(shape.mass) <= 1.01 * float(np.prod(box[1] - box[0])):

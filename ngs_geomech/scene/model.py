@@ -284,8 +284,10 @@ class Material:
                                       doc="linear thermal expansion alpha, 1/K: scalar or symmetric 3x3 tensor "
                                           "(beta_ij = c_ijkl alpha_kl, (2.18))")
     stress_free_temperature: float = field(number, 0.0, doc="T0 of the thermal stress -beta (T - T0), degC or K")
-    rheology_lambda: float = field(number, 1.0, doc="lambda of W = A1^lambda (2.1): <1 softening, 1 linear, "
-                                                    ">1 hardening")
+    rheology_lambda: float = field(at_most(10.0), 1.0,
+                                   doc="lambda of W = A1^lambda (2.1): <1 softening, 1 linear, >1 hardening (at most "
+                                       "10: the secant stiffness scales with (A1/A_ref)^(lambda-1), which overflows "
+                                       "for larger exponents)")
     reference_strain: float = field(number, 1e-3, doc="strain scale of the lambda law: c* = lambda (A1/A_ref)^"
                                                       "(lambda-1) c with A_ref the A1 of this uniaxial strain")
     phase_change_temperature: float | None = field(

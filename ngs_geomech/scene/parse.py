@@ -70,10 +70,18 @@ def apply_overrides(data: dict, overrides: list[str]) -> dict:
             continue
         key, raw = item.split("=", 1)
         try:
-            value = tomllib.loads(f"v = {raw}")["v"]
+            parsed = tomllib.loads(f"v = {raw}")
         except tomllib.TOMLDecodeError:
-            value = raw
+            parsed = {"v": raw}
+        if len(parsed) != 1:
+            problems.append(Problem(key, f"the value {raw!r} is more than one TOML value"))
+            continue
+        value = parsed["v"]
         parts = key.strip().split(".")
+        if not all(parts):
+            problems.append(Problem(key or "--set", f"{item!r}: the key path has an empty part; write "
+                                                    "key.path=value, e.g. mesh.maxh=2"))
+            continue
         node: Any = data
         ok = True
         for i, part in enumerate(parts[:-1]):

@@ -46,6 +46,11 @@ LARGEST = 1e30
 billion years ~3e16 s), and far enough below the double-precision limit 1e308 that products of data in the forms
 (e.g. modulus * expansion * temperature, squared residual norms) stay finite."""
 
+SMALLEST = 1.0 / LARGEST
+"""Smallest magnitude of a nonzero number in a scene: a value such as 1e-300 (an element size, a modulus, a time
+step) underflows to zero in the products and reciprocals of the forms (h^3, 1/E) and ends in a division by zero
+or an overflow; no datum in SI units is that small. Zero itself is allowed where the key allows it."""
+
 
 def _show(v) -> str:
     """The repr of a value, shortened (a 400-digit integer is not echoed whole)."""
@@ -55,22 +60,28 @@ def _show(v) -> str:
 
 def number(v, path, problems):
     """A finite number of magnitude at most :data:`LARGEST` (integers of any size are compared exactly, before
-    a conversion to float could overflow)."""
+    a conversion to float could overflow), zero or at least :data:`SMALLEST` in magnitude."""
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise Invalid(f"expected a number, got {_show(v)}")
     if isinstance(v, float) and not math.isfinite(v):
         raise Invalid(f"value {v!r} is not finite")
     if abs(v) > LARGEST:
         raise Invalid(f"value {_show(v)} is too large (at most {LARGEST:g} in magnitude)")
+    if 0 < abs(v) < SMALLEST:
+        raise Invalid(f"value {v!r} is too small (a nonzero number is at least {SMALLEST:g} in magnitude; write 0 "
+                      "for zero)")
     return float(v)
 
 
-def at_most(limit: float, unit: str) -> Conv:
-    """A number of magnitude at most ``limit`` (a physical bound declared with the key)."""
+def at_most(limit: float, unit: str = "") -> Conv:
+    """A number of magnitude at most ``limit`` (a physical bound declared with the key; ``unit`` '' for a
+    dimensionless number)."""
+    u = f" {unit}" if unit else ""
+
     def conv(v, path, problems):
         if isinstance(v, (int, float)) and not isinstance(v, bool) and not v != v and abs(v) > limit:
-            raise Invalid(f"{float(min(abs(v), 1e308)) * (1 if v > 0 else -1):g} {unit} is beyond the physical "
-                          f"range (magnitude at most {limit:g} {unit})")
+            raise Invalid(f"{float(min(abs(v), 1e308)) * (1 if v > 0 else -1):g}{u} is beyond the physical "
+                          f"range (magnitude at most {limit:g}{u})")
         return number(v, path, problems)
     return conv
 
@@ -104,6 +115,8 @@ def time(v, path, problems):
         raise Invalid(str(exc)) from None
     if abs(t) > LARGEST:
         raise Invalid(f"time {_show(v)} is too large (at most {LARGEST:g} s)")
+    if 0 < abs(t) < SMALLEST:
+        raise Invalid(f"time {_show(v)} is too small (a nonzero time is at least {SMALLEST:g} s; write 0 for zero)")
     return t
 
 

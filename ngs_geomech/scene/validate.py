@@ -7,6 +7,7 @@ learn the region and boundary names.
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 
@@ -26,11 +27,17 @@ from ..materials import (
     volumetric_heat_capacity,
 )
 from ..names import name_problem
+from ..solvers.timesteps import schedule
 from ..units import KELVIN
 from .expression_values import check_expression_values, value_range
 from .model import Scene
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+GRADING = (0.05, 1.0)
+"""Range of mesh.grading: below it netgen's mesh grows far beyond the element estimate of mesh.max_elements
+(0.001 gives ten times the elements of 0.01), and below about 1e-4 netgen runs out of memory or crashes."""
+MAX_SUBDIVISION = 6
+"""Largest output.subdivision: 6 levels already write 4^6 = 4096 (2D) or 8^6 = 262144 (3D) cells per element."""
 
 
 def validate(scene: Scene) -> GeometryModel:
@@ -162,13 +169,18 @@ def _check_formulation(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem("mechanics.formulation", f"'mixed' needs the linear law (rheology_lambda = 1); "
                                     f"{bad} are not"))
     s = scene.solver
-    if not (s.tolerance > 0 and math.isfinite(s.tolerance)):
-        problems.append(Problem("solver.tolerance", f"must be > 0, got {s.tolerance}"))
+    _check_relative_tolerance("solver.tolerance", s.tolerance, problems)
     if s.max_iterations < 1:
         problems.append(Problem("solver.max_iterations", f"must be >= 1, got {s.max_iterations}"))
     if s.preconditioner == "bddc" and scene.mesh.order < 2:
         problems.append(Problem("solver.preconditioner", "'bddc' needs mesh.order >= 2 (P1 elements have no "
                                 "interface dofs); use 'auto'"))
+
+
+def _check_relative_tolerance(item: str, tol: float, problems: list[Problem]) -> None:
+    """A relative tolerance lies in (0, 1): at 1 or above the first iterate already meets it (nothing is solved)."""
+    if not 0 < tol < 1:
+        problems.append(Problem(item, f"a relative tolerance must be in (0, 1), got {tol:g}"))
 
 
 def _check_dynamics(scene: Scene, problems: list[Problem]) -> None:
@@ -247,6 +259,10 @@ def _check_adaptivity(scene: Scene, problems: list[Problem]) -> None:
     a = scene.adaptivity
     if a is None:
         return
+    if not 1 <= a.levels <= 8:                # ranges checked whether or not the scene uses the key
+        problems.append(Problem("adaptivity.levels", f"must be between 1 and 8, got {a.levels}"))
+    if not 0 <= a.layers <= 20:
+        problems.append(Problem("adaptivity.layers", f"must be between 0 and 20, got {a.layers}"))
     ph = scene.physics
     if ph.thermal == "transient" or (ph.thermal is None and scene.time is not None):
         if "contact_zone" in a.indicators:
@@ -315,10 +331,6 @@ def _check_following_settings(a, problems: list[Problem], what: str, leaves: str
     for key in ("target", "tolerance", "max_dofs"):
         if getattr(a, key) is not None:
             problems.append(Problem(f"adaptivity.{key}", f"not used by {what} (time-dependent scenes): remove it"))
-    if not 1 <= a.levels <= 8:
-        problems.append(Problem("adaptivity.levels", f"must be between 1 and 8, got {a.levels}"))
-    if not 0 <= a.layers <= 20:
-        problems.append(Problem("adaptivity.layers", f"must be between 0 and 20, got {a.layers}"))
     if a.remesh_every < 0:
         problems.append(Problem("adaptivity.remesh_every", f"must be >= 0 (0: when {leaves} the refined band), got "
                                 f"{a.remesh_every}"))
@@ -385,8 +397,7 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
         if ms.initial_stress is not None and (len(ms.initial_stress) != dim
                                               or any(len(r) != dim for r in ms.initial_stress)):
             problems.append(Problem("mechanics.initial_stress", f"must be a {dim}x{dim} table of expressions"))
-        if ms.tolerance <= 0:
-            problems.append(Problem("mechanics.tolerance", f"must be positive, got {ms.tolerance}"))
+        _check_relative_tolerance("mechanics.tolerance", ms.tolerance, problems)
         if ms.max_iterations < 1:
             problems.append(Problem("mechanics.max_iterations", f"must be >= 1, got {ms.max_iterations}"))
         if ms.uzawa_max_steps < 1:
@@ -424,8 +435,7 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
                                         f"physics.coupling = {ph.coupling!r} is proportional to the absolute "
                                         f"reference temperature, here {mat.stress_free_temperature + offset:g} K: "
                                         "it must be > 0 K (give it in the scene's temperature_unit)"))
-        if not ph.coupling_tolerance > 0:
-            problems.append(Problem("physics.coupling_tolerance", f"must be > 0, got {ph.coupling_tolerance}"))
+        _check_relative_tolerance("physics.coupling_tolerance", ph.coupling_tolerance, problems)
         if ph.coupling_max_iterations < 1:
             problems.append(Problem("physics.coupling_max_iterations",
                                     f"must be >= 1, got {ph.coupling_max_iterations}"))
@@ -434,35 +444,22 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
         problems.append(Problem("mesh.maxh", f"must be positive, got {m.maxh}"))
     if not 1 <= m.order <= 6:
         problems.append(Problem("mesh.order", f"must be between 1 and 6, got {m.order}"))
-    if not 0 < m.grading <= 1:
-        problems.append(Problem("mesh.grading", f"must be in (0, 1], got {m.grading}"))
+    if not GRADING[0] <= m.grading <= GRADING[1]:
+        problems.append(Problem("mesh.grading", f"must be in [{GRADING[0]:g}, {GRADING[1]:g}], got {m.grading:g} "
+                                f"(netgen's finest preset is 0.1)"))
     for k, h in m.boundary_maxh.items():
         if h <= 0:
             problems.append(Problem(f"mesh.boundary_maxh.{k}", f"must be positive, got {h}"))
-    t = scene.time
-    if ph.thermal == "transient":
-        if t is None:
-            problems.append(Problem("time", "a transient scene needs [time] with end and dt"))
-        else:
-            if t.dt <= 0:
-                problems.append(Problem("time.dt", f"must be positive, got {t.dt:g} s"))
-            if t.end <= t.start:
-                problems.append(Problem("time.end", f"end {t.end:g} s must be after start {t.start:g} s"))
-            if t.dt_growth < 1:
-                problems.append(Problem("time.dt_growth", f"must be >= 1, got {t.dt_growth}"))
-            if t.dt_max is not None and t.dt_max < t.dt:
-                problems.append(Problem("time.dt_max", f"{t.dt_max:g} s is smaller than dt {t.dt:g} s"))
-            elif t.dt > 0 and t.end > t.start:
-                n = _count_steps(t)
-                if n > 1_000_000:
-                    problems.append(Problem("time.dt", f"{n} steps to reach the end: dt is far too small"))
+    _check_time(scene, problems)
     if scene.output.every < 1:
         problems.append(Problem("output.every", f"must be >= 1, got {scene.output.every}"))
     if scene.output.checkpoint_every is not None and scene.output.checkpoint_every < 0:
         problems.append(Problem("output.checkpoint_every", f"must be >= 0 (0: no checkpoints), got "
                                 f"{scene.output.checkpoint_every}"))
-    if scene.output.subdivision < 0:
-        problems.append(Problem("output.subdivision", f"must be >= 0, got {scene.output.subdivision}"))
+    if not 0 <= scene.output.subdivision <= MAX_SUBDIVISION:
+        problems.append(Problem("output.subdivision", f"must be between 0 and {MAX_SUBDIVISION}, got "
+                                f"{scene.output.subdivision} (each level splits every element into 2^dim cells "
+                                "of the VTK files)"))
     for i, s in enumerate(scene.sources):
         p = f"sources[{i}]"
         if (s.power is None) == (s.density is None):
@@ -570,13 +567,36 @@ def _check_contact_law(c, p: str, problems: list[Problem]) -> None:
         problems.append(Problem(f"{p}.uzawa_step", f"applies to method = 'uzawa', not {c.method!r}"))
 
 
-def _count_steps(t) -> int:
-    n, time_, dt = 0, t.start, t.dt
-    while time_ < t.end - 1e-12 * abs(t.end) and n <= 1_000_001:
-        time_ += dt
-        dt = min(dt * t.dt_growth, t.dt_max or float("inf"))
-        n += 1
-    return n
+MAX_STEPS = 1_000_000
+"""The most time steps a scene may take: far beyond any scene's need (each step solves at least one system), and
+an end time of 1e9 years with a step of one second (3e16 steps) is refused before any work."""
+
+
+def _check_time(scene: Scene, problems: list[Problem]) -> None:
+    """``[time]``, whenever it is given (transient heat, dynamic or viscous mechanics, time-dependent loads): a
+    positive step, an end after the start, and at most :data:`MAX_STEPS` steps of :func:`schedule`."""
+    t = scene.time
+    if t is None:
+        if scene.physics.thermal == "transient":
+            problems.append(Problem("time", "a transient scene needs [time] with end and dt"))
+        return
+    if t.dt <= 0:
+        problems.append(Problem("time.dt", f"must be positive, got {t.dt:g} s"))
+    if t.end <= t.start:
+        problems.append(Problem("time.end", f"end {t.end:g} s must be after start {t.start:g} s"))
+    if t.dt_growth < 1:
+        problems.append(Problem("time.dt_growth", f"must be >= 1, got {t.dt_growth}"))
+    if t.startup_steps < 0:
+        problems.append(Problem("time.startup_steps", f"must be >= 0, got {t.startup_steps}"))
+    if t.dt_max is not None and t.dt_max < t.dt:
+        problems.append(Problem("time.dt_max", f"{t.dt_max:g} s is smaller than dt {t.dt:g} s"))
+    elif t.dt > 0 and t.end > t.start and t.dt_growth >= 1:
+        steps = schedule(t.start, t.end, t.dt, t.dt_growth, t.dt_max)
+        if sum(1 for _ in itertools.islice(steps, MAX_STEPS + 1)) > MAX_STEPS:
+            growth = f", dt_growth = {t.dt_growth:g}" + (f", dt_max = {t.dt_max:g} s" if t.dt_max else "")
+            problems.append(Problem("time.dt", f"more than {MAX_STEPS} steps from time.start = {t.start:g} s to "
+                                    f"time.end = {t.end:g} s with dt = {t.dt:g} s{growth}: use a larger dt (or "
+                                    "dt_growth), or an earlier time.end"))
 
 
 def _check_materials(scene: Scene, problems: list[Problem]) -> None:

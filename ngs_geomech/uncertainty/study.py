@@ -41,6 +41,8 @@ from .parameters import ParameterSpace
 from .samples import Sample, Sampler
 
 LOG_NAME = "samples.jsonl"
+PROBE_STATS = ("max", "min", "final")
+"""The figures of a probe in summary.json a criterion can watch (:func:`ngs_geomech.io.summary.probe_statistics`)."""
 
 
 class Study:
@@ -352,10 +354,12 @@ def _check_settings(sc) -> list[Problem]:
     probes = {pr.name for pr in sc.output.probes}
     for c in u.criteria:
         parts = c.summary.split(".")
-        if parts[0] == "probes" and (len(parts) < 3 or parts[1] not in probes):
+        if parts[0] == "probes" and (len(parts) != 3 or parts[1] not in probes or parts[2] not in PROBE_STATS):
             p.append(Problem(f"uncertainty.criteria.{c.name}.summary",
                              f"{c.summary!r}: 'probes.NAME.STAT' with NAME one of the scene's probes "
-                             f"({', '.join(sorted(probes)) or 'none'}) and STAT max, min, final"))
+                             f"({', '.join(sorted(probes)) or 'none'}) and STAT {', '.join(PROBE_STATS)}"))
+    if u.seed < 0:
+        p.append(Problem("uncertainty.seed", f"must be >= 0 (a seed of numpy's generators), got {u.seed}"))
     if u.mode == "worst_scenario":
         if u.samples < 0:
             p.append(Problem("uncertainty.samples", f"must be >= 0, got {u.samples}"))
