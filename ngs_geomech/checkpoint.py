@@ -28,11 +28,11 @@ import time
 import numpy as np
 
 from .errors import ResumeError
+from .fem.timesteps import nominal_step, schedule
 from .io.checkpoint import Checkpoint, checkpoint_meta_base, scene_differences, write_checkpoint
 from .io.summary import versions
-from .solvers.elastic import NonlinearInfo
-from .solvers.timesteps import nominal_step, schedule
-from .units import format_time
+from .mechanics.solver import NonlinearInfo
+from .scene.units import format_time
 
 CHECKPOINT_WALL_S = 300.0     # with the default checkpoint_every: also after any step ending 5 min after the last
 

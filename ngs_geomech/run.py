@@ -6,7 +6,7 @@ Output (into ``out``, written completely or not at all): ``<scene>.pvd`` + ``<sc
 existing file, ``/``, a mount point, a directory not writable or of other files without ``overwrite`` are
 refused); the files of an earlier output in ``out`` are replaced, no other file there is touched.
 Scenes with phase change (a material with ``phase_change_temperature``, physics.thermal = 'transient') are
-solved by the Stefan solver (:mod:`ngs_geomech.problems.stefan`) instead of the heat solver; they also write
+solved by the Stefan solver (:mod:`ngs_geomech.stefan.problem`) instead of the heat solver; they also write
 the phase boundary (liquid fraction 1/2) per output time as ``<scene>_phase_boundary.pvd`` + ``.vtp`` (2D),
 ``figures/phase_boundary.png`` and ``figures/melted_fraction.png``, and a ``stefan`` block in the summary.
 
@@ -37,13 +37,26 @@ import ngsolve as ngs
 import numpy as np
 
 from . import parallel
+from .adapt.contact_following import ContactFollowing, contact_statuses
+from .adapt.front_following import FrontFollowing
 from .adapt.loop import adaptive_solve, refine_mesh
 from .adapt.marking import StopRule
 from .checkpoint import CHECKPOINT_WALL_S, Plan, RunState, Snapshot, check_scene, plan_steps
 from .checkpoint import where as checkpoint_where
+from .contact.elastic import ElasticContactSolver
+from .contact.krylov import AUTO_DOFS as CONTACT_AUTO_DOFS
+from .contact.output import ContactOutput
+from .contact.problem import check_supported, contact_specs, contact_warnings
+from .contact.solver import ContactSolver, nodal_modulus
+from .contact.uzawa import UzawaSolver
+from .coupling.problem import KELVIN, DeformationHeating, relative_change
+from .dynamics.problem import DynamicsRun
 from .errors import OutputError, Problem, ResumeError, SceneError, SolverError
 from .geometry.assemble import GeometryModel
 from .geometry.mesh import make_mesh
+from .heat.forms import HeatForms
+from .heat.problem import heat_setup, set_initial_temperature
+from .heat.solver import HeatSolver
 from .io import figures, stress_figures
 from .io.atomic import OutputDir, is_locked, staging_dirs, write_json_atomic
 from .io.checkpoint import Checkpoint, find_resumable, has_checkpoint, scene_hash
@@ -53,32 +66,19 @@ from .io.outdir import disk_full
 from .io.progress import Progress
 from .io.summary import finite, probe_statistics, versions
 from .io.vtk import VtkSeries
-from .names import plain_file_name
-from .physics.elasticity import ElasticForms, stress_measures
-from .physics.stefan import vertex_rules
-from .physics.thermal import HeatForms
+from .linalg.iterative import choose_solver
+from .mechanics.forms import ElasticForms, stress_measures
+from .mechanics.nested import NestedStart
+from .mechanics.problem import elastic_setup, mechanics_warnings, watch_small_strain
+from .mechanics.solver import ElasticSolver
 from .probes import THERMAL, ProbeSet
-from .problems.contact import check_supported, contact_specs, contact_warnings
-from .problems.contact_following import ContactFollowing, contact_statuses
-from .problems.contact_output import ContactOutput
-from .problems.coupled import KELVIN, DeformationHeating, relative_change
-from .problems.dynamic_run import DynamicsRun
-from .problems.heat import heat_setup, set_initial_temperature
-from .problems.mechanics import elastic_setup, mechanics_warnings, watch_small_strain
-from .problems.nested import NestedStart
-from .problems.stefan import StefanRun
-from .problems.stefan_adaptive import FrontFollowing
 from .scene.model import Scene
+from .scene.names import plain_file_name
 from .scene.schema import to_dict
+from .scene.units import YEAR, format_time
 from .scene.validate import distributed_problems, stefan_scene, validate
-from .solvers.contact import ContactSolver, nodal_modulus
-from .solvers.contact_krylov import AUTO_DOFS as CONTACT_AUTO_DOFS
-from .solvers.contact_uzawa import UzawaSolver
-from .solvers.elastic import ElasticSolver
-from .solvers.elastic_contact import ElasticContactSolver
-from .solvers.heat import HeatSolver
-from .solvers.iterative import choose_solver
-from .units import YEAR, format_time
+from .stefan.forms import vertex_rules
+from .stefan.problem import StefanRun
 
 
 @dataclass
@@ -512,7 +512,7 @@ def _deformation_heating(scene: Scene, mesh, mech, heat: HeatForms | None, stefa
 
 def _coupled_step(scene: Scene, a: float, b: float, where: str, heat, solver, stefan, mech, coupling,
                   history: dict) -> None:
-    """One step of problem (P_c) (:mod:`ngs_geomech.problems.coupled`): the heat step with the deformation
+    """One step of problem (P_c) (:mod:`ngs_geomech.coupling.problem`): the heat step with the deformation
     heating of the last displacement rate, then the mechanics at b; 'iterated' repeats the pair with the new
     rate until T and u change by less than physics.coupling_tolerance between passes."""
     ph = scene.physics

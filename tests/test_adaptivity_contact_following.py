@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from ngs_geomech import api
+from ngs_geomech.adapt.contact_following import interpolate_on_side
 from ngs_geomech.errors import ResumeError, SceneError
-from ngs_geomech.problems.contact_following import interpolate_on_side
 from ngs_geomech.run import run_scene
 from ngs_geomech.scene.parse import load_scene, scene_from_dict
 from ngs_geomech.scene.schema import to_dict

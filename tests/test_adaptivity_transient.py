@@ -1,5 +1,5 @@
 """Front-following meshes in transient scenes (``[adaptivity]`` with ``indicators = ['phase_front']``, issue 6
-section 2; :mod:`ngs_geomech.problems.stefan_adaptive`): the scene's geometry is remeshed with a fine size at the
+section 2; :mod:`ngs_geomech.adapt.front_following`): the scene's geometry is remeshed with a fine size at the
 phase boundary, the enthalpy carried over by the lumped projection with its heat-content change recorded and counted
 in the energy balance.
 

@@ -21,11 +21,11 @@ import pytest
 
 from ngs_geomech import cli
 from ngs_geomech.api import run
+from ngs_geomech.contact.elastic import ElasticContactSolver
 from ngs_geomech.errors import ResumeError, SolverError
+from ngs_geomech.fem.timesteps import schedule
+from ngs_geomech.heat.solver import HeatSolver
 from ngs_geomech.io.checkpoint import load_checkpoint, read_checkpoint_file, write_checkpoint
-from ngs_geomech.solvers.elastic_contact import ElasticContactSolver
-from ngs_geomech.solvers.heat import HeatSolver
-from ngs_geomech.solvers.timesteps import schedule
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
 pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_checkpoint")]
@@ -249,7 +249,7 @@ def test_stefan_run_with_growing_steps_resumes_to_the_last_bit(tmp_path, monkeyp
     """Permafrost (phase change, dt growing 1.2x per step up to dt_max) stopped by a solver error after dt
     reached dt_max, where the Newton matrix's factorization is reused over steps (Woodbury corrections): the
     checkpoint keeps that reuse state, so the resumed run repeats the uninterrupted one to the last bit."""
-    from ngs_geomech.solvers.stefan import StefanSolver
+    from ngs_geomech.stefan.solver import StefanSolver
 
     sets = ["mesh.maxh=10", "time.end='15000 year'", "output.figures=false",
             "output.vtk=false", "output.checkpoint_every=1000"]

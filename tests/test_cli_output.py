@@ -21,7 +21,7 @@ import pytest
 from ngs_geomech import cli
 from ngs_geomech.api import run
 from ngs_geomech.errors import SolverError
-from ngs_geomech.solvers.heat import HeatSolver
+from ngs_geomech.heat.solver import HeatSolver
 
 GEOMETRIES = Path(__file__).resolve().parents[1] / "geometries"
 

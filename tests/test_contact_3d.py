@@ -1,4 +1,4 @@
-"""3D contact operators (ngs_geomech.physics.contact3d): segment-based dual mortar on non-matching tetrahedral
+"""3D contact operators (ngs_geomech.contact.forms3d): segment-based dual mortar on non-matching tetrahedral
 meshes, solved by ContactSolver. The patch test (two stacked boxes meshed independently, uniform pressure:
 the nodal contact pressures must equal p), a floating block held only by a rigid plane foundation across an
 initial gap, the clipping geometry (covered area, gaps, rigid translations) and bad input. Figures are
@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 from netgen.occ import Axis, Box, Compound, Dir, OCCGeometry, Pnt, X, Y, Z
 
-from ngs_geomech.elastic_materials import ElasticProperties, isotropic
-from ngs_geomech.physics.coefficients import expression_function
-from ngs_geomech.physics.contact3d import contact_operator_3d
-from ngs_geomech.physics.elasticity import ElasticForms, ElasticSetup
-from ngs_geomech.solvers.contact import ContactLaw, ContactSolver, nodal_modulus
-from ngs_geomech.solvers.elastic import ElasticSolver
+from ngs_geomech.contact.forms3d import contact_operator_3d
+from ngs_geomech.contact.solver import ContactLaw, ContactSolver, nodal_modulus
+from ngs_geomech.fem.coefficients import expression_function
+from ngs_geomech.mechanics.forms import ElasticForms, ElasticSetup
+from ngs_geomech.mechanics.materials import ElasticProperties, isotropic
+from ngs_geomech.mechanics.solver import ElasticSolver
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 

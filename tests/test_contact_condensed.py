@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-import ngs_geomech.solvers.contact_condensed as cc
+import ngs_geomech.contact.condensed as cc
+from ngs_geomech.contact.solver import ContactSolver
 from ngs_geomech.errors import SolverError
-from ngs_geomech.solvers import pardiso
-from ngs_geomech.solvers.contact import ContactSolver
+from ngs_geomech.linalg import pardiso
 from ngs_geomech.verification import contact_problems as cp
 
 pytestmark = pytest.mark.skipif(not pardiso.available(), reason="oneMKL PARDISO (the mkl package) is not installed")

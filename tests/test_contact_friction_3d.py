@@ -14,15 +14,15 @@ import numpy as np
 import pytest
 from netgen.occ import Box, OCCGeometry, Pnt, X, Y, Z
 
-from ngs_geomech.elastic_materials import ElasticProperties, isotropic
+from ngs_geomech.contact.forms3d import contact_operator_3d
+from ngs_geomech.contact.solver import ContactLaw, ContactSolver, nodal_modulus
 from ngs_geomech.errors import SolverError
-from ngs_geomech.physics.coefficients import expression_function
-from ngs_geomech.physics.contact3d import contact_operator_3d
-from ngs_geomech.physics.elasticity import ElasticForms, ElasticSetup
+from ngs_geomech.fem.coefficients import expression_function
+from ngs_geomech.mechanics.forms import ElasticForms, ElasticSetup
+from ngs_geomech.mechanics.materials import ElasticProperties, isotropic
+from ngs_geomech.mechanics.solver import ElasticSolver
 from ngs_geomech.run import run_scene
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.solvers.contact import ContactLaw, ContactSolver, nodal_modulus
-from ngs_geomech.solvers.elastic import ElasticSolver
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 

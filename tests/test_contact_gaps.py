@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from ngs_geomech.errors import SceneError
-from ngs_geomech.problems.heat import heat_setup
+from ngs_geomech.heat.problem import heat_setup
 from ngs_geomech.run import run_scene
 from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.scene.validate import validate

@@ -11,13 +11,13 @@ import ngsolve as ngs
 import numpy as np
 import pytest
 
+from ngs_geomech.fem.coefficients import expression_function
 from ngs_geomech.geometry.mesh import make_mesh
-from ngs_geomech.physics.coefficients import expression_function
-from ngs_geomech.physics.thermal import HeatForms
-from ngs_geomech.problems.heat import heat_setup
+from ngs_geomech.heat.forms import HeatForms
+from ngs_geomech.heat.problem import heat_setup
+from ngs_geomech.heat.solver import HeatSolver
 from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.scene.validate import validate
-from ngs_geomech.solvers.heat import HeatSolver
 
 
 def solve(scene_dict, exact: str, q: str | None):

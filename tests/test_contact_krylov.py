@@ -1,4 +1,4 @@
-"""Iterative Newton steps of the contact solver (ngs_geomech.solvers.contact_krylov, issue 10): GMRES with the
+"""Iterative Newton steps of the contact solver (ngs_geomech.contact.krylov, issue 10): GMRES with the
 augmented-Lagrangian AMG preconditioner against the direct factorizations on the same problems (the 3D punch
 with Coulomb and Tresca friction and frictionless, P1 and P2; the 2D Coulomb blocks; a 3D scene), GMRES
 iterations under refinement, and the errors. Figures are printed (pytest -s)."""
@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ngs_geomech.contact.solver import ContactSolver
 from ngs_geomech.errors import SolverError
-from ngs_geomech.solvers.contact import ContactSolver
 from ngs_geomech.verification.contact_problems import punch_3d, two_blocks_coulomb
 from ngs_geomech.verification.contact_scenes import _compare, heated_bar_3d_pressure, heated_bar_3d_scene
 

@@ -1,4 +1,4 @@
-"""The linear algebra of the contact solver (ngs_geomech.solvers.contact): a symmetric saddle-point matrix is
+"""The linear algebra of the contact solver (ngs_geomech.contact.solver): a symmetric saddle-point matrix is
 factored through its symmetric quasi-definite companion by sparse Cholesky, the refinement with the exact
 residual makes the solve that of the exact system, and a non-symmetric one (Coulomb slip rows, a non-symmetric
 bulk K) is factored by UMFPACK. Every case is compared with the all-UMFPACK solve (``quasi_definite=False``);
@@ -12,7 +12,7 @@ import ngsolve as ngs
 import numpy as np
 import pytest
 
-import ngs_geomech.solvers.contact as sc
+import ngs_geomech.contact.solver as sc
 from ngs_geomech.verification import contact_problems as cp
 
 

@@ -66,7 +66,7 @@ def test_floating_block_sticks_near_capacity(one_thread, law, ratio, h):
 def test_penalty_tresca_approaches_the_exact_solution(one_thread):
     """method 'penalty' with a stiff augmentation gives the exact (ssn) Tresca tractions up to O(1/c): a
     node sticks while the trial traction c_t |slip| is below g_c (not half of it)."""
-    from ngs_geomech.solvers.contact import ContactLaw, ContactSolver
+    from ngs_geomech.contact.solver import ContactLaw, ContactSolver
 
     exact = cp.friction_block("traction", law="tresca", ratio=0.75)
     devs = []
@@ -146,7 +146,7 @@ def test_hertz_pressure_converges(one_thread, order, fractions, scale_far, min_o
     (dict(kind="frictionless", augmentation=-5.0), "augmentation c must be positive"),
 ])
 def test_contact_law_rejects_bad_values(kw, match):
-    from ngs_geomech.solvers.contact import ContactLaw
+    from ngs_geomech.contact.solver import ContactLaw
     with pytest.raises(ValueError, match=match):
         ContactLaw(**kw)
 

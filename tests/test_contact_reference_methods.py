@@ -11,10 +11,10 @@ from functools import partial
 import numpy as np
 import pytest
 
-from ngs_geomech.elastic_materials import isotropic
+from ngs_geomech.contact.solver import ContactLaw, ContactSolver
+from ngs_geomech.contact.uzawa import RHO_FACTOR, UzawaSolver
 from ngs_geomech.errors import SolverError
-from ngs_geomech.solvers.contact import ContactLaw, ContactSolver
-from ngs_geomech.solvers.contact_uzawa import RHO_FACTOR, UzawaSolver
+from ngs_geomech.mechanics.materials import isotropic
 from ngs_geomech.verification import contact_problems as cp
 
 pytestmark = pytest.mark.usefixtures("one_thread")

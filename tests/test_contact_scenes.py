@@ -313,7 +313,7 @@ def test_unheld_contact_set_names_body_motion_load_and_reason(one_thread, monkey
     """Truly singular (a push beyond the friction capacity) with the solvability LP skipped, as the condensed
     path's inner problem does: the active-set iteration's own error names the body, the motion, the load's
     component along it and why the contacts do not hold it."""
-    from ngs_geomech.solvers.contact import ContactSolver
+    from ngs_geomech.contact.solver import ContactSolver
 
     monkeypatch.setattr(ContactSolver, "_check_solvable", lambda *a, **k: None)
     s = _gap_blocks({"pressure": "5e6*t"}, "coulomb")

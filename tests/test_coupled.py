@@ -1,4 +1,4 @@
-"""Problem (P_c) (:mod:`ngs_geomech.problems.coupled`): the deformation heating against a closed form (uniform
+"""Problem (P_c) (:mod:`ngs_geomech.coupling.problem`): the deformation heating against a closed form (uniform
 adiabatic compression, with and without a phase change), the order of the staggered lag, the coupled
 contact-Stefan case of issue 5 (two blocks in Coulomb contact, one partly melting) with the effect of the
 deformation heating measured against switching it off, and a failed coupled run resumed from its checkpoint."""
@@ -15,7 +15,7 @@ from ngs_geomech.errors import SolverError
 from ngs_geomech.io.checkpoint import load_checkpoint
 from ngs_geomech.run import run_scene
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.solvers.stefan import StefanSolver
+from ngs_geomech.stefan.solver import StefanSolver
 from ngs_geomech.verification import coupled as cp
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from ngsolve.meshes import MakeStructured2DMesh
 
-from ngs_geomech.elastic_materials import ElasticProperties, isotropic
-from ngs_geomech.physics.coefficients import expression_function
-from ngs_geomech.physics.contact import contact_operator_2d
-from ngs_geomech.physics.dynamics import PronyBranch, ViscoelasticForms, ViscousProperties, branch_coefficients
-from ngs_geomech.physics.elasticity import ElasticForms, ElasticSetup
-from ngs_geomech.solvers.contact import ContactLaw
-from ngs_geomech.solvers.dynamics import DynamicSolver, ViscousSolver, generalized_alpha_parameters
+from ngs_geomech.contact.forms import contact_operator_2d
+from ngs_geomech.contact.solver import ContactLaw
+from ngs_geomech.dynamics.forms import PronyBranch, ViscoelasticForms, ViscousProperties, branch_coefficients
+from ngs_geomech.dynamics.solver import DynamicSolver, ViscousSolver, generalized_alpha_parameters
+from ngs_geomech.fem.coefficients import expression_function
+from ngs_geomech.mechanics.forms import ElasticForms, ElasticSetup
+from ngs_geomech.mechanics.materials import ElasticProperties, isotropic
 from ngs_geomech.verification import dynamics as vd
 from ngs_geomech.verification.study import observed_order
 

@@ -10,11 +10,11 @@ import json
 import numpy as np
 import pytest
 
+from ngs_geomech.dynamics.solver import DynamicSolver
 from ngs_geomech.errors import SceneError, SolverError
 from ngs_geomech.run import run_scene
 from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.scene.validate import validate
-from ngs_geomech.solvers.dynamics import DynamicSolver
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 

@@ -1,5 +1,5 @@
 """Elastic material data (numpy only): Voigt helpers, stiffness builders, rotations, thermal stresses,
-2D reductions and the checks of :func:`ngs_geomech.elastic_materials.elastic_properties`."""
+2D reductions and the checks of :func:`ngs_geomech.mechanics.materials.elastic_properties`."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from ngs_geomech import elastic_materials as em
-from ngs_geomech.materials import rotation_matrix
+from ngs_geomech.heat.materials import rotation_matrix
+from ngs_geomech.mechanics import materials as em
 from ngs_geomech.scene.model import Material, Orthotropic, TransverselyIsotropic
 
 E, NU, ALPHA = 30e9, 0.25, 1e-5

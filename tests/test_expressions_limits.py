@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from ngs_geomech import expressions
 from ngs_geomech.api import run
 from ngs_geomech.errors import SceneError, SolverError
+from ngs_geomech.scene import expressions
 from ngs_geomech.scene.parse import load_scene, scene_from_dict
 from ngs_geomech.scene.validate import validate
 

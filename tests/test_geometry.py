@@ -379,7 +379,7 @@ def test_clockwise_polygon_is_taken_counterclockwise_with_its_edge_names():
 
 def test_tanh_expression_is_finite_for_large_arguments():
     """tanh in scene expressions: finite and +-1 far out (was (exp(2v) - 1)/(exp(2v) + 1): NaN for v > ~355)."""
-    from ngs_geomech.physics.coefficients import expression_function
+    from ngs_geomech.fem.coefficients import expression_function
 
     mesh = ngs.Mesh(ngs.unit_square.GenerateMesh(maxh=0.5))
     f = expression_function("tanh(1000*(x - 0.5))")(0.0)

@@ -2,7 +2,7 @@
 anisotropic regions with glued and contact (mortar, non-matching) interfaces, theta time schemes, and the
 Kirchhoff slab with k(T) = k0 (1 + b T). Prints the error tables and asserts the observed orders.
 
-Contact interfaces are coupled by a segment-based mortar method (:mod:`ngs_geomech.physics.mortar`) with
+Contact interfaces are coupled by a segment-based mortar method (:mod:`ngs_geomech.fem.mortar`) with
 the modified multiplier space at cross points: the patch test passes on non-matching meshes and the
 contact solution converges at the glued orders.
 """

@@ -14,9 +14,9 @@ import ngsolve as ngs
 import numpy as np
 import pytest
 
-from ngs_geomech.elastic_materials import ElasticProperties, isotropic
-from ngs_geomech.physics.elasticity import MIXED_POISSON, ElasticForms, ElasticSetup, mixed_regions
-from ngs_geomech.solvers.elastic import ElasticSolver
+from ngs_geomech.mechanics.forms import MIXED_POISSON, ElasticForms, ElasticSetup, mixed_regions
+from ngs_geomech.mechanics.materials import ElasticProperties, isotropic
+from ngs_geomech.mechanics.solver import ElasticSolver
 from ngs_geomech.verification import contact_problems as cp
 from ngs_geomech.verification import thermoelastic as te
 from ngs_geomech.verification.contact_scenes import heated_bar, heated_bar_3d
@@ -90,7 +90,7 @@ def test_energy_and_residual():
     """Plane strain quarter ring under the internal pressure at nu = 0.4999, P2 mixed: the strain energy
     (int of strain_energy_density) equals the work 1/2 p u_r(a) pi a / 2 of the closed form, the Lagrangian's
     gradient (newton_form) vanishes at the solution, the stress measures are finite."""
-    from ngs_geomech.physics.elasticity import stress_measures
+    from ngs_geomech.mechanics.forms import stress_measures
     from ngs_geomech.verification.elastic_closed_forms import cylinder_pressure_stresses
     c, nu = te.CYLINDER, 0.4999
     mesh, _, setup = te._build(te._ni_cylinder_scene("plane_strain", 0.1, 2, nu, "pressure"))

@@ -17,15 +17,15 @@ from mpi_cases.launch import mpiexec, needs_mpi, one_mpi_job
 
 from ngs_geomech.errors import SceneError, SolverError
 from ngs_geomech.geometry.mesh import make_mesh
-from ngs_geomech.physics.elasticity import ElasticForms
-from ngs_geomech.physics.thermal import HeatForms
-from ngs_geomech.problems.heat import heat_setup
-from ngs_geomech.problems.mechanics import elastic_setup
+from ngs_geomech.heat.forms import HeatForms
+from ngs_geomech.heat.problem import heat_setup
+from ngs_geomech.heat.solver import HeatSolver
+from ngs_geomech.linalg.iterative import AUTO_DOFS, PCG, choose_solver
+from ngs_geomech.mechanics.forms import ElasticForms
+from ngs_geomech.mechanics.problem import elastic_setup
+from ngs_geomech.mechanics.solver import ElasticSolver
 from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.scene.validate import validate
-from ngs_geomech.solvers.elastic import ElasticSolver
-from ngs_geomech.solvers.heat import HeatSolver
-from ngs_geomech.solvers.iterative import AUTO_DOFS, PCG, choose_solver
 from ngs_geomech.verification.scaling import box_scene, make_box_mesh, max_rel_difference, thermoelastic_box
 
 pytestmark = pytest.mark.usefixtures("one_thread")

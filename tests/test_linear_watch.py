@@ -1,4 +1,4 @@
-"""Direct solves watch their residual (issue 8 section 3, :func:`ngs_geomech.solvers.linear.solve_watched`):
+"""Direct solves watch their residual (issue 8 section 3, :func:`ngs_geomech.linalg.direct.solve_watched`):
 a factorization that does not solve its system (here: of a perturbed matrix, as an ill-conditioned system
 effectively is) is refined with its own residual, and a solve whose residual stays large stops with a
 SolverError naming the solve instead of passing a wrong state on."""
@@ -11,7 +11,7 @@ import pytest
 from netgen.geom2d import unit_square
 
 from ngs_geomech.errors import SolverError
-from ngs_geomech.solvers.linear import RESIDUAL_TOL, solve_watched
+from ngs_geomech.linalg.direct import RESIDUAL_TOL, solve_watched
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 

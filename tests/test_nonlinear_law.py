@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from ngs_geomech import api
+from ngs_geomech.mechanics.solver import ElasticSolver
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.solvers.elastic import ElasticSolver
 from ngs_geomech.verification import nonlinear_law as nl
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker

@@ -19,7 +19,7 @@ import math
 import pytest
 from scipy.integrate import quad
 
-from ngs_geomech.units import DAY, YEAR
+from ngs_geomech.scene.units import DAY, YEAR
 from ngs_geomech.verification.point_source import (
     CONDUCTIVITY,
     DECAY_TIME,

@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 
 from ngs_geomech import api
-from ngs_geomech.units import YEAR
+from ngs_geomech.scene.units import YEAR
 from ngs_geomech.verification.point_source import canister_array_peak_rise
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker

@@ -17,7 +17,7 @@ from ngs_geomech.errors import SceneError
 from ngs_geomech.geometry.shapes import polygon_problem
 from ngs_geomech.io.lines_vtk import LineSeries
 from ngs_geomech.io.vtk import VtkSeries
-from ngs_geomech.names import name_problem
+from ngs_geomech.scene.names import name_problem
 from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.scene.validate import validate
 

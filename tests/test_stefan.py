@@ -20,9 +20,9 @@ import pytest
 from netgen.occ import Box, Glue, OCCGeometry, Rectangle, X, Y
 
 from ngs_geomech.errors import SolverError
-from ngs_geomech.physics.stefan import PhaseChangeMaterial, PlainThermalMaterial, StefanForms, StefanSetup
-from ngs_geomech.solvers.stefan import StefanSolver
-from ngs_geomech.solvers.timesteps import schedule
+from ngs_geomech.fem.timesteps import schedule
+from ngs_geomech.stefan.forms import PhaseChangeMaterial, PlainThermalMaterial, StefanForms, StefanSetup
+from ngs_geomech.stefan.solver import StefanSolver
 from ngs_geomech.verification import stefan as st
 
 pytestmark = pytest.mark.usefixtures("one_thread")

@@ -1,4 +1,4 @@
-"""Heat across contact interfaces in the Stefan forms (:mod:`ngs_geomech.physics.stefan`): the jump penalty
+"""Heat across contact interfaces in the Stefan forms (:mod:`ngs_geomech.stefan.forms`): the jump penalty
 gamma_c B^T D^-1 B on non-matching meshes.
 
 Closed form: two blocks [0, 1] x [0, H] and [1, 2] x [0, H] with conductivities k1, k2, T = T_hot at x = 0 and
@@ -14,16 +14,16 @@ import numpy as np
 import pytest
 
 from ngs_geomech.geometry.mesh import make_mesh
-from ngs_geomech.physics.stefan import (
+from ngs_geomech.scene.parse import scene_from_dict
+from ngs_geomech.scene.validate import validate
+from ngs_geomech.stefan.forms import (
     DEFAULT_INTERFACE_PENALTY,
     PhaseChangeMaterial,
     PlainThermalMaterial,
     StefanForms,
     StefanSetup,
 )
-from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.scene.validate import validate
-from ngs_geomech.solvers.stefan import StefanSolver
+from ngs_geomech.stefan.solver import StefanSolver
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
 pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_stefan_interfaces")]

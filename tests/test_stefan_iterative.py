@@ -8,11 +8,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ngs_geomech.physics.stefan import StefanForms, StefanSetup
+from ngs_geomech.fem.timesteps import schedule
 from ngs_geomech.run import run_scene
 from ngs_geomech.scene.parse import load_scene
-from ngs_geomech.solvers.stefan import StefanSolver
-from ngs_geomech.solvers.timesteps import schedule
+from ngs_geomech.stefan.forms import StefanForms, StefanSetup
+from ngs_geomech.stefan.solver import StefanSolver
 from ngs_geomech.verification import stefan as st
 
 pytestmark = pytest.mark.usefixtures("one_thread")

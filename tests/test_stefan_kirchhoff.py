@@ -1,6 +1,6 @@
 """The Stefan problem with a temperature-dependent conductivity per phase (issue 5, section 1):
 k_phase(T) = k_phase (1 + b (T - T_ref)), the Kirchhoff variable theta piecewise quadratic in T
-(:mod:`ngs_geomech.physics.stefan`, :mod:`ngs_geomech.verification.stefan_kirchhoff`).
+(:mod:`ngs_geomech.stefan.forms`, :mod:`ngs_geomech.verification.stefan_kirchhoff`).
 
 1. Steady two-phase slab: theta(T(x)) is linear in x, which P1 reproduces, so the nodal temperatures and the
    front (where the nodal theta crosses 0) are exact to round-off on any mesh; the P1 interpolant's L2 error
@@ -23,10 +23,10 @@ import pytest
 
 from ngs_geomech.api import run
 from ngs_geomech.errors import SceneError, SolverError
-from ngs_geomech.physics.stefan import ConductivityRangeError, PhaseChangeMaterial, StefanForms, StefanSetup
+from ngs_geomech.fem.timesteps import schedule
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.solvers.stefan import StefanSolver
-from ngs_geomech.solvers.timesteps import schedule
+from ngs_geomech.stefan.forms import ConductivityRangeError, PhaseChangeMaterial, StefanForms, StefanSetup
+from ngs_geomech.stefan.solver import StefanSolver
 from ngs_geomech.verification import stefan as st
 from ngs_geomech.verification import stefan_kirchhoff as sk
 

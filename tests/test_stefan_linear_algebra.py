@@ -1,4 +1,4 @@
-"""The linear algebra of the Stefan solver (:class:`ngs_geomech.solvers.stefan._ColumnJacobian`): solves with a
+"""The linear algebra of the Stefan solver (:class:`ngs_geomech.stefan.solver._ColumnJacobian`): solves with a
 factorization kept over many Newton matrices and Sherman-Morrison-Woodbury corrections for the changed columns
 agree with direct sparse solves to round-off, also with a partly factored set (mushy columns left out) and
 after the rows kept of the correction vectors are outrun; a Stefan run reusing factorizations gives the same
@@ -12,9 +12,9 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ngs_geomech.physics.stefan import StefanForms, StefanSetup
-from ngs_geomech.solvers.stefan import StefanSolver, _ColumnJacobian
-from ngs_geomech.solvers.timesteps import schedule
+from ngs_geomech.fem.timesteps import schedule
+from ngs_geomech.stefan.forms import StefanForms, StefanSetup
+from ngs_geomech.stefan.solver import StefanSolver, _ColumnJacobian
 from ngs_geomech.verification import stefan as st
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker

@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 
 from ngs_geomech import api
-from ngs_geomech.elastic_materials import ElasticProperties, isotropic, thermal_stress_tensor
-from ngs_geomech.physics.coefficients import Steady
-from ngs_geomech.physics.elasticity import ElasticForms, ElasticSetup
+from ngs_geomech.fem.coefficients import Steady
+from ngs_geomech.mechanics.forms import ElasticForms, ElasticSetup
+from ngs_geomech.mechanics.materials import ElasticProperties, isotropic, thermal_stress_tensor
+from ngs_geomech.mechanics.solver import ElasticSolver
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.solvers.elastic import ElasticSolver
 from ngs_geomech.verification import thermoelastic as te
 
 pytestmark = pytest.mark.usefixtures("one_thread")

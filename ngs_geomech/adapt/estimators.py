@@ -51,7 +51,7 @@ addition to what the marker picks from the estimator):
   as in the contact output) changes between neighbouring nodes of a side (the boundary of the active set and
   the stick/slip transitions), on the multiplier side and the facing elements of the opposite side.
 * ``phase_front``: the elements the iso-line ``level`` (1/2) of a nodal P1 liquid fraction crosses (the
-  phase boundary of :class:`~ngs_geomech.physics.stefan.StefanForms`), and ``layers`` rings of elements around
+  phase boundary of :class:`~ngs_geomech.stefan.forms.StefanForms`), and ``layers`` rings of elements around
   them (the front's next steps); with ``predicted`` (a second nodal field, e.g. the liquid fraction
   extrapolated one step ahead) also the elements that field's iso-line crosses.
 
@@ -71,8 +71,8 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
-from ..physics.elasticity import ElasticForms
-from ..physics.thermal import HeatForms
+from ..heat.forms import HeatForms
+from ..mechanics.forms import ElasticForms
 
 C_VOLUME = 1.0 / math.pi ** 2
 """Constant of the residual estimator's element term h_T^2/p^2 ||R||^2: the Payne-Weinberger Poincare constant
@@ -81,7 +81,7 @@ C_JUMP = 1.0 / 12.0
 """Constant of the jump term h_E/p ||J||^2 (summed once per facet): deal.II's Kelly estimator's h/24 per side,
 calibrated for P1 (measured here: the jump term alone then has effectivity ~1.0 on smooth P1 problems)."""
 STATUS_OPEN, STATUS_STICK, STATUS_SLIP = 0, 1, 2
-"""Nodal contact status codes, as in the contact output (:mod:`ngs_geomech.problems.contact`)."""
+"""Nodal contact status codes, as in the contact output (:mod:`ngs_geomech.contact.problem`)."""
 
 
 @dataclass

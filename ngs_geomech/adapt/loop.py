@@ -23,8 +23,8 @@ from typing import Protocol
 import ngsolve as ngs
 import numpy as np
 
-from ..physics.thermal import HeatForms, HeatSetup
-from ..solvers.heat import HeatSolver
+from ..heat.forms import HeatForms, HeatSetup
+from ..heat.solver import HeatSolver
 from .estimators import Estimate, get_estimator
 from .marking import StopRule, get_marker
 

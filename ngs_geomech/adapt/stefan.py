@@ -1,5 +1,5 @@
 """Meshes that follow a moving phase boundary (issue 6 section 2, time-dependent): the Stefan problem of
-:mod:`ngs_geomech.physics.stefan` solved on meshes generated anew every ``remesh_every`` steps by netgen from the
+:mod:`ngs_geomech.stefan.forms` solved on meshes generated anew every ``remesh_every`` steps by netgen from the
 geometry (a ``mesher`` callable: restrictions [(x, y, z, h)] -> Mesh; ``remesh_every = 0``: only when the front
 is about to leave the refined band), with the local size restricted to the
 fine size on the elements the liquid-fraction iso-line 1/2 crosses plus ``layers`` rings around them
@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 import ngsolve as ngs
 import numpy as np
 
-from ..physics.stefan import StefanForms, StefanSetup
-from ..solvers.stefan import StefanSolver
+from ..stefan.forms import StefanForms, StefanSetup
+from ..stefan.solver import StefanSolver
 from .estimators import _vertex_coords, element_sizes, element_vertices, phase_front
 
 

@@ -18,7 +18,7 @@ an order-1 mesh of a curved block (a circle of 8 segments: 90 %)."""
 def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=(), comm=None):
     """Mesh the geometry (sizes from blocks, boundaries and ``settings``); curve it to the field order.
     ``restrictions``: points (x, y, z, h) where the local size is at most h (m; netgen's RestrictH, graded
-    from there by ``settings.grading``): front-following meshes (:mod:`ngs_geomech.problems.stefan_adaptive`).
+    from there by ``settings.grading``): front-following meshes (:mod:`ngs_geomech.adapt.front_following`).
     Region and boundary names are the geometry's whatever the restrictions.
 
     ``comm`` (an mpi4py communicator of several ranks): a distributed mesh. Rank 0 meshes and checks, then sends

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..names import plain_file_name
+from ..scene.names import plain_file_name
 from .atomic import write_text_atomic
 
 

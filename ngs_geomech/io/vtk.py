@@ -17,7 +17,7 @@ from pathlib import Path
 import ngsolve as ngs
 
 from .. import parallel
-from ..names import plain_file_name
+from ..scene.names import plain_file_name
 from .atomic import write_text_atomic
 
 

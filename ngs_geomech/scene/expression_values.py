@@ -17,10 +17,10 @@ from collections.abc import Iterator
 import numpy as np
 from netgen import occ
 
-from .. import expressions
 from ..errors import Problem
 from ..geometry.assemble import GeometryModel
 from ..geometry.shapes import cells, sides
+from . import expressions
 from .schema import Expression
 
 GRID = {2: 9, 3: 5}

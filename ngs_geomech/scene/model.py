@@ -402,8 +402,8 @@ class MechanicsSettings:
 @dataclass(frozen=True, kw_only=True)
 class SolverSettings:
     """``[solver]``: the linear solver of the heat and elasticity systems and of the contact and Stefan Newton steps
-    (GMRES with an augmented-Lagrangian AMG preconditioner, :mod:`ngs_geomech.solvers.contact_krylov`; GMRES with
-    h1amg, :mod:`ngs_geomech.solvers.stefan`); the mortar heat coupling, dynamic contact and the mixed formulation
+    (GMRES with an augmented-Lagrangian AMG preconditioner, :mod:`ngs_geomech.contact.krylov`; GMRES with
+    h1amg, :mod:`ngs_geomech.stefan.solver`); the mortar heat coupling, dynamic contact and the mixed formulation
     always solve directly."""
 
     linear: str = field(one_of("auto", "direct", "iterative"), "auto",
@@ -494,11 +494,11 @@ class Adaptivity:
     (:mod:`ngs_geomech.adapt`) before the output is written on the final mesh; transient scenes with a phase
     change (plane) on meshes that follow the phase boundary (``indicators = ['phase_front']``: the scene's
     geometry remeshed with a fine size at the liquid-fraction 1/2 iso-line, the enthalpy carried over;
-    :mod:`ngs_geomech.problems.stefan_adaptive`); time-dependent scenes with static mechanics and a contact
+    :mod:`ngs_geomech.adapt.front_following`); time-dependent scenes with static mechanics and a contact
     (plane, axisymmetric) on meshes that follow the contact zones (``indicators = ['contact_zone']``: remeshed
     with a fine size at the active set's ends and the stick/slip transitions at each mechanics solve, temperature,
     displacement and multipliers carried over; with ``['contact_zone', 'phase_front']`` the phase boundary as well;
-    :mod:`ngs_geomech.problems.contact_following`); transient heat scenes without such indicators on a mesh
+    :mod:`ngs_geomech.adapt.contact_following`); transient heat scenes without such indicators on a mesh
     adapted once to the steady heat problem with the start time's data (then the run on it). estimator, marker,
     theta and max_refinements are not used then."""
 

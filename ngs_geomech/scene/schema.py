@@ -13,9 +13,9 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from .. import expressions
 from ..errors import Problem
-from ..units import parse_time
+from . import expressions
+from .units import parse_time
 
 MISSING = dataclasses.MISSING
 
@@ -125,7 +125,7 @@ class Expression(str):
 
 
 def expr(v, path, problems):
-    """A number or an expression string (see :mod:`ngs_geomech.expressions`)."""
+    """A number or an expression string (see :mod:`ngs_geomech.scene.expressions`)."""
     if isinstance(v, bool):
         raise Invalid(f"expected a number or an expression string, got {_show(v)}")
     if isinstance(v, (int, float)):

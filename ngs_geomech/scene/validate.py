@@ -14,23 +14,23 @@ import re
 import numpy as np
 from netgen import occ
 
-from .. import expressions
-from ..elastic_materials import MaterialError, axisymmetric, elastic_properties
 from ..errors import Problem, SceneError
+from ..fem.timesteps import schedule
 from ..geometry.assemble import GeometryModel, build_geometry, scene_dim
 from ..geometry.shapes import cells, sides
-from ..materials import (
+from ..heat.materials import (
     conductivity_tensor,
     has_phase_change,
     isotropic_conductivity,
     phase_change_problems,
     volumetric_heat_capacity,
 )
-from ..names import name_problem
-from ..solvers.timesteps import schedule
-from ..units import KELVIN
+from ..mechanics.materials import MaterialError, axisymmetric, elastic_properties
+from . import expressions
 from .expression_values import check_expression_values, value_range
 from .model import Scene
+from .names import name_problem
+from .units import KELVIN
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 GRADING = (0.05, 1.0)
@@ -66,7 +66,7 @@ def validate(scene: Scene) -> GeometryModel:
 
 
 def _check_names(scene: Scene, problems: list[Problem]) -> None:
-    """Every name that becomes part of a file name follows :data:`ngs_geomech.names.RULE`; block, boundary and
+    """Every name that becomes part of a file name follows :data:`ngs_geomech.scene.names.RULE`; block, boundary and
     interface names are also identifiers (region and boundary names of the mesh; ``__`` joins an interface and
     a block name in a contact side's name)."""
     _check_name("scene.name", scene.scene.name, problems)
@@ -299,7 +299,7 @@ def _check_adaptivity(scene: Scene, problems: list[Problem]) -> None:
 
 def _check_front_following(scene: Scene, problems: list[Problem]) -> None:
     """``[adaptivity]`` of a time-dependent scene: front-following meshes for the Stefan problem, plane scenes
-    without mechanics or contact interfaces (what :mod:`ngs_geomech.problems.stefan_adaptive` supports)."""
+    without mechanics or contact interfaces (what :mod:`ngs_geomech.adapt.front_following` supports)."""
     a = scene.adaptivity
     ph = scene.physics
     if not stefan_scene(scene):
@@ -364,7 +364,7 @@ def _check_pre_adapted(scene: Scene, problems: list[Problem]) -> None:
 
 def _check_zone_following(scene: Scene, problems: list[Problem]) -> None:
     """``[adaptivity]`` with ``'contact_zone'`` in a time-dependent scene: meshes that follow the contact zones
-    (what :mod:`ngs_geomech.problems.contact_following` supports: static mechanics with a contact, plane or
+    (what :mod:`ngs_geomech.adapt.contact_following` supports: static mechanics with a contact, plane or
     axisymmetric)."""
     a = scene.adaptivity
     ph = scene.physics

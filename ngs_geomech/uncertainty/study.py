@@ -32,7 +32,7 @@ from ..io.outdir import check_output, creating, disk_full, owned_files
 from ..io.sample_log import SampleLog, differing_items, fingerprint, flatten
 from ..io.summary import json_safe
 from ..io.uncertainty_figures import distribution_figure, ranges_figure, scatter_figure
-from ..names import name_problem
+from ..scene.names import name_problem
 from ..scene.parse import apply_overrides, read_toml, resolve, scene_from_dict
 from ..scene.validate import validate
 from . import stochastic, worst

@@ -37,9 +37,9 @@ from netgen.occ import OCCGeometry, Pnt, Segment, Wire
 from ..adapt import estimators as est
 from ..adapt.loop import StationaryHeat, adaptive_solve, refine_mesh, transfer_contact_sets
 from ..adapt.marking import StopRule
-from ..materials import ThermalProperties
-from ..physics.coefficients import Steady
-from ..physics.thermal import HeatSetup
+from ..fem.coefficients import Steady
+from ..heat.forms import HeatSetup
+from ..heat.materials import ThermalProperties
 from . import contact_problems as cp
 from . import manufactured as mms
 from . import thermoelastic as te

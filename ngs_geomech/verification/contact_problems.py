@@ -1,5 +1,5 @@
 """Verification problems of frictional contact (seed (2.23)-(2.27)) with closed-form or exact answers, solved
-by :class:`ngs_geomech.solvers.contact.ContactSolver` on the operators of :mod:`ngs_geomech.physics.contact`.
+by :class:`ngs_geomech.contact.solver.ContactSolver` on the operators of :mod:`ngs_geomech.contact.forms`.
 
 * :func:`hertz`: Hertz line contact (verification.md section 2), a quarter cylinder (symmetry on x = 0)
   pressed on a rigid flat by P per unit length, plane strain, frictionless: p0, the contact half width a and
@@ -35,12 +35,12 @@ import ngsolve as ngs
 import numpy as np
 from netgen.occ import ArcOfCircle, Compound, Face, OCCGeometry, Pnt, Rectangle, Segment, Wire, X, Y
 
-from ..elastic_materials import ElasticProperties, isotropic
-from ..physics.coefficients import expression_function
-from ..physics.contact import contact_operator_2d
-from ..physics.elasticity import ElasticForms, ElasticSetup
-from ..solvers.contact import ContactLaw, ContactSolver, nodal_modulus
-from ..solvers.elastic import ElasticSolver
+from ..contact.forms import contact_operator_2d
+from ..contact.solver import ContactLaw, ContactSolver, nodal_modulus
+from ..fem.coefficients import expression_function
+from ..mechanics.forms import ElasticForms, ElasticSetup
+from ..mechanics.materials import ElasticProperties, isotropic
+from ..mechanics.solver import ElasticSolver
 from . import contact_closed_forms as cc
 
 E_HERTZ, NU_HERTZ, R_HERTZ = 200e9, 0.3, 1.0
@@ -191,7 +191,7 @@ def friction_block(push: str, *, law: str = "tresca", g_c: float = 1e6, friction
     "capacity", "applied" (traction resultant, traction case), "normal_force" (int p ds), "stick", "slip"
     (node counts), "iterations", "max_penetration", "lam_n", "lam_t" (nodal multipliers, Pa), "u" (the solution
     vector), "info" (the solver's history)}. ``solver_factory(interfaces, modulus=, floating=)`` builds the solver
-    (default :class:`ContactSolver`; e.g. :class:`ngs_geomech.solvers.contact_uzawa.UzawaSolver`)."""
+    (default :class:`ContactSolver`; e.g. :class:`ngs_geomech.contact.uzawa.UzawaSolver`)."""
     mesh = _foundation_block(L, H, h, order)
     props = _props(E, nu, ["block"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order)
@@ -288,7 +288,7 @@ def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio
     (p_top L)), "force_balance_t" (|int lam_t - Q| / Q), "max_penetration", "info" (the solver's history)};
     with ``return_system`` also "system" (:func:`_system_dict`). ``solver_factory(interfaces, modulus=,
     floating=)`` builds the solver (default :class:`ContactSolver`; e.g.
-    :class:`ngs_geomech.solvers.contact_uzawa.UzawaSolver`: then "iterations" counts its outer steps and
+    :class:`ngs_geomech.contact.uzawa.UzawaSolver`: then "iterations" counts its outer steps and
     "inner_iterations" the active set iterations of its frictionless subproblems, 0 for ContactSolver).
     ``linear``: the default solver's Newton-step solver (ContactSolver(linear=): "auto", "direct", "condensed" or
     "iterative": GMRES, then the result also has "gmres", the iterations per Newton-step solve, and "u", "lam_n",
@@ -344,7 +344,7 @@ def punch_3d(h: float, order: int = 1, *, law: str = "coulomb", friction: float 
     "force_balance_n", "force_balance_t" (relative), "max_penetration", "u", "lam_n", "lam_t", "info"}."""
     from netgen.occ import Box, Z
 
-    from ..physics.contact3d import contact_operator_3d
+    from ..contact.forms3d import contact_operator_3d
 
     lower = Box(Pnt(0, 0, -0.5), Pnt(1, 1, 0))
     upper = Box(Pnt(0.2, 0.2, 0), Pnt(0.8, 0.8, 0.3))

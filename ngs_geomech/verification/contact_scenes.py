@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from ..elastic_materials import isotropic
+from ..mechanics.materials import isotropic
 from ..run import run_scene
 from ..scene.parse import scene_from_dict
 

@@ -1,4 +1,4 @@
-"""Problem (P_c) through scenes (:mod:`ngs_geomech.problems.coupled`): the deformation heating against a closed
+"""Problem (P_c) through scenes (:mod:`ngs_geomech.coupling.problem`): the deformation heating against a closed
 form, and the coupled contact-Stefan case of issue 5.
 
 :func:`adiabatic_compression` : a square block 1 m x 1 m (plane strain) squeezed at a constant strain rate r in
@@ -143,7 +143,7 @@ def contact_melting_scene(*, coupling: str, end: str = "2 year", dt: str = "5 da
 
 
 def _seconds(value: str) -> float:
-    from ..units import parse_time
+    from ..scene.units import parse_time
     return float(parse_time(value))
 
 

@@ -1,5 +1,5 @@
 """Verification of the global evolutionary model (seed (2.6)-(2.16)): inertia, Kelvin-Voigt and Prony viscosity,
-dynamic contact, solved by :mod:`ngs_geomech.solvers.dynamics` on the forms of :mod:`ngs_geomech.physics.dynamics`.
+dynamic contact, solved by :mod:`ngs_geomech.dynamics.solver` on the forms of :mod:`ngs_geomech.dynamics.forms`.
 
 * :func:`bar_vibration`: free axial vibration of a bar (length L, fixed at y = 0, free at y = L, nu = 0 so that
   the axial motion is exactly one-dimensional, plane stress, P1 on a structured column of triangles, u_x = 0 on
@@ -37,13 +37,13 @@ import numpy as np
 import scipy.sparse.linalg as spla
 from ngsolve.meshes import MakeStructured2DMesh
 
-from ..elastic_materials import ElasticProperties, isotropic
-from ..physics.coefficients import expression_function
-from ..physics.contact import contact_operator_2d
-from ..physics.dynamics import PronyBranch, ViscoelasticForms, ViscousProperties
-from ..physics.elasticity import ElasticForms, ElasticSetup
-from ..solvers.contact import ContactLaw
-from ..solvers.dynamics import DynamicSolver, ViscousSolver, contact_switches
+from ..contact.forms import contact_operator_2d
+from ..contact.solver import ContactLaw
+from ..dynamics.forms import PronyBranch, ViscoelasticForms, ViscousProperties
+from ..dynamics.solver import DynamicSolver, ViscousSolver, contact_switches
+from ..fem.coefficients import expression_function
+from ..mechanics.forms import ElasticForms, ElasticSetup
+from ..mechanics.materials import ElasticProperties, isotropic
 
 E_BAR, RHO_BAR = 1.0e9, 2500.0
 

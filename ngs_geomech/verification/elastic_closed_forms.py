@@ -77,7 +77,7 @@ its position/strain argument.
    sigma_r(1.5) = -5.8157 MPa (:data:`CYLINDER_REFERENCE`, :func:`cylinder_reference_errors`).
 
 2. The nonlinear law of the seed (000_373559dfe1d3dece, eqs. (2.1)-(2.5): W = A1^lambda,
-   tau = 2 lambda A1^(lambda-1) c e) in the normalized form of ``ngs_geomech.physics.elasticity``:
+   tau = 2 lambda A1^(lambda-1) c e) in the normalized form of ``ngs_geomech.mechanics.forms``:
 
        W(e) = (A_ref/2) ((A1/A_ref + delta)^lam - delta^lam),     A1 = e : C : e,
        sigma = dW/de = lam (A1/A_ref + delta)^(lam - 1) C e,      A_ref = eps_ref^2 C[0, 0],

@@ -15,7 +15,7 @@ d/dy [(x - 0.5) a(y)] = 0 on x = 0.5, the flux condition (n = e_x) gives
     a(y) = [(kl_xx - kr_xx) u_x(0.5, y) + (kl_xy - kr_xy) u_y(0.5, y)] / kr_xx.
 
 The interface is either ``glued`` (one conforming mesh) or ``contact`` (independent, non-matching meshes
-coupled by the mortar method of :mod:`ngs_geomech.physics.thermal`). Q is derived exactly with NGSolve's
+coupled by the mortar method of :mod:`ngs_geomech.heat.forms`). Q is derived exactly with NGSolve's
 ``CoefficientFunction.Diff``; errors are integrated with quadrature order 2p + 6.
 
 The Kirchhoff slab checks k(T) = k0 (1 + b T) (seed, Kirchhoff transform before (2.39)) against the closed
@@ -32,14 +32,14 @@ from dataclasses import dataclass
 import ngsolve as ngs
 import numpy as np
 
+from ..fem.coefficients import expression_function
+from ..fem.timesteps import schedule
 from ..geometry.mesh import make_mesh
-from ..physics.coefficients import expression_function
-from ..physics.thermal import HeatForms
-from ..problems.heat import heat_setup
+from ..heat.forms import HeatForms
+from ..heat.problem import heat_setup
+from ..heat.solver import HeatSolver
 from ..scene.parse import scene_from_dict
 from ..scene.validate import validate
-from ..solvers.heat import HeatSolver
-from ..solvers.timesteps import schedule
 from .study import observed_order  # noqa: F401  (re-exported: studies and tests use it from here)
 
 K_LEFT = ((2.0, 0.5), (0.5, 1.0))

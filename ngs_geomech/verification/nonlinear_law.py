@@ -1,7 +1,7 @@
 """Verification of the nonlinear lambda law (seed (2.1)-(2.5)) and of its two solvers, the secant modules
 method (2.32)-(2.34) with the convergence quantity (2.35) and Newton on the energy.
 
-The law (:mod:`ngs_geomech.physics.elasticity`): sigma = lam (A1/A_ref + delta)^(lam-1) C e with A1 = e.C.e,
+The law (:mod:`ngs_geomech.mechanics.forms`): sigma = lam (A1/A_ref + delta)^(lam-1) C e with A1 = e.C.e,
 A_ref = eps_ref^2 C[0, 0], energy W = (A_ref/2)((A1/A_ref + delta)^lam - delta^lam). Rock-like data by
 default: E = 10 GPa, nu = 0.25, eps_ref = 1e-3, plane strain.
 
@@ -34,9 +34,9 @@ import numpy as np
 
 from .. import api
 from ..errors import SolverError
-from ..physics.elasticity import ElasticForms
+from ..mechanics.forms import ElasticForms
+from ..mechanics.solver import ElasticSolver, h1_norm
 from ..scene.parse import scene_from_dict
-from ..solvers.elastic import ElasticSolver, h1_norm
 from .elastic_closed_forms import lame_constants, uniaxial_strain_from_stress, uniaxial_strain_stress
 
 E, NU, EPS_REF = 10e9, 0.25, 1e-3

@@ -14,7 +14,8 @@ e^{-l t} = e^{-b^2} and e^{-i r sqrt(l/kappa)} = e^{-2 i a b} cancel the growing
 
 which is evaluated without overflow for every t (|w| <= 1 in the upper half plane). It reproduces the
 Duhamel integral int_0^t q0 e^{-l s} exp(-r^2 / (4 kappa (t - s))) / (rho c (4 pi kappa (t - s))^{3/2}) ds to
-~1e-15 and the reference values of verification.md with the Julian year (365.25 d, :data:`ngs_geomech.units.YEAR`):
+~1e-15 and the reference values of verification.md with the Julian year (365.25 d,
+:data:`ngs_geomech.scene.units.YEAR`):
 T(0.5 m, 1 y) = 84.67355, T(2 m, 10 y) = 17.64760, T(10 m, 100 y) = 0.70464 K for q0 = 1700 W, 1/l = 50 y,
 k = 3 W/(m K), rho c = 2.2e6 J/(m^3 K) (quoted 84.674, 17.648, 0.705). With 365-day years the first value
 would be 84.6723 K, which does not round to the quoted 84.674: the references use the Julian year.
@@ -48,7 +49,7 @@ from scipy.special import erfc, wofz
 
 from ..run import run_scene
 from ..scene.parse import scene_from_dict
-from ..units import YEAR
+from ..scene.units import YEAR
 
 Q0 = 1700.0
 """Initial source power, W (a KBS-3 type canister, verification.md section 5)."""

@@ -20,14 +20,14 @@ import ngsolve as ngs
 import numpy as np
 
 from ..geometry.mesh import make_mesh
-from ..physics.elasticity import ElasticForms
-from ..physics.thermal import HeatForms
-from ..problems.heat import heat_setup
-from ..problems.mechanics import elastic_setup
+from ..heat.forms import HeatForms
+from ..heat.problem import heat_setup
+from ..heat.solver import HeatSolver
+from ..mechanics.forms import ElasticForms
+from ..mechanics.problem import elastic_setup
+from ..mechanics.solver import ElasticSolver
 from ..scene.parse import scene_from_dict
 from ..scene.validate import validate
-from ..solvers.elastic import ElasticSolver
-from ..solvers.heat import HeatSolver
 
 ROCK = {"conductivity": 3.0, "rho_c": 2.2e6, "youngs_modulus": 60e9, "poisson_ratio": 0.25,
         "thermal_expansion": 8e-6, "stress_free_temperature": 0.0}

@@ -1,6 +1,6 @@
 """The Neumann similarity solutions of the one- and two-phase Stefan problems (../shared/notes/verification.md,
 section 1; Crank 1984 section 1.3, Carslaw & Jaeger 1959 section 11.2) and a driver that runs the enthalpy
-method of :mod:`ngs_geomech.solvers.stefan` (seed (2.46)-(2.51), (2.55)) against them.
+method of :mod:`ngs_geomech.stefan.solver` (seed (2.46)-(2.51), (2.55)) against them.
 
 Closed form (melting). A semi-infinite solid x > 0 at T_S <= Theta_R, face x = 0 held at T_L > Theta_R from
 t = 0; volumetric heat capacities C_l, C_s (J/(m^3 K)), conductivities k_l, k_s (W/(m K)), diffusivities
@@ -44,13 +44,13 @@ from netgen.occ import OCCGeometry, Rectangle, X, Y
 from scipy.optimize import brentq
 from scipy.special import erf, erfc, erfcinv, erfcx
 
-from ..materials import ThermalProperties
-from ..physics.coefficients import expression_function
-from ..physics.stefan import PhaseChangeMaterial, StefanForms, StefanSetup
-from ..physics.thermal import HeatForms, HeatSetup
-from ..solvers.heat import HeatSolver
-from ..solvers.stefan import ApparentHeatCapacitySolver, StefanSolver
-from ..solvers.timesteps import schedule
+from ..fem.coefficients import expression_function
+from ..fem.timesteps import schedule
+from ..heat.forms import HeatForms, HeatSetup
+from ..heat.materials import ThermalProperties
+from ..heat.solver import HeatSolver
+from ..stefan.forms import PhaseChangeMaterial, StefanForms, StefanSetup
+from ..stefan.solver import ApparentHeatCapacitySolver, StefanSolver
 from .study import observed_order, one_ngsolve_thread
 
 SQRT_PI = math.sqrt(math.pi)
@@ -344,7 +344,7 @@ def neumann_strip(problem: NeumannProblem, h: float, dt: float, t0: float, t1: f
     ``time_ratio_cpu`` (factorization reused; less disturbed by other jobs on the machine), ``factorizations``
     (and ``factorizations_per_step``), ``corrections_per_step`` (the Newton solver's extra solves: low-rank
     correction columns, one solve each, or in window mode (factored sets of 8000 unknowns and more) the solves for
-    the window's boundary nodes when a window is set up; :class:`ngs_geomech.solvers.stefan._ColumnJacobian`) and
+    the window's boundary nodes when a window is set up; :class:`ngs_geomech.stefan.solver._ColumnJacobian`) and
     ``phase_changes_per_step`` (nodes changing between solid, mushy and liquid).
     Runs on one NGSolve thread and one BLAS thread (:func:`single_threaded_blas`; the timings compare like with
     like; idle worker threads made sparse Cholesky 30 times slower at 500 dofs).

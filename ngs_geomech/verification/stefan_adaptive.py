@@ -12,8 +12,8 @@ import ngsolve as ngs
 import numpy as np
 
 from ..adapt.stefan import FrontAdaptiveStefan
-from ..physics.stefan import StefanSetup
-from ..solvers.timesteps import schedule
+from ..fem.timesteps import schedule
+from ..stefan.forms import StefanSetup
 from . import stefan as st
 from .study import one_ngsolve_thread
 

@@ -1,5 +1,5 @@
 """The two-phase Stefan problem with a temperature-dependent conductivity per phase,
-k_phase(T) = k_phase (1 + b (T - T_ref)) (:mod:`ngs_geomech.physics.stefan`: the Kirchhoff variable
+k_phase(T) = k_phase (1 + b (T - T_ref)) (:mod:`ngs_geomech.stefan.forms`: the Kirchhoff variable
 theta(T) = int_{Theta_R}^T k(s) ds is piecewise quadratic in T): a steady slab with a closed form and a melting
 strip measured against its finest mesh, with the cost of a step against the same step with b = 0.
 
@@ -34,9 +34,9 @@ import ngsolve as ngs
 import numpy as np
 
 from ..errors import SolverError
-from ..physics.stefan import PhaseChangeMaterial, StefanForms, StefanSetup
-from ..solvers.stefan import StefanSolver
-from ..solvers.timesteps import schedule
+from ..fem.timesteps import schedule
+from ..stefan.forms import PhaseChangeMaterial, StefanForms, StefanSetup
+from ..stefan.solver import StefanSolver
 from .stefan import NeumannProblem, single_threaded_blas, strip_mesh
 from .study import observed_order, one_ngsolve_thread
 
@@ -126,7 +126,7 @@ def steady_slab(material: PhaseChangeMaterial = SLAB, t_hot: float = 30.0, t_col
 
 def _step_or_split(solver: StefanSolver, a: float, b: float, infos: list | None = None, depth: int = 0) -> int:
     """One step from a to b, split in halves (recursively, at most 8 times) when Newton fails, as a scene run
-    does (:class:`ngs_geomech.problems.stefan.StefanRun`); the steps' infos are appended to ``infos``; returns
+    does (:class:`ngs_geomech.stefan.problem.StefanRun`); the steps' infos are appended to ``infos``; returns
     the number of splits."""
     mark = solver.mark()
     try:

@@ -37,17 +37,17 @@ import ngsolve as ngs
 import numpy as np
 
 from ..api import run as run_scene
-from ..elastic_materials import plane_strain, rotate_voigt, rotation, transversely_isotropic
+from ..fem.coefficients import Steady
 from ..geometry.mesh import make_mesh
-from ..physics.coefficients import Steady
-from ..physics.elasticity import ElasticForms
-from ..physics.thermal import HeatForms
-from ..problems.heat import heat_setup
-from ..problems.mechanics import elastic_setup
+from ..heat.forms import HeatForms
+from ..heat.problem import heat_setup
+from ..heat.solver import HeatSolver
+from ..mechanics.forms import ElasticForms
+from ..mechanics.materials import plane_strain, rotate_voigt, rotation, transversely_isotropic
+from ..mechanics.problem import elastic_setup
+from ..mechanics.solver import ElasticSolver
 from ..scene.parse import scene_from_dict
 from ..scene.validate import validate
-from ..solvers.elastic import ElasticSolver
-from ..solvers.heat import HeatSolver
 from .elastic_closed_forms import cylinder_pressure_stresses, cylinder_thermal_stresses
 from .manufactured import observed_order
 
@@ -192,7 +192,7 @@ def cylinder(case: str, level: int = 0, order: int = 2) -> dict:
 def plane_strain_data(props: dict) -> dict:
     """Per region (D 3x3 Pa, b 3-vector Pa/K, sigma_zz row 3-vector Pa, beta_zz Pa/K, T0 K) of the plane strain
     law [s_xx, s_yy, s_xy] = D e - b (T - T0), e = (e_xx, e_yy, 2 e_xy), computed here from the region's
-    :class:`ElasticProperties` with :func:`ngs_geomech.elastic_materials.plane_strain` (independently of
+    :class:`ElasticProperties` with :func:`ngs_geomech.mechanics.materials.plane_strain` (independently of
     :class:`ElasticForms`)."""
     out = {}
     for name, p in props.items():

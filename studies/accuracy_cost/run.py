@@ -40,7 +40,7 @@ timings compare like with like on the shared machine; runs under 0.1 s are repea
   space, so the error is the time error alone): L2 error at t = 1 s (K m) for backward Euler and Crank-Nicolson.
 * ``lambda_law``: nonlinear solver tolerance on the lambda law (seed (2.1)-(2.5)): the quarter plate with a
   hole of :func:`ngs_geomech.verification.nonlinear_law.plate_scene`, lam = 0.75 (softening), P1, h = 0.05 m;
-  Newton and the secant modules method (:class:`ngs_geomech.solvers.elastic.ElasticSolver`) from zero with
+  Newton and the secant modules method (:class:`ngs_geomech.mechanics.solver.ElasticSolver`) from zero with
   tolerance tol on the relative H1 change (2.35); error: ||u - u_ref||_1 / ||u_ref||_1 against Newton at
   tol = 1e-13 on the same mesh (the algebraic error alone; the reaction force error in the tables too, and at
   level >= 1 the discretization error of the reaction force against h/2 for comparison).
@@ -307,14 +307,14 @@ import numpy as np
 from ngs_geomech import api
 from ngs_geomech.adapt.loop import adaptive_solve
 from ngs_geomech.adapt.marking import StopRule
+from ngs_geomech.contact.solver import ContactLaw, ContactSolver
 from ngs_geomech.errors import SolverError
+from ngs_geomech.fem.timesteps import schedule
 from ngs_geomech.io.atomic import write_json_atomic
-from ngs_geomech.physics.stefan import StefanForms, StefanSetup
+from ngs_geomech.mechanics.solver import ElasticSolver, h1_norm
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.solvers.contact import ContactLaw, ContactSolver
-from ngs_geomech.solvers.elastic import ElasticSolver, h1_norm
-from ngs_geomech.solvers.stefan import StefanSolver
-from ngs_geomech.solvers.timesteps import schedule
+from ngs_geomech.stefan.forms import StefanForms, StefanSetup
+from ngs_geomech.stefan.solver import StefanSolver
 from ngs_geomech.verification import adaptivity as ad
 from ngs_geomech.verification import contact_following as cf
 from ngs_geomech.verification import contact_problems as cp

@@ -23,7 +23,7 @@ the same mesh: K (with the contact solver's shift 1e-10 x mean diagonal on the f
 without which K is singular: same pattern, same cost) factored on the free dofs plus one solve, by NGSolve's
 sparsecholesky (the product's ElasticSolver), UMFPACK and PARDISO's Cholesky with minimum degree and with METIS
 ordering; the assembly is not counted on either side. The contact solver is the product's default
-(``ContactSolver(linear="auto")``: the condensed solver of :mod:`ngs_geomech.solvers.contact_condensed` when
+(``ContactSolver(linear="auto")``: the condensed solver of :mod:`ngs_geomech.contact.condensed` when
 PARDISO is installed). Each cold contact solve (a fresh solver) and each linear solve is timed ``repeats`` times
 per mesh (3 at levels 1 and 2, 1 at level 0) and the fastest of each kept: the machine is shared and single
 samples varied by 25 %. The headline ratio (``time_ratio_*``, wall times, finest level) is the contact solve over
@@ -141,7 +141,7 @@ geometrically from the first guess (186, 143, 115, 99, 90, 85, 83, 82, 81 nodes 
 new UMFPACK factorization of the saddle-point system (1.1 - 1.5 x a sparsecholesky factorization of K, its solves 2 x),
 the small ones are Woodbury updates. A warm solve takes one factorization: ratio 1.6 - 3.
 
-(e) the condensed solver (2026-11-26; :mod:`ngs_geomech.solvers.contact_condensed`): one PARDISO factorization
+(e) the condensed solver (2026-11-26; :mod:`ngs_geomech.contact.condensed`): one PARDISO factorization
 of K with the Schur complement of the candidate contact dofs ("m_s"), the active-set iteration on the dense
 surface problem, one interior solve. Level 1, one thread, repeats 3; "lin" the fastest linear solve (PARDISO with
 minimum degree from 37k dofs on; sparsecholesky "sc" below), "ratio" contact / lin, "r sc" contact / sc,
@@ -247,9 +247,9 @@ import scipy.linalg  # noqa: F401  (loads scipy's OpenBLAS before single_threade
 import scipy.optimize  # noqa: F401
 import scipy.sparse as sp
 
-from ngs_geomech.elastic_materials import isotropic
-from ngs_geomech.solvers import pardiso
-from ngs_geomech.solvers.contact_uzawa import UzawaSolver
+from ngs_geomech.contact.uzawa import UzawaSolver
+from ngs_geomech.linalg import pardiso
+from ngs_geomech.mechanics.materials import isotropic
 from ngs_geomech.verification import contact_problems as cp
 from ngs_geomech.verification.study import convergence_entry, metrics_lines, one_ngsolve_thread, study_cli, study_main
 
@@ -311,7 +311,7 @@ def _factory(store: dict, base):
 def linear_solve_time(system: dict, repeats: int = 1) -> dict:
     """One linear elastic solve with the assembled K of a contact problem: factor K on the free dofs and solve once
     for the load, by NGSolve's sparsecholesky (the product's ElasticSolver), UMFPACK, and PARDISO's Cholesky with
-    its two orderings (minimum degree, METIS: :class:`ngs_geomech.solvers.pardiso.SchurFactorization` without a
+    its two orderings (minimum degree, METIS: :class:`ngs_geomech.linalg.pardiso.SchurFactorization` without a
     Schur set, from K's COO as the condensed contact solver builds it); the floating body's free dofs get the
     contact solver's shift (1e-10 x their mean diagonal entry), without which K is singular. Each is timed
     ``repeats`` times and the fastest kept (the machine is shared). Returns wall and CPU seconds (factor + solve)

@@ -22,7 +22,7 @@ preconditioner against the direct solves on the 3D Coulomb punch (P1 h = 0.2 at 
 h = 0.1 at level 1; level 2 adds P1 h = 0.025 and P2 h = 0.05 without the direct solve): GMRES iterations per Newton
 step (``contact_gmres_max_p1``, ``contact_gmres_max_p2`` and their finest / coarsest ratios), the time against the
 direct solves (``contact_direct_over_iterative_time_p*``, largest size with both) and ``contact_max_rel_difference``.
-Measured 2026-11-26 (one thread; the table in :mod:`ngs_geomech.solvers.contact_krylov`): P1 GMRES max 41 / 43 /
+Measured 2026-11-26 (one thread; the table in :mod:`ngs_geomech.contact.krylov`): P1 GMRES max 41 / 43 /
 52 / 90 at 663 / 3.5k / 19k / 121k dofs, P2 54 / 51 / 99 at 3.8k / 22k / 130k; direct / GMRES time 4.3 at 19k P1
 (60 / 13.9 s), 1.3 at 22k P2, 5.9 at 130k P2 (399 / 67.5 s); same stick / slip sets, differences <= 7e-10.
 
@@ -80,7 +80,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ngs_geomech.solvers.iterative import AUTO_DOFS
+from ngs_geomech.linalg.iterative import AUTO_DOFS
 from ngs_geomech.verification.scaling import max_rel_difference
 from ngs_geomech.verification.study import metrics_lines, study_cli, study_main
 

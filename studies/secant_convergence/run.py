@@ -13,7 +13,7 @@ diverges for lam >= 1.5) and Newton with the exact Hessian. The secant method at
 ~0.985 and is run on the coarse meshes only. (2) Uniaxial strain bar (displacement- and traction-driven)
 against the closed forms, lam = 0.5, 1, 2, both methods. (3) The regularization delta = 1e-2 ... 1e-10 for
 lam = 0.5 and 0.3 on one mesh: change of the solution (H1, reaction force, local stress) and iterations.
-(1b) Nested iteration at lam = 0.5 (``mechanics.nested_levels``, :mod:`ngs_geomech.problems.nested`): scene runs of
+(1b) Nested iteration at lam = 0.5 (``mechanics.nested_levels``, :mod:`ngs_geomech.mechanics.nested`): scene runs of
 the plate at each h with Newton started from the solutions on the meshes 2, 4, ... times coarser down to h = 0.2 m,
 against the same scene from the linear solution. Measured at level 0 as it was then (2026-11-25, beside another job;
 level 1 has these meshes now): Newton steps on the scene's mesh 9, 10, 9 at h = 0.1, 0.05, 0.025 (from the linear

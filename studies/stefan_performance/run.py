@@ -11,7 +11,7 @@ at Theta_R: most of it is mushy, dT/de = 0), a degenerate but instructive case f
 
 Measured per level: Newton iterations per step (mean and max; "iterations" are linear solves with the Newton
 matrix), sparse LU factorizations and low-rank correction columns per step (:class:`_ColumnJacobian` of
-:mod:`ngs_geomech.solvers.stefan`), nodes changing between solid, mushy and liquid per step, the wall time per
+:mod:`ngs_geomech.stefan.solver`), nodes changing between solid, mushy and liquid per step, the wall time per
 step (``StefanSolver.step``, everything included: state, residuals, solves, the GridFunctions) and, in the same
 run and on the same mesh, the time of a linear heat step: :class:`HeatSolver` with the liquid's constant
 properties and the same Dirichlet data, one backward Euler step (Dirichlet values, right-hand side assembly,
@@ -51,7 +51,7 @@ steps), one-phase h = 0.05 ... 0.0125; 1 both down to h = 0.003125 (42k / 16k no
 h = 0.0015625 (170k / 66k nodes, 1440 steps).
 
 Measured with the solver's window mode (issue 5, the remaining target: :class:`_ColumnJacobian` of
-:mod:`ngs_geomech.solvers.stefan` factors M0 outside a window of nodes around the front and the window's Schur
+:mod:`ngs_geomech.stefan.solver` factors M0 outside a window of nodes around the front and the window's Schur
 complement per changed Newton matrix, for factored sets of at least 8000 unknowns; the smaller meshes keep the
 Woodbury correction, unchanged). Level 2, one run, the other core busy for most of it (load about 2.5: the linear
 step at 170k nodes took 146 ms against 64 ms in the level-2 run below; both are timed under the same load),

@@ -1,5 +1,5 @@
 """A small two-phase Stefan run of the built-in scene ``melting_block`` (frozen silt with an ice lens thawing under
-a heated floor, granite below; :mod:`ngs_geomech.problems.stefan`), coarse and a few steps, on a serial or a
+a heated floor, granite below; :mod:`ngs_geomech.stefan.problem`), coarse and a few steps, on a serial or a
 netgen distributed mesh: the same code path as ``ngs-geomech run`` takes for the Stefan problem.
 
     mpiexec -n 3 python stefan_case.py OUT.json [jacobi] [bddc]     (netgen keeps no elements on rank 0: 2 workers)
@@ -38,9 +38,9 @@ def solve(comm=None, preconditioner: str = "bddc") -> dict:
     from ngs_geomech import parallel
     from ngs_geomech.geometry.mesh import make_mesh
     from ngs_geomech.io.meshdata import vertex_values
-    from ngs_geomech.problems.stefan import StefanRun
     from ngs_geomech.scene.parse import load_scene
     from ngs_geomech.scene.validate import validate
+    from ngs_geomech.stefan.problem import StefanRun
 
     scene = load_scene("melting_block", OVERRIDES)
     geo = validate(scene)
@@ -89,8 +89,8 @@ def one_phase_strip(comm=None) -> dict:
     import ngsolve as ngs
 
     from ngs_geomech import parallel
-    from ngs_geomech.physics.stefan import StefanForms, StefanSetup
-    from ngs_geomech.solvers.stefan import StefanSolver
+    from ngs_geomech.stefan.forms import StefanForms, StefanSetup
+    from ngs_geomech.stefan.solver import StefanSolver
     from ngs_geomech.verification.stefan import ONE_PHASE, schedule, strip_mesh
 
     problem, h, t0, t1, height = ONE_PHASE, 0.05, 0.1, 0.5, 0.2
@@ -120,9 +120,9 @@ def refused(comm) -> str:
     """The message with which the built-in scene ``contact_melting`` (heat through a contact interface: the mortar
     penalty) is refused on a distributed mesh ("" when it is not)."""
     from ngs_geomech.geometry.mesh import make_mesh
-    from ngs_geomech.problems.stefan import StefanRun
     from ngs_geomech.scene.parse import load_scene
     from ngs_geomech.scene.validate import validate
+    from ngs_geomech.stefan.problem import StefanRun
 
     scene = load_scene("contact_melting", ["mesh.maxh=0.5"])
     geo = validate(scene)

@@ -1,0 +1,280 @@
+"""Discrete contact operators of problem (P) in 3D: the operators of :class:`.contact.ContactOperator` for a
+contact side S (tetrahedral mesh, triangular boundary) against the boundary O of another body with an
+independent, non-matching surface mesh, or against a rigid plane foundation.
+
+Same formulation as the 2D :func:`.contact.contact_operator_2d` (see :mod:`.contact`): small deformations,
+dual (biorthogonal) P1 multipliers on S's vertices,
+
+    p = sum_j lam_n,j psi_j,   psi_j = 4 phi_j - 1 on each flat triangle of S,
+
+(psi_a = sum_b D_aa (M^-1)_ab phi_b with the triangle's P1 mass matrix M = |T|/12 (1 + delta_ab) and
+D = diag(M 1) = |T|/3, so int_T psi_a phi_b dA = delta_ab |T|/3), phi_j the hat function of vertex j (also for
+P2 displacements). A point x of S sees the point x_o where the ray x + g n (n the outward unit normal of S's
+body) meets O; g0 = (x_o - x).n. Per multiplier node j
+
+    (Bn u)_j  = int_S psi_j (u(x_o) - u(x)).n  dA,      g0_j = int_S psi_j g0 dA,
+    (Bt u)_j  = int_S psi_j (u(x_o) - u(x)).t1 dA,      (Bt2 u)_j = the same with t2 = n x t1,
+
+integrated over the part of S whose rays meet O (closer than ``search_distance``); ``weight`` = int_S phi_j dA
+(m^2), ``length`` = sqrt(weight) (m, the nodal mesh size: h on a uniform mesh, the 2D int phi_j ds),
+``coverage`` = int_{S covered} phi_j dA / weight. t1 is the projection of e_x onto the tangent plane (e_y where
+|n_x| > 0.9), so it is the same on all triangles of a flat side.
+
+Segment-based integration (the 3D analogue of the 2D splitting, cf. :func:`.mortar.mortar_coupling_3d`): each
+triangle of S is clipped (Sutherland-Hodgman) against the projections of O's triangles along S's normal onto
+its plane; the convex pieces are fanned into triangles and integrated with a collapsed Gauss rule exact for
+polynomials of degree 2 order + 2. On flat triangles the ray map is affine, so every piece integrates a
+polynomial (degree order + 1) exactly and the patch test holds to round-off on non-matching meshes.
+
+Assumptions: the triangles are taken flat (through their corner points; a curved side carries an O(h^2)
+geometry error), O's triangles facing away from S (n_O . n_S >= -1e-3) are ignored, and overlapping
+projections of several facing O triangles (a folded O) are not resolved to the nearest one (all count).
+
+Shape functions are NGSolve's own: per boundary element the H1 shapes are sampled at the order's lattice
+points (``GetFE(...).CalcShape``) and written as monomials, so the quadrature is vectorized with numpy.
+Dof layout: component c of the VectorH1 space has dof c * ns + the scalar H1 dof (ns = H1(mesh, order).ndof).
+"""
+
+from __future__ import annotations
+
+import ngsolve as ngs
+import numpy as np
+import scipy.sparse as sp
+
+from .forms import ContactOperator
+
+_FACING = -1e-3      # O triangles count when n_O . n_S < this (they face S)
+
+
+def _lattice(order: int) -> np.ndarray:
+    """Unisolvent points (xi, eta) of the polynomials of degree <= order on the reference triangle."""
+    return np.array([(i / order, j / order) for i in range(order + 1) for j in range(order + 1 - i)], dtype=float)
+
+
+def _monomials(xi: np.ndarray, order: int) -> np.ndarray:
+    """(Q, nloc) values of xi^a eta^b, a + b <= order, at the points xi (Q, 2)."""
+    return np.stack([xi[:, 0] ** a * xi[:, 1] ** b for a in range(order + 1) for b in range(order + 1 - a)], axis=1)
+
+
+def _duffy_rule(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Collapsed Gauss rule on the triangle (0,0), (1,0), (0,1): points (n^2, 2), weights summing to 1/2;
+    exact for degree <= 2 n - 2."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    x, w = (x + 1) / 2, w / 2
+    u, v = np.meshgrid(x, x, indexing="ij")
+    wu, wv = np.meshgrid(w, w, indexing="ij")
+    pts = np.column_stack([u.ravel(), (v * (1 - u)).ravel()])
+    return pts, (wu * wv * (1 - u)).ravel()
+
+
+class _Surface:
+    """The flat triangles of one boundary as arrays: corners (NGSolve's reference vertices (1,0), (0,1),
+    (0,0) map to el.vertices 0, 1, 2), the affine map x = P + J xi, outward unit normals of the body,
+    scalar H1 dofs and the monomial coefficients of the shapes (N(xi) = monomials(xi) @ coef)."""
+
+    def __init__(self, mesh, pts: np.ndarray, space, name: str, order: int, what: str, iname: str):
+        els = list(mesh.Boundaries(name).Elements())
+        if not els:
+            raise ValueError(f"contact interface {iname!r}: the {what} boundary {name!r} has no boundary elements "
+                             f"(boundaries of the mesh: {sorted(set(mesh.GetBoundaries()))})")
+        self.verts = np.array([[v.nr for v in el.vertices] for el in els], dtype=int)
+        if self.verts.shape[1] != 3:
+            raise ValueError(f"contact interface {iname!r}: boundary {name!r} must consist of triangles")
+        self.X = pts[self.verts]                              # (nt, 3 corners, 3)
+        self.P = self.X[:, 2]
+        self.J = np.stack([self.X[:, 0] - self.P, self.X[:, 1] - self.P], axis=2)     # (nt, 3, 2)
+        nrm = np.cross(self.J[:, :, 0], self.J[:, :, 1])
+        self.area2 = np.linalg.norm(nrm, axis=1)              # twice the area
+        if np.any(self.area2 <= 0):
+            raise ValueError(f"contact interface {iname!r}: boundary {name!r} has degenerate triangles")
+        n = nrm / self.area2[:, None]
+        # outward: away from the one volume element behind the face
+        inner = np.empty((len(els), 3))
+        for k, el in enumerate(els):
+            vols = mesh[el.faces[0]].elements
+            if len(vols) != 1:
+                raise ValueError(f"contact interface {iname!r}: boundary {name!r} is not on the outer boundary of "
+                                 "a body (a face between two volume elements): contact sides need independent "
+                                 "meshes (netgen.occ Compound, not Glue)")
+            inner[k] = pts[[v.nr for v in mesh[vols[0]].vertices]].mean(axis=0)
+        flip = np.einsum("ij,ij->i", n, self.X.mean(axis=1) - inner) < 0
+        n[flip] *= -1
+        self.n = n
+        lat = _lattice(order)
+        vand = _monomials(lat, order)
+        dofs, shapes = [], []
+        for el in els:
+            ei = ngs.ElementId(ngs.BND, el.nr)
+            fe = space.GetFE(ei)
+            dofs.append(list(space.GetDofNrs(ei)))
+            shapes.append([np.array(fe.CalcShape(float(a), float(b))) for a, b in lat])
+        self.dofs = np.array(dofs, dtype=int)
+        self.coef = np.linalg.solve(vand[None], np.array(shapes))     # (nt, nmono, nloc)
+        self.lo, self.hi = self.X.min(axis=1), self.X.max(axis=1)
+
+    def __len__(self) -> int:
+        return len(self.verts)
+
+
+def _clip(poly: np.ndarray, eps: float = 1e-13) -> np.ndarray:
+    """Sutherland-Hodgman: the part of the convex polygon ``poly`` (k, 2) inside the reference triangle
+    xi >= 0, eta >= 0, 1 - xi - eta >= 0 (either orientation)."""
+    out = [p for p in poly]
+    for f in (lambda p: p[0], lambda p: p[1], lambda p: 1.0 - p[0] - p[1]):
+        if not out:
+            break
+        inp, out = out, []
+        vals = [f(p) for p in inp]
+        for j in range(len(inp)):
+            cur, prev = inp[j], inp[j - 1]
+            fc, fp = vals[j], vals[j - 1]
+            if fc >= -eps:
+                if fp < -eps:
+                    out.append(prev + (cur - prev) * (fp / (fp - fc)))
+                out.append(cur)
+            elif fp >= -eps:
+                if fp > eps:
+                    out.append(prev + (cur - prev) * (fp / (fp - fc)))
+    return np.array(out) if len(out) >= 3 else np.empty((0, 2))
+
+
+def _tangent(n: np.ndarray) -> np.ndarray:
+    """First tangential direction t1 per row of n: e_x projected onto the tangent plane (e_y where |n_x| > 0.9)."""
+    e = np.zeros_like(n)
+    use_y = np.abs(n[:, 0]) > 0.9
+    e[~use_y, 0] = 1.0
+    e[use_y, 1] = 1.0
+    t = e - np.einsum("ij,ij->i", e, n)[:, None] * n
+    return t / np.linalg.norm(t, axis=1)[:, None]
+
+
+def contact_operator_3d(mesh, V, name: str, side: str, opposite: str | None, *, obstacle: tuple | None = None,
+                        search_distance: float | None = None) -> ContactOperator:
+    """Assemble the operators of :class:`ContactOperator` (3D, module docstring) for the contact side ``side``
+    (multipliers on its vertices) against the boundary ``opposite`` of another body, or (``opposite`` None)
+    against the rigid plane ``obstacle`` = (a point of it, its outward unit normal, pointing towards the body);
+    ``V`` is the 3D VectorH1 displacement space (any order; the multipliers are P1). ``search_distance`` (m):
+    rays longer than this (|g0| larger) are ignored (default: a quarter of the extent of the side). The
+    extra field ``Bt2`` holds the second tangential direction t2 = n x t1 (``Bt`` holds t1)."""
+    if mesh.dim != 3:
+        raise ValueError(f"contact interface {name!r}: contact_operator_3d needs a 3D mesh (got dim {mesh.dim})")
+    for what, bnd in (("contact side", side), ("opposite", opposite)):
+        if bnd is None and what == "opposite":
+            continue
+        if not isinstance(bnd, str) or not bnd.strip():
+            raise ValueError(f"contact interface {name!r}: the {what} boundary name {bnd!r} is empty")
+    order = V.globalorder
+    S = ngs.H1(mesh, order=order)       # scalar shapes and dofs: component c of V has dof c * ns + scalar dof
+    ns = S.ndof
+    if V.ndof != 3 * ns:
+        raise ValueError(f"contact interface {name!r}: contact_operator_3d needs a 3D VectorH1 space")
+    if opposite is None:
+        if obstacle is None:
+            raise ValueError(f"contact interface {name!r}: neither an opposite side nor a rigid foundation")
+        q_ob = np.asarray(obstacle[0], dtype=float).ravel()
+        n_ob = np.asarray(obstacle[1], dtype=float).ravel()
+        if q_ob.shape != (3,) or n_ob.shape != (3,) or not np.linalg.norm(n_ob) > 0:
+            raise ValueError(f"contact interface {name!r}: the foundation needs a point and a nonzero normal with "
+                             f"3 components, got {obstacle!r}")
+        n_ob = n_ob / np.linalg.norm(n_ob)
+    pts = np.asarray(mesh.ngmesh.Coordinates(), dtype=float)[:mesh.nv]     # vertex k = point k + 1 of netgen
+    sf = _Surface(mesh, pts, S, side, order, "contact side", name)
+    of = None if opposite is None else _Surface(mesh, pts, S, opposite, order, "opposite", name)
+    nt = len(sf)
+    nodes, tri_nodes = np.unique(sf.verts, return_inverse=True)
+    tri_nodes = tri_nodes.reshape(nt, 3)
+    m = len(nodes)
+    coords = pts[nodes]
+    if search_distance is None:   # default: a quarter of the extent of the contact side
+        search_distance = 0.25 * float(np.max(np.ptp(sf.X.reshape(-1, 3), axis=0)))
+    reach = float(search_distance)
+    weight = np.zeros(m)
+    np.add.at(weight, tri_nodes, np.repeat(sf.area2[:, None] / 6.0, 3, axis=1))
+    length = np.sqrt(weight)
+
+    # pieces: (S triangle, O triangle or -1 for the foundation, corners in S's reference coordinates)
+    p_tri, p_opp, p_abc = [], [], []
+    ref_tri = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    if of is None:
+        facing = np.where(sf.n @ n_ob < -1e-12)[0]
+        p_tri, p_opp = list(facing), [-1] * len(facing)
+        p_abc = [ref_tri] * len(facing)
+    else:
+        JtJ = np.einsum("tki,tkj->tij", sf.J, sf.J)
+        pinv = np.linalg.solve(JtJ, np.transpose(sf.J, (0, 2, 1)))        # (nt, 2, 3)
+        tol_box = 1e-9 * float(np.max(np.ptp(sf.X.reshape(-1, 3), axis=0)))
+        for t in range(nt):
+            ends = np.concatenate([sf.X[t] - reach * sf.n[t], sf.X[t] + reach * sf.n[t]])
+            lo, hi = ends.min(axis=0) - tol_box, ends.max(axis=0) + tol_box
+            cand = np.where(np.all(of.lo <= hi, axis=1) & np.all(of.hi >= lo, axis=1)
+                            & (of.n @ sf.n[t] < _FACING))[0]
+            if not len(cand):
+                continue
+            R = np.einsum("ij,ckj->cki", pinv[t], of.X[cand] - sf.P[t])      # O corners in S's coordinates
+            L3 = 1.0 - R.sum(axis=2)
+            eps = 1e-12
+            out = (np.all(R[:, :, 0] <= eps, axis=1) | np.all(R[:, :, 1] <= eps, axis=1)
+                   | np.all(L3 <= eps, axis=1))
+            for c, poly in zip(cand[~out], R[~out]):
+                piece = _clip(poly)
+                for k in range(1, len(piece) - 1):   # fan of the convex piece
+                    a, b, cc = piece[0], piece[k], piece[k + 1]
+                    det = (b[0] - a[0]) * (cc[1] - a[1]) - (b[1] - a[1]) * (cc[0] - a[0])
+                    if abs(det) > 1e-14:
+                        p_tri.append(t)
+                        p_opp.append(int(c))
+                        p_abc.append(np.array([a, b, cc]))
+    p_tri = np.array(p_tri, dtype=int)
+    p_opp = np.array(p_opp, dtype=int)
+    npc = len(p_tri)
+    g0 = np.zeros(m)
+    covered = np.zeros(m)
+    Bs = [sp.csr_matrix((m, V.ndof)) for _ in range(3)]
+    n_all = sf.n
+    t1_all = _tangent(n_all)
+    t2_all = np.cross(n_all, t1_all)
+    if npc:
+        abc = np.array(p_abc)                                           # (np, 3, 2)
+        qx, qw = _duffy_rule(order + 2)
+        nq = len(qw)
+        e1, e2 = abc[:, 1] - abc[:, 0], abc[:, 2] - abc[:, 0]
+        det = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+        xi = abc[:, None, 0] + qx[None, :, 0, None] * e1[:, None] + qx[None, :, 1, None] * e2[:, None]  # (np,nq,2)
+        w = qw[None, :] * det[:, None] * sf.area2[p_tri][:, None]       # (np, nq): dA
+        x = sf.P[p_tri][:, None] + np.einsum("pij,pqj->pqi", sf.J[p_tri], xi)
+        n = n_all[p_tri]                                                 # (np, 3), constant per flat triangle
+        if of is None:
+            g = np.einsum("pqi,i->pq", q_ob - x, n_ob) / (n @ n_ob)[:, None]
+            r = None
+        else:
+            A = np.stack([of.J[p_opp][:, :, 0], of.J[p_opp][:, :, 1], -n], axis=2)     # (np, 3, 3)
+            rg = np.einsum("pij,pqj->pqi", np.linalg.inv(A), x - of.P[p_opp][:, None])
+            g, r = rg[:, :, 2], rg[:, :, :2]
+        w = np.where(np.abs(g) <= reach, w, 0.0)
+        phi = np.concatenate([xi, 1.0 - xi.sum(axis=2, keepdims=True)], axis=2)     # (np, nq, 3) hats
+        psi = 4.0 * phi - 1.0                                            # dual basis (flat triangles)
+        rows3 = tri_nodes[p_tri]                                         # (np, 3)
+        np.add.at(covered, rows3, np.einsum("pq,pqa->pa", w, phi))
+        np.add.at(g0, rows3, np.einsum("pq,pqa,pq->pa", w, psi, g))
+        NS = np.einsum("pqk,pki->pqi", _monomials(xi.reshape(-1, 2), order).reshape(npc, nq, -1),
+                       sf.coef[p_tri])
+        M = [-np.einsum("pq,pqa,pqi->pai", w, psi, NS)]                 # (np, 3, nloc)
+        dofs = [sf.dofs[p_tri]]
+        if of is not None:
+            NO = np.einsum("pqk,pki->pqi", _monomials(r.reshape(-1, 2), order).reshape(npc, nq, -1),
+                           of.coef[p_opp])
+            M.append(np.einsum("pq,pqa,pqi->pai", w, psi, NO))
+            dofs.append(of.dofs[p_opp])
+        M = np.concatenate(M, axis=2)                                    # (np, 3, nl)
+        dofs = np.concatenate(dofs, axis=1)                              # (np, nl)
+        nl = dofs.shape[1]
+        rows = np.broadcast_to(rows3[:, :, None, None], (npc, 3, nl, 3))
+        cols = np.broadcast_to(dofs[:, None, :, None] + ns * np.arange(3)[None, None, None, :], (npc, 3, nl, 3))
+        for k, d in enumerate((n, t1_all[p_tri], t2_all[p_tri])):
+            vals = M[:, :, :, None] * d[:, None, None, :]
+            B = sp.coo_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(m, V.ndof)).tocsr()
+            B.sum_duplicates()
+            Bs[k] = B
+    coverage = np.divide(covered, weight, out=np.zeros(m), where=weight > 0)
+    return ContactOperator(name, side, opposite, nodes.astype(int), coords, Bs[0], Bs[1], g0, weight, length,
+                           coverage, Bt2=Bs[2], search_distance=reach)

@@ -1,0 +1,163 @@
+"""The contact part of a mechanical run's output: nodal interface quantities at each mechanics time, the
+contact resultants and the global force balance for ``summary.json``.
+
+Force balance (per translation direction e: x and y in plane scenes, only z = y in axisymmetric ones, x, y
+and z in 3D):
+the applied loads L = e . f (body forces, tractions, pressures; thermal and initial stresses have no
+resultant), the support reactions S = e . (K u - f - B^T lam) on the fixed dofs, and the foundation
+forces F = e . B^T lam of the foundations sum to zero: imbalance = |L + S + F| / (the largest of |L|, |S|,
+|F| and the contact resultants).
+Interfaces between bodies are internal: the forces on their two sides must be opposite (reported as
+``action_reaction``: |F_side + F_opposite| / |F_side|).
+
+``closed_length_m``: the length of the closed part of the side, sum of int phi_j ds over the nodes in contact
+(stick or slip): for a contact zone ending between two nodes, the midpoint between the last closed and the first
+open node (error at most half the element size there; in 3D the area, m^2).
+
+``initial_gap_m``: [min, max] of the nodal initial gaps g0 over the nodes whose rays meet the other side
+within ``search_distance_m`` (None if none does: the contact cannot close).
+
+Tangential force: in 2D int q ds along t (signed); in 3D the tangential part of the contact force on S's
+body as a vector (``tangential_resultant_on_side``, x, y, z) and its magnitude (``tangential_force``).
+"""
+
+from __future__ import annotations
+
+import ngsolve as ngs
+import numpy as np
+
+from .problem import ContactSpec, contact_forces, interface_results, side_dofs, supported_nodes
+
+_STATUS = ("open", "stick", "slip", "prescribed")
+
+
+class ContactOutput:
+    """Records the contact state of each mechanics solve (see the module docstring)."""
+
+    def __init__(self, forms, specs: list[ContactSpec]):
+        self.forms = forms
+        self.specs = specs
+        V = forms.V
+        axi = forms.setup.model == "axisymmetric"
+        dim = forms.mesh.dim
+        self.directions = ["y"] if axi else ["x", "y", "z"][:dim]
+        self.units = "N/rad" if axi else ("N" if dim == 3 else "N/m")
+        g = ngs.GridFunction(V)
+        rows = []
+        for d in self.directions:
+            comps = [0.0] * dim
+            comps["xyz".index(d)] = 1.0
+            g.Set(ngs.CoefficientFunction(tuple(comps)))
+            rows.append(np.array(g.vec.FV().NumPy()))
+        self.translations = np.array(rows)
+        mesh = forms.mesh
+        self.side = [side_dofs(mesh, V, s.op.side) for s in specs]
+        self.opposite = [side_dofs(mesh, V, s.op.opposite) if s.op.opposite else None for s in specs]
+        self.latest: list[dict] = []
+        self.history: list[dict] = []
+
+    def record(self, t: float, solver) -> None:
+        """After a solve of :class:`ElasticContactSolver`: the interface arrays and the balance at time t."""
+        f = self.forms
+        n = f.V.ndof
+        u = np.array(f.gf.vec.FV().NumPy())
+        K = f.secant_form.mat
+        rhs = np.array(f.secant_rhs.vec.FV().NumPy())
+        ku = f.gf.vec.CreateVector()
+        ku.data = K * f.gf.vec
+        force = np.array(ku.FV().NumPy()) - rhs         # K u - f - B^T lam: the support reactions
+        self.latest = []
+        entry = {"time_s": t, "interfaces": {}}
+        foundation = np.zeros(len(self.directions))
+        free = np.array(list(f.X.FreeDofs()), dtype=bool)
+        for k, (spec, (lam_n, lam_t)) in enumerate(zip(self.specs, solver.contact.multipliers)):
+            lam_n, lam_t, prescribed = supported_nodes(spec, free[:n], u, lam_n, lam_t)
+            res = interface_results(spec, u, lam_n, lam_t, prescribed)
+            self.latest.append(res)
+            op = spec.op
+            bt = contact_forces(op, lam_n, lam_t)
+            force[:n] -= bt
+            on_side = self._resultant(bt, self.side[k])
+            status = res["status"].astype(int)
+            keep = op.coverage > 1 - 1e-6
+            if lam_t.ndim == 2:      # 3D: the tangential force as a vector on S's body and its magnitude
+                tang = self._resultant(contact_forces(op, lam_n, lam_t, normal=False), self.side[k])
+                tangential = {"tangential_force": float(np.linalg.norm(tang)),
+                              "tangential_resultant_on_side": dict(zip(self.directions, tang.tolist()))}
+            else:
+                tangential = {"tangential_force": float(np.dot(op.weight, lam_t))}
+            item = {"kind": spec.kind, "law": spec.law.kind, "normal_force": float(np.dot(op.weight, lam_n)),
+                    **tangential,
+                    "resultant_on_side": dict(zip(self.directions, on_side.tolist())),
+                    "max_pressure_Pa": float(np.max(lam_n, initial=0.0)),
+                    "closed_length_m": float(np.sum(op.length[lam_n > 0])),
+                    "max_penetration_m": float(np.max(-res["gap"][keep], initial=0.0)),
+                    "max_slip_m": float(np.max(np.abs(res["slip"][lam_n > 0]), initial=0.0)),
+                    "max_tangential_displacement_m": float(np.max(np.abs(res["slip"][keep]), initial=0.0)),
+                    "initial_gap_m": _range(op.g0[keep] / op.weight[keep]) if np.any(keep) else None,
+                    "search_distance_m": op.search_distance,
+                    "nodes": {s: int(np.sum(status == i)) for i, s in enumerate(_STATUS)}}
+            if spec.kind == "foundation":
+                foundation += on_side
+            else:
+                on_opp = self._resultant(bt, self.opposite[k])
+                item["resultant_on_opposite"] = dict(zip(self.directions, on_opp.tolist()))
+                item["action_reaction"] = float(np.linalg.norm(on_side + on_opp)
+                                                / max(float(np.linalg.norm(on_side)), 1e-300))
+            entry["interfaces"][spec.name] = item
+        reaction = np.where(free, 0.0, force)
+        load = self.translations @ rhs[:n]
+        supports = self.translations @ reaction[:n]
+        # relative to the largest force involved (a body squeezed between two foundations has no net load)
+        side_forces = [abs(v) for item in entry["interfaces"].values() for v in item["resultant_on_side"].values()]
+        scale = max(float(np.max(np.abs(np.concatenate([load, supports, foundation])), initial=0.0)),
+                    max(side_forces, default=0.0), 1e-300)
+        entry["force_balance"] = {"directions": self.directions, "load": load.tolist(),
+                                  "support_reactions": supports.tolist(), "foundations": foundation.tolist(),
+                                  "imbalance_rel": float(np.max(np.abs(load + supports + foundation)) / scale),
+                                  "units": self.units}
+        infos = solver.contact_infos[-1] if solver.contact_infos else []
+        entry["contact_iterations"] = [i.iterations for i in infos]
+        entry["linear"] = getattr(solver.contact, "linear", "direct")
+        entry["gmres_max"] = max((g for i in infos for g in getattr(i, "gmres_iterations", [])), default=0)
+        entry["condensed_dofs"] = max((getattr(i, "condensed_dofs", 0) for i in infos), default=0)
+        entry["condensed_fallbacks"] = sum(bool(getattr(i, "condensed_fallback", False)) for i in infos)
+        self.history.append(entry)
+
+    def _resultant(self, bt: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+        return np.array([float(t[dofs] @ bt[dofs]) for t in self.translations])
+
+    def summary(self) -> dict:
+        """The last solve's interface figures (with the largest slip over all solves added: closed nodes, and
+        all covered nodes including open ones, m), the force balance, and per solve a short history."""
+        last = self.history[-1] if self.history else {}
+        interfaces = {}
+        for name, item in last.get("interfaces", {}).items():
+            over = [h["interfaces"][name] for h in self.history if name in h["interfaces"]]
+            interfaces[name] = {**item,
+                                "max_slip_over_time_m": max(v["max_slip_m"] for v in over),
+                                "max_tangential_displacement_over_time_m":
+                                    max(v["max_tangential_displacement_m"] for v in over)}
+        return {"contact": {"interfaces": interfaces, "force_balance": last.get("force_balance", {}),
+                            "iterations_per_solve": [sum(h["contact_iterations"]) for h in self.history],
+                            "linear_solver": last.get("linear", "direct"),
+                            "gmres_max_per_solve": ([h["gmres_max"] for h in self.history]
+                                                    if last.get("linear") == "iterative" else None),
+                            "condensed_dofs_per_solve": ([h["condensed_dofs"] for h in self.history]
+                                                         if last.get("linear") == "condensed" else None),
+                            "condensed_fallbacks": (sum(h["condensed_fallbacks"] for h in self.history)
+                                                    if last.get("linear") == "condensed" else None),
+                            "history": [{"time_s": h["time_s"], "imbalance_rel": h["force_balance"]["imbalance_rel"],
+                                         **{name: {"normal_force": v["normal_force"],
+                                                   "tangential_force": v["tangential_force"],
+                                                   "max_slip_m": v["max_slip_m"],
+                                                   "closed_length_m": v["closed_length_m"],
+                                                   "max_pressure_Pa": v["max_pressure_Pa"],
+                                                   "max_tangential_displacement_m":
+                                                       v["max_tangential_displacement_m"],
+                                                   "nodes": v["nodes"]}
+                                            for name, v in h["interfaces"].items()}} for h in self.history]}}
+
+
+def _range(v: np.ndarray) -> list[float]:
+    return [float(np.min(v)), float(np.max(v))]

@@ -1,0 +1,202 @@
+"""Material data in numbers: conductivity tensors and heat capacities from scene materials (numpy only).
+
+Problem (P) of the seed allows an anisotropic conductivity kappa_ij per body (2.17); it must be
+symmetric positive definite. A temperature-dependent conductivity kappa_ij(T) = kappa_ij f(T) with
+f(T) = 1 + b (T - T_ref) is handled through the Kirchhoff transform Theta(T) = int_{T_ref}^T f(s) ds
+(seed, before (2.39)), so that the flux is -kappa_ij dTheta/dx_j.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..scene.model import Material
+
+
+@dataclass(frozen=True)
+class ThermalProperties:
+    """Thermal data of one region: ``kappa`` (dim x dim, W/(m K)) at T_ref, ``rho_c`` (J/(m^3 K),
+    None when not given), ``b`` (1/K) and ``t_ref`` of f(T) = 1 + b (T - T_ref)."""
+
+    kappa: np.ndarray
+    rho_c: float | None
+    b: float = 0.0
+    t_ref: float = 0.0
+
+    @property
+    def nonlinear(self) -> bool:
+        return self.b != 0.0
+
+
+def rotation_matrix(angle, dim: int) -> np.ndarray:
+    """Rotation from principal axes to x-y(-z): one angle in degrees (2D, from the x axis) or Z-Y-X Euler
+    angles in degrees (3D)."""
+    if dim == 2:
+        a = math.radians(float(angle if not isinstance(angle, (list, tuple)) else angle[0]))
+        return np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    angles = angle if isinstance(angle, (list, tuple)) else [angle, 0.0, 0.0]
+    if len(angles) != 3:
+        raise ValueError(f"3D rotation needs 3 Euler angles, got {angles}")
+    a, b, c = (math.radians(float(v)) for v in angles)
+    rz = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+    ry = np.array([[math.cos(b), 0, math.sin(b)], [0, 1, 0], [-math.sin(b), 0, math.cos(b)]])
+    rx = np.array([[1, 0, 0], [0, math.cos(c), -math.sin(c)], [0, math.sin(c), math.cos(c)]])
+    return rz @ ry @ rx
+
+
+def conductivity_tensor(m: Material, dim: int) -> np.ndarray:
+    """The conductivity tensor of a material; raises ValueError naming the key at fault."""
+    given = [k for k in ("conductivity", "conductivity_principal") if getattr(m, k) is not None]
+    if len(given) != 1:
+        raise ValueError("give exactly one of 'conductivity' or 'conductivity_principal'"
+                         + (" (both given)" if len(given) == 2 else " (none given)"))
+    if m.conductivity is not None:
+        if m.conductivity_angle is not None:
+            raise ValueError("'conductivity_angle' goes with 'conductivity_principal', not 'conductivity'")
+        k = m.conductivity
+        if isinstance(k, (int, float)):
+            kappa = float(k) * np.eye(dim)
+        else:
+            kappa = np.array(k, dtype=float)
+            if kappa.shape != (dim, dim):
+                raise ValueError(f"'conductivity' must be {dim}x{dim} in this scene, got shape {kappa.shape}")
+            if not np.allclose(kappa, kappa.T, rtol=1e-12, atol=0):
+                raise ValueError(f"'conductivity' tensor {kappa.tolist()} is not symmetric")
+    else:
+        p = np.array(m.conductivity_principal, dtype=float)
+        if p.shape != (dim,):
+            raise ValueError(f"'conductivity_principal' needs {dim} values, got {len(p)}")
+        rot = rotation_matrix(m.conductivity_angle or 0.0, dim)
+        kappa = rot @ np.diag(p) @ rot.T
+    ev = np.linalg.eigvalsh(kappa)
+    if ev.min() <= 0:
+        raise ValueError(f"conductivity {kappa.tolist()} is not positive definite (eigenvalues {ev.tolist()})")
+    return kappa
+
+
+def volumetric_heat_capacity(m: Material) -> float | None:
+    """rho*c in J/(m^3 K), from 'rho_c' or 'density' * 'specific_heat'; None when not given.
+
+    'density' alone is allowed (gravity needs it); 'specific_heat' needs 'density'.
+    """
+    if m.rho_c is not None:
+        if m.specific_heat is not None:
+            raise ValueError("give either 'rho_c' or 'density' and 'specific_heat', not both")
+        value = m.rho_c
+    elif m.specific_heat is not None:
+        if m.density is None:
+            raise ValueError("'specific_heat' needs 'density'")
+        value = m.density * m.specific_heat
+    else:
+        return None
+    if value <= 0:
+        raise ValueError(f"rho*c = {value:g} J/(m^3 K) must be positive")
+    return float(value)
+
+
+def thermal_properties(m: Material, dim: int) -> ThermalProperties:
+    """All thermal data of a material (raises ValueError naming the key at fault)."""
+    return ThermalProperties(kappa=conductivity_tensor(m, dim), rho_c=volumetric_heat_capacity(m),
+                             b=m.conductivity_temperature_coefficient, t_ref=m.reference_temperature)
+
+
+# -- phase change (the Stefan problem, seed (2.46)-(2.51)) -------------------------------------------------------
+PHASE_CHANGE_KEYS = ("latent_heat", "latent_heat_volumetric", "rho_c_liquid", "specific_heat_liquid",
+                     "conductivity_liquid")
+
+
+@dataclass(frozen=True)
+class PhaseChangeProperties:
+    """The phase change of one material: ``temperature`` Theta_R (degC or K), ``latent_heat`` L (volumetric,
+    J/m^3), ``rho_c_solid`` and ``rho_c_liquid`` (J/(m^3 K)), ``conductivity_solid`` and ``conductivity_liquid``
+    (W/(m K), isotropic)."""
+
+    temperature: float
+    latent_heat: float
+    rho_c_solid: float
+    rho_c_liquid: float
+    conductivity_solid: float
+    conductivity_liquid: float
+
+
+def has_phase_change(m: Material) -> bool:
+    return m.phase_change_temperature is not None
+
+
+def isotropic_conductivity(m: Material, dim: int) -> float:
+    """The scalar conductivity k (W/(m K)) of a material whose tensor is k I; ValueError otherwise (the Stefan
+    forms take an isotropic conductivity per phase)."""
+    kappa = conductivity_tensor(m, dim)
+    k = float(kappa[0, 0])
+    if not np.allclose(kappa, k * np.eye(dim), rtol=1e-12, atol=1e-12 * abs(k)):
+        raise ValueError(f"conductivity {kappa.tolist()} is anisotropic: the Stefan (phase change) solver of a "
+                         "scene with phase change takes an isotropic conductivity in every region")
+    return k
+
+
+def phase_change_problems(m: Material) -> list[tuple[str, str]]:
+    """Every problem of a material's phase-change keys as (key, message); empty when they are consistent
+    (also when the material has no phase change and sets none of them)."""
+    out: list[tuple[str, str]] = []
+    if not has_phase_change(m):
+        for key in PHASE_CHANGE_KEYS:
+            if getattr(m, key) is not None:
+                out.append((key, "applies to a phase-change material: set phase_change_temperature (degC or K)"))
+        return out
+    if not math.isfinite(m.phase_change_temperature):
+        out.append(("phase_change_temperature", f"must be finite, got {m.phase_change_temperature}"))
+    per_kg, per_m3 = m.latent_heat, m.latent_heat_volumetric
+    if per_kg is not None and per_m3 is not None:
+        out.append(("latent_heat", "give either latent_heat (J/kg, with density) or latent_heat_volumetric "
+                                   "(J/m^3), not both"))
+    elif per_kg is None and per_m3 is None:
+        out.append(("latent_heat", "a phase change needs latent_heat (J/kg, with density) or "
+                                   "latent_heat_volumetric (J/m^3)"))
+    for key, unit in (("latent_heat", "J/kg"), ("latent_heat_volumetric", "J/m^3")):
+        v = getattr(m, key)
+        if v is not None and not (v >= 0 and math.isfinite(v)):
+            out.append((key, f"must be >= 0 {unit}, got {v:g}"))
+    if per_kg is not None and per_m3 is None and m.density is None:
+        out.append(("density", "latent_heat is per kg (J/kg): give the density (kg/m^3), or give "
+                               "latent_heat_volumetric (J/m^3) instead"))
+    c_l, c_l_kg = m.rho_c_liquid, m.specific_heat_liquid
+    if c_l is not None and c_l_kg is not None:
+        out.append(("rho_c_liquid", "give either rho_c_liquid (J/(m^3 K)) or specific_heat_liquid (J/(kg K), with "
+                                    "density), not both"))
+    elif c_l is None and c_l_kg is None:
+        out.append(("rho_c_liquid", "a phase change needs the liquid's heat capacity: rho_c_liquid (J/(m^3 K)) or "
+                                    "specific_heat_liquid (J/(kg K), with density)"))
+    for key, unit in (("rho_c_liquid", "J/(m^3 K)"), ("specific_heat_liquid", "J/(kg K)")):
+        v = getattr(m, key)
+        if v is not None and not (v > 0 and math.isfinite(v)):
+            out.append((key, f"must be positive, got {v:g} {unit}"))
+    if c_l_kg is not None and c_l is None and m.density is None:
+        out.append(("density", "specific_heat_liquid is per kg: give the density (kg/m^3), or rho_c_liquid"))
+    k_l = m.conductivity_liquid
+    if k_l is None:
+        out.append(("conductivity_liquid", "a phase change needs the liquid's conductivity (W/(m K))"))
+    elif not (k_l > 0 and math.isfinite(k_l)):
+        out.append(("conductivity_liquid", f"must be positive, got {k_l:g} W/(m K)"))
+    return out
+
+
+def phase_change_properties(m: Material, dim: int) -> PhaseChangeProperties | None:
+    """The phase change of a material (None without phase_change_temperature); ValueError naming the key at
+    fault when the keys are inconsistent (see :func:`phase_change_problems`)."""
+    if not has_phase_change(m):
+        return None
+    problems = phase_change_problems(m)
+    if problems:
+        raise ValueError("; ".join(f"{k}: {msg}" for k, msg in problems))
+    rho_c = volumetric_heat_capacity(m)
+    if rho_c is None:
+        raise ValueError("rho_c: a phase change needs the solid's rho_c (or density and specific_heat)")
+    latent = m.latent_heat_volumetric if m.latent_heat_volumetric is not None else m.density * m.latent_heat
+    c_l = m.rho_c_liquid if m.rho_c_liquid is not None else m.density * m.specific_heat_liquid
+    return PhaseChangeProperties(temperature=float(m.phase_change_temperature), latent_heat=float(latent),
+                                 rho_c_solid=rho_c, rho_c_liquid=float(c_l),
+                                 conductivity_solid=isotropic_conductivity(m, dim),
+                                 conductivity_liquid=float(m.conductivity_liquid))

@@ -1,0 +1,126 @@
+"""From a scene to the elastic problem's plain inputs (:class:`ElasticSetup`)."""
+
+from __future__ import annotations
+
+import ngsolve as ngs
+import numpy as np
+
+from .. import parallel
+from ..fem.coefficients import expression_function
+from ..geometry.assemble import GeometryModel
+from ..scene.model import Scene
+from .forms import ElasticSetup, mixed_regions
+from .materials import elastic_properties
+
+
+def mechanics_model(scene: Scene) -> str:
+    """'plane_strain' | 'plane_stress' | 'axisymmetric' | '3d' for a scene."""
+    if scene.scene.dimension == "3d":
+        return "3d"
+    if scene.scene.dimension == "axisymmetric":
+        return "axisymmetric"
+    return scene.physics.plane_model
+
+
+def axis_boundaries(mesh, names) -> list[str]:
+    """Boundary names all of whose vertices lie on the axis x = 0 (axisymmetric scenes: u_r = 0 there)."""
+    pts = np.array([v.point for v in mesh.vertices])
+    size = float(np.max(pts.max(axis=0) - pts.min(axis=0)))
+    out = []
+    for name in names:
+        els = list(mesh.Boundaries(name).Elements())
+        if els and all(abs(mesh[v].point[0]) <= 1e-9 * size for el in els for v in el.vertices):
+            out.append(name)
+    return out
+
+
+def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> ElasticSetup:
+    """The ElasticSetup of a validated scene on its mesh; ``temperature`` is the heat solution CF or None."""
+    dim = 3 if scene.scene.dimension == "3d" else 2
+    props = {name: elastic_properties(m, dim) for name, m in scene.materials.items()}
+    ms = scene.mechanics
+    setup = ElasticSetup(props=props, model=mechanics_model(scene), order=scene.mesh.order,
+                         gravity=tuple(ms.gravity) if ms.gravity else None,
+                         temperature=temperature, regularization=ms.regularization, formulation=ms.formulation)
+    for name, bc in scene.boundary_conditions.items():
+        if bc.displacement is not None:
+            setup.dirichlet[name] = [None if c == "free" else expression_function(c) for c in bc.displacement]
+        elif bc.traction is not None:
+            setup.traction[name] = [expression_function(c) for c in bc.traction]
+        elif bc.pressure is not None:
+            setup.pressure[name] = expression_function(bc.pressure)
+        elif bc.symmetry:
+            setup.symmetry.append(name)
+    if ms.initial_stress is not None:
+        setup.initial_stress = [[expression_function(c) for c in row] for row in ms.initial_stress]
+    if setup.model == "axisymmetric":
+        taken = set(setup.dirichlet) | set(setup.symmetry)
+        setup.axis = [n for n in axis_boundaries(mesh, sorted(set(mesh.GetBoundaries()))) if n not in taken]
+    return setup
+
+
+def mechanics_warnings(scene: Scene, setup: ElasticSetup) -> list[str]:
+    """Warnings a user should see before trusting the result (printed on stdout, kept in summary.json)."""
+    mixed, notes = mixed_regions(setup)
+    out = list(notes)
+    if scene.mesh.order == 1:
+        for name, p in setup.props.items():
+            nu = p.max_poisson
+            if nu is not None and nu > 0.49 and name not in mixed:
+                out.append(f"materials.{name}: Poisson ratio {nu:.4f} > 0.49 with P1 elements of the displacement "
+                           "formulation locks (stresses and displacements far too small); use mechanics.formulation "
+                           "= 'mixed' or mesh.order = 2 or higher")
+    for name, p in setup.props.items():
+        if p.lam < 0.5:
+            out.append(f"materials.{name}: rheology_lambda {p.lam:g} < 0.5 makes the stress-strain law non-monotone "
+                       "(the energy is not convex): solutions may localize or not be unique")
+    return out
+
+
+SMALL_STRAIN_LIMIT = 0.1
+"""The largest displacement gradient max |grad u| (Frobenius norm, root mean square over an element) the linear,
+small-strain theory of the model is trusted with: at |grad u| = 0.1 the Green strain differs from the linear one
+by ~5 % and rotations reach ~6 degrees. The maximum over elements grows under refinement at corners and contact
+edges (a singular strain); the built-in scenes reach 0.0065-0.0102 at their quick levels (repository_section,
+contact_melting, plate_collision) and plate_collision 0.058 at 30 km elements: the limit keeps clear of those
+and catches moduli or loads off by orders of magnitude."""
+
+SMALL_STRAIN_WARNING = "the displacement leaves the small-strain range"
+"""The start of the warning of :func:`small_strain_warning` (one per run)."""
+
+
+def small_strain_warning(forms, where: str) -> str | None:
+    """The warning for the last solve of ``forms`` (an ElasticForms) when max |grad u| > SMALL_STRAIN_LIMIT,
+    naming the value, its region, max |u| (element RMS, m) and the model's extent (m); None inside the range.
+    Three element-wise integrals, no Python loop over the elements; collective on a distributed mesh."""
+    mesh = forms.mesh
+    u = forms.displacement()
+    G = ngs.Grad(u)
+    vol = np.asarray(ngs.Integrate(ngs.CoefficientFunction(1.0), mesh, element_wise=True))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        g = np.sqrt(np.asarray(ngs.Integrate(ngs.InnerProduct(G, G), mesh, element_wise=True)) / vol)
+        um = np.sqrt(np.asarray(ngs.Integrate(ngs.InnerProduct(u, u), mesh, element_wise=True)) / vol)
+    local = (-1.0, "", 0.0, 0.0)
+    if g.size:
+        i = int(np.nanargmax(g)) if np.any(np.isfinite(g)) else 0
+        pts = mesh.ngmesh.Coordinates()
+        local = (float(g[i]), mesh[ngs.ElementId(ngs.VOL, i)].mat, float(np.nanmax(um)),
+                 float(np.max(np.ptp(pts, axis=0))))
+    gathered = parallel.allgather(mesh, local)
+    gmax, region, _, _ = max(gathered)
+    if not gmax > SMALL_STRAIN_LIMIT:
+        return None
+    umax, extent = max(x[2] for x in gathered), max(x[3] for x in gathered)
+    return (f"{SMALL_STRAIN_WARNING} of the linear theory at {where}: max |grad u| = {gmax:.3g} > "
+            f"{SMALL_STRAIN_LIMIT:g} (region {region}), max |u| = {umax:.3g} m in a model {extent:.3g} m across; "
+            "check the moduli (Pa) and the loads, the result is not reliable")
+
+
+def watch_small_strain(mech, where: str) -> None:
+    """After a mechanics solve: append :func:`small_strain_warning` to ``mech.warnings`` (the run's summary
+    warnings) the first time it applies in the run."""
+    if any(w.startswith(SMALL_STRAIN_WARNING) for w in mech.warnings):
+        return
+    w = small_strain_warning(mech.forms, where)
+    if w is not None:
+        mech.warnings.append(w)

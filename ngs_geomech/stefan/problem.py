@@ -1,0 +1,352 @@
+"""From a scene with phase change to the Stefan problem (seed (2.46)-(2.51), (2.55)), and what a run keeps of
+it: the enthalpy solver, the output fields, the phase boundary, the melted volume and the latent heat stored per
+phase-change region at the output times, the energy balance, the Newton iterations, and its checkpoint state.
+
+A scene is solved as a Stefan problem when a material has ``phase_change_temperature`` and physics.thermal is
+'transient' (:func:`ngs_geomech.scene.validate.stefan_scene`): then :class:`StefanSolver` (nodal enthalpy,
+lumped P1, backward Euler, semi-smooth Newton) replaces the heat solver. Boundary data: temperature and flux
+conditions, sources; unnamed boundaries are insulated; contact interfaces between touching blocks pass heat by a
+penalty on the temperature jump (``thermal_penalty``; :mod:`ngs_geomech.stefan.forms`). A material's
+``conductivity_temperature_coefficient`` b and ``reference_temperature`` give k(T) = k (1 + b (T - T_ref)) in
+both phases (``conductivity`` and ``conductivity_liquid`` are the values at T_ref); a run stops with an error
+naming that key when k is not positive at a temperature reached. Validation refuses Robin conditions,
+anisotropic conductivities, axisymmetric scenes and P2.
+
+Volumes are m^2 per metre of depth in plane scenes (m^3 in 3D), heats J per metre of depth (J in 3D).
+
+Distributed meshes (MPI, :mod:`ngs_geomech.parallel`): every rank holds the nodal state of its part, the solver
+takes its distributed Newton path (:mod:`ngs_geomech.stefan.solver`), and the figures of :meth:`StefanRun.record`
+and :meth:`StefanRun.summary` (volumes, melted volumes, heats, energy balance, iterations) are global, the same on
+every rank (each vertex counted once). :meth:`StefanRun.phase_boundary` gives the iso-line of all parts on every
+rank (a collective call, on the gathered vertex arrays of :mod:`ngs_geomech.io.meshdata`). Contact interfaces are
+refused there (not supported under MPI). :meth:`StefanRun.capture` and :meth:`StefanRun.restore` work on this
+rank's local arrays (valid only for the same partition) and the front-following meshes
+(:mod:`ngs_geomech.adapt.front_following`) are serial.
+"""
+
+from __future__ import annotations
+
+import ngsolve as ngs
+import numpy as np
+
+from .. import parallel
+from ..errors import Problem, SceneError, SolverError
+from ..fem.coefficients import Steady, expression_function
+from ..geometry.assemble import GeometryModel
+from ..geometry.isolines import IsoLines, iso_segments
+from ..heat.materials import has_phase_change, isotropic_conductivity, phase_change_properties, volumetric_heat_capacity
+from ..heat.problem import initial_temperature, pressure_coefficients, region_measure, source_function
+from ..io.meshdata import mesh_arrays, vertex_values
+from ..linalg.iterative import choose_solver
+from ..scene.expressions import short
+from ..scene.model import Scene
+from .forms import (
+    DEFAULT_INTERFACE_PENALTY,
+    ConductivityRangeError,
+    PhaseChangeMaterial,
+    PlainThermalMaterial,
+    StefanForms,
+    StefanSetup,
+    vertex_rules,
+)
+from .solver import StefanSolver
+
+AUTO_NODES = {2: 1_000_000, 3: 5_000}
+"""Nodes above which ``solver.linear = "auto"`` solves the serial Stefan Newton steps by GMRES with h1amg instead of
+SuperLU with low-rank updates (per mesh dimension). Measured 2026-11-26, one thread, ``melting_block`` made 3D
+(6 x 2 x 4 m, the lens 1.25 x 1 x 0.4 m, 20 days in 15 steps, whole runs): direct / GMRES 2.7 / 4.7 s at 2k nodes,
+67 / 17.6 s at 7k (SuperLU factors the 3D Newton matrix 14 times, 3.9 s each), > 420 s (stopped) / 38 s at 13k;
+GMRES 234 s at 46k. GMRES iterations per solve, max: 13 / 18 / 19 / 24 at 2k / 7k / 13k / 46k nodes. In 2D SuperLU
+stays far ahead (13 x faster at 12k nodes on the Neumann strip, :mod:`ngs_geomech.stefan.solver`): the 2D value
+keeps the direct path (not measured up to it)."""
+
+MAX_HALVINGS = 6
+"""A Stefan step whose Newton iteration fails is split in halves at most this often (dt / 64)."""
+
+LEVEL = 0.5
+"""The phase boundary is the iso-line liquid_fraction = LEVEL."""
+
+
+def stefan_materials(scene: Scene) -> dict:
+    """Region name -> :class:`PhaseChangeMaterial` or :class:`PlainThermalMaterial` of a validated scene."""
+    dim = 3 if scene.scene.dimension == "3d" else 2
+    out = {}
+    for name, m in scene.materials.items():
+        pc = phase_change_properties(m, dim)
+        law = {"conductivity_temperature_coefficient": m.conductivity_temperature_coefficient,
+               "reference_temperature": m.reference_temperature}
+        if pc is not None:
+            out[name] = PhaseChangeMaterial(melting_temperature=pc.temperature, latent_heat=pc.latent_heat,
+                                            rho_c_solid=pc.rho_c_solid, rho_c_liquid=pc.rho_c_liquid,
+                                            conductivity_solid=pc.conductivity_solid,
+                                            conductivity_liquid=pc.conductivity_liquid, **law)
+        else:
+            out[name] = PlainThermalMaterial(rho_c=volumetric_heat_capacity(m),
+                                             conductivity=isotropic_conductivity(m, dim), **law)
+    return out
+
+
+def _summed(functions: list):
+    """One TimeFunction for the sum of a region's sources: Steady when all are (the Stefan forms assemble
+    the load once then), otherwise a plain time-dependent function."""
+    if all(isinstance(f, Steady) for f in functions):
+        return Steady(lambda t: sum((f(t) for f in functions[1:]), functions[0](t)))
+    return lambda t: sum((f(t) for f in functions[1:]), functions[0](t))
+
+
+def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> StefanSetup:
+    """The StefanSetup of a validated scene on its mesh; ``geo`` (the scene's geometry model) gives the contact
+    interfaces heat passes through (touching blocks; the jump penalty of :mod:`ngs_geomech.stefan.forms`)."""
+    setup = StefanSetup(materials=stefan_materials(scene), pressure_coefficients=pressure_coefficients(scene))
+    if geo is not None:
+        penalty = {itf.name: itf.thermal_penalty for itf in scene.interfaces}
+        setup.interfaces = [(cs.master, cs.minion, penalty.get(cs.name) or DEFAULT_INTERFACE_PENALTY)
+                            for cs in geo.contacts.values() if not cs.initial_gap]
+    for name, bc in scene.boundary_conditions.items():
+        if bc.temperature is not None:
+            setup.dirichlet[name] = expression_function(bc.temperature)
+        elif bc.flux is not None:
+            setup.flux[name] = expression_function(bc.flux)
+    by_region: dict[str, list] = {}
+    for src in scene.sources:
+        by_region.setdefault(src.region, []).append(source_function(src, region_measure(mesh, src.region, False)))
+    setup.sources = {r: _summed(fs) for r, fs in by_region.items()}
+    return setup
+
+
+def _region_vertices(mesh, name: str) -> np.ndarray:
+    """The vertex numbers of a region's elements."""
+    return np.unique([v.nr for el in mesh.Materials(f"^{name}$").Elements() for v in el.vertices]).astype(int)
+
+
+def _nodal(mesh, cf) -> np.ndarray:
+    """A CoefficientFunction at the mesh vertices (this rank's vertices on a distributed mesh)."""
+    if mesh.nv == 0:                                  # rank 0 of a distributed mesh holds no vertices
+        return np.zeros(0)
+    pts = np.array([v.point for v in mesh.vertices])
+    mips = mesh(*pts.T) if pts.shape[1] == 3 else mesh(pts[:, 0], pts[:, 1])
+    return np.asarray(cf(mips), dtype=float).ravel()
+
+
+class StefanRun:
+    """The Stefan problem of a run: forms, solver, output fields and the histories a summary and a checkpoint
+    need. ``regions`` are the phase-change regions (scene order). The Newton steps are solved by GMRES on a
+    distributed mesh and, serially, when ``solver.linear`` chooses "iterative" (above :data:`AUTO_NODES` nodes for
+    "auto"); ``krylov_preconditioner`` ("bddc", "h1amg" or "jacobi", None: BDDC distributed, h1amg serial) is
+    then their preconditioner (:mod:`ngs_geomech.stefan.solver`)."""
+
+    def __init__(self, scene: Scene, mesh, geo: GeometryModel | None = None, krylov_preconditioner: str | None = None):
+        self.scene = scene
+        self.mesh = mesh
+        self.forms = f = StefanForms(mesh, stefan_setup(scene, mesh, geo))
+        linear = choose_solver(scene.solver.linear, f.n, mesh.dim, distributed=f.distributed, auto_dofs=AUTO_NODES)
+        self.solver = StefanSolver(f, krylov_preconditioner=krylov_preconditioner, linear=linear)
+        self.regions = [n for n, m in scene.materials.items() if has_phase_change(m)]
+        self.latent = {r: f.setup.materials[r].latent_heat for r in self.regions}
+        self.group = {r: next(g for g, names in enumerate(f.group_regions) if r in names) for r in self.regions}
+        _, v = f.V.TnT()
+        self.mass = {}
+        for r in self.regions:
+            lf = ngs.LinearForm(f.V)
+            lf += v * ngs.dx(definedon=mesh.Materials(r), intrules=vertex_rules(mesh.dim))
+            lf.Assemble()
+            self.mass[r] = lf.vec.FV().NumPy().copy()      # distributed on a distributed mesh: sums add over ranks
+        self.volume = {r: float(parallel.allsum(mesh, float(self.mass[r].sum()))) for r in self.regions}
+        T = f.gf_temperature
+        k = mesh.MaterialCF({n: (ngs.IfPos(T - m.melting_temperature, m.conductivity_liquid, m.conductivity_solid)
+                                 if isinstance(m, PhaseChangeMaterial) else m.conductivity)
+                             * (1 + m.conductivity_temperature_coefficient * (T - m.reference_temperature)
+                                if m.temperature_dependent else 1)
+                             for n, m in f.setup.materials.items()}, default=0.0)
+        self.fields = {"temperature": T, "enthalpy": f.gf_enthalpy, "liquid_fraction": f.gf_liquid_fraction,
+                       "heat_flux": -k * ngs.grad(T)}
+        self.iterations: list[int] = []                  # per (sub)step
+        self.halvings = 0                                # steps split because Newton failed
+        self.dirichlet_heat: list[float] = []            # per step: heat in through the Dirichlet nodes
+        self.source_heat: list[float] = []               # per step: sources and fluxes
+        self.records: dict = {"time_s": [], "melted_volume": {r: [] for r in self.regions},
+                              "latent_heat_stored": {r: [] for r in self.regions}, "heat_content": []}
+        self._steps_at_record: list[int] = []            # steps completed at each record
+        self.transfers: list[tuple[int, float]] = []     # front-following meshes: (records before, heat change J)
+        self.initial_heat = 0.0
+        self._arrays = mesh_arrays(mesh) if mesh.dim == 2 else None
+
+    # -- stepping -----------------------------------------------------------------------------------------
+    def set_initial(self, t0: float) -> None:
+        """The scene's initial temperature at the nodes (nodes at a phase-change temperature: solid).
+
+        The Dirichlet nodes keep it too (the heat solver puts them at their boundary temperature at t0): they take
+        the boundary temperature in the first step, so the heat that takes (latent heat included) is counted as
+        heat that entered through the boundary. Measured on the two-phase Neumann scene started from the cold
+        strip (h = 0.025 m): the heat that entered is 0.2 % below the closed form's, against 2.7 % with the
+        boundary nodes already at T_L at t0 (their latent heat then appears from nowhere); the later states are
+        the same."""
+        T = _nodal(self.mesh, initial_temperature(self.scene, self.mesh, ngs.Parameter(t0)))
+        if sum(parallel.allgather(self.mesh, int(np.count_nonzero(~np.isfinite(T))))):
+            raise SceneError([Problem(*self._not_finite_initial(t0))], source=f"scene {self.scene.scene.name!r}")
+        try:
+            self.solver.set_initial(T)
+        except ConductivityRangeError as exc:
+            raise SolverError("; ".join(f"materials.{r}.conductivity_temperature_coefficient" for r in exc.regions)
+                              + f": {exc}") from None
+        self.initial_heat = self.forms.heat_content(self.solver.e)
+
+    def _not_finite_initial(self, t0: float) -> tuple[str, str]:
+        """(key, message) of the initial temperature that is not finite at a vertex (collective)."""
+        ini = self.scene.initial
+        key, value = "initial.temperature", ini.temperature
+        for name, v in ini.regions.items():
+            values = _nodal(self.mesh, expression_function(v)(ngs.Parameter(t0)))
+            local = len(values) and not np.all(np.isfinite(values[_region_vertices(self.mesh, name)]))
+            if any(parallel.allgather(self.mesh, bool(local))):
+                key, value = f"initial.regions.{name}", v
+                break
+        return key, (f"{short(str(value))!r} is not finite at some vertices of the mesh (between the points "
+                     "validation samples): a singularity or a function outside its domain")
+
+    def step(self, a: float, b: float, where: str, extra_load: np.ndarray | None = None, _depth: int = 0):
+        """One step from a to b (s); ``extra_load``: a nodal source vector (e.g. deformation heating, W: the same
+        power over the step). A Newton failure splits the step in two halves, recursively up to MAX_HALVINGS
+        times (the front crossing too many element layers in one step is the usual cause; the output times stay);
+        the halvings taken are counted in ``halvings``."""
+        mark = self.mark() if _depth < MAX_HALVINGS else None
+        try:
+            info = self.solver.step(a, b) if extra_load is None else self.solver.step(a, b, extra_load)
+        except ConductivityRangeError as exc:       # the temperatures reached: a shorter step does not help
+            raise SolverError(f"{where}: " + "; ".join(f"materials.{r}.conductivity_temperature_coefficient"
+                                                       for r in exc.regions) + f": {exc}") from None
+        except SolverError as exc:
+            if mark is None:
+                raise SolverError(f"{where}: {exc} (after {MAX_HALVINGS} halvings of the step, dt = "
+                                  f"{b - a:.4g} s)") from exc
+            self.rewind(mark)
+            self.halvings += 1
+            mid = 0.5 * (a + b)
+            self.step(a, mid, where, extra_load, _depth + 1)
+            return self.step(mid, b, where, extra_load, _depth + 1)
+        self.iterations.append(int(info.iterations))
+        self.dirichlet_heat.append(float(info.boundary_heat))
+        self.source_heat.append(float(info.source_heat))
+        return info
+
+    def mark(self) -> tuple:
+        """The state before a step, to repeat the step with :meth:`rewind` (coupling iterations)."""
+        return self.solver.mark(), len(self.iterations)
+
+    def rewind(self, mark: tuple) -> None:
+        """Back to the state of :meth:`mark` (the step's histories dropped)."""
+        self.solver.rewind(mark[0])
+        n = mark[1]
+        del self.iterations[n:], self.dirichlet_heat[n:], self.source_heat[n:]
+
+    def record(self, t: float) -> None:
+        """The melted volume and latent heat per region and the heat content at an output time (after the
+        steps taken so far)."""
+        e = self.solver.e
+        self._steps_at_record.append(len(self.iterations))
+        frac = self.forms.liquid_fractions(e)
+        rec = self.records
+        rec["time_s"].append(float(t))
+        for r in self.regions:
+            melted = float(parallel.allsum(self.mesh, float(self.mass[r] @ frac[:, self.group[r]])))
+            rec["melted_volume"][r].append(melted)
+            rec["latent_heat_stored"][r].append(self.latent[r] * melted)
+        rec["heat_content"].append(self.forms.heat_content(e))
+
+    # -- output -------------------------------------------------------------------------------------------
+    def phase_boundary(self) -> IsoLines | None:
+        """The liquid_fraction = 1/2 iso-line on the triangles of the phase-change regions (2D), with the
+        temperature at its points available through :meth:`IsoLines.interpolate`; None in 3D. On a distributed
+        mesh a collective call: the vertices and triangles of all parts joined in rank order
+        (:func:`~ngs_geomech.io.meshdata.mesh_arrays`, :func:`~ngs_geomech.io.meshdata.vertex_values`), the
+        same lines on every rank; interpolate takes ``vertex_values`` of a field (gathered the same way)."""
+        m = self._arrays
+        if m is None:
+            return None
+        ids = [i for i, n in enumerate(m.regions) if n in self.regions]
+        tris = m.triangles[np.isin(m.tri_region, ids)]
+        return iso_segments(m.points, tris, vertex_values(self.forms.gf_liquid_fraction), LEVEL)
+
+    def summary(self) -> dict:
+        rec = self.records
+        plane = self.mesh.dim == 2
+        supplied = np.cumsum(np.array(self.dirichlet_heat) + np.array(self.source_heat))
+        step_of_record = self._steps_at_record          # cumulative supply at each output time
+        heat_in = [float(supplied[k - 1]) if k > 0 else 0.0 for k in step_of_record]
+        dirichlet = np.cumsum(self.dirichlet_heat)
+        heat_in_dirichlet = [float(dirichlet[k - 1]) if k > 0 else 0.0 for k in step_of_record]
+        gain = [h - self.initial_heat for h in rec["heat_content"]]
+        # heat changed by the state transfers between meshes (front-following meshes) before each record
+        moved = [sum(dq for n, dq in self.transfers if n <= i) for i in range(len(gain))]
+        total_latent = [sum(rec["latent_heat_stored"][r][i] for r in self.regions) for i in range(len(gain))]
+        latent_gain = [v - total_latent[0] for v in total_latent] if total_latent else []
+        scale = max([abs(v) for v in heat_in + gain] + [1e-300])
+        imbalance = [abs(g - q - m) / scale for g, q, m in zip(gain, heat_in, moved)]
+        its = self.iterations
+        return {
+            "solver": "enthalpy form (2.55): nodal enthalpy, lumped P1, backward Euler, semi-smooth Newton",
+            "units": {"volume": "m^2 per m of depth" if plane else "m^3",
+                      "heat": "J per m of depth" if plane else "J"},
+            "phase_change_regions": {r: {"phase_change_temperature": self.forms.setup.materials[r].melting_temperature,
+                                         "latent_heat_J_per_m3": self.latent[r], "volume": self.volume[r]}
+                                     for r in self.regions},
+            "output_times_s": rec["time_s"],
+            "melted_volume": rec["melted_volume"],
+            "melted_fraction": {r: [v / self.volume[r] for v in rec["melted_volume"][r]] for r in self.regions},
+            "latent_heat_stored": rec["latent_heat_stored"],
+            "latent_heat_stored_total": total_latent,
+            "energy": {"heat_gain": gain, "latent_heat_gain": latent_gain,
+                       "sensible_heat_gain": [g - lg for g, lg in zip(gain, latent_gain)],
+                       "heat_supplied": heat_in, "heat_supplied_dirichlet": heat_in_dirichlet,
+                       "heat_supplied_sources_fluxes": [q - d for q, d in zip(heat_in, heat_in_dirichlet)],
+                       "imbalance_rel": imbalance[-1] if imbalance else 0.0,
+                       "imbalance_rel_max": max(imbalance) if imbalance else 0.0,
+                       **({"heat_transferred": moved,
+                           "transfer_note": "heat content changed by the enthalpy transfers between meshes "
+                                            "(front-following); imbalance_rel counts it: |gain - supplied - "
+                                            "transferred| / scale"} if self.transfers else {})},
+            "newton_iterations": {"mean": float(np.mean(its)) if its else 0.0, "max": int(max(its, default=0)),
+                                  "steps": len(its)},
+            "step_halvings": self.halvings,
+        }
+
+    def adopt(self, old: StefanRun, heat_change: float) -> None:
+        """Continue the histories of ``old`` (the same scene on the previous mesh) after the state was carried
+        over to this mesh with the heat content changed by ``heat_change`` (J per m of depth, or J)."""
+        self.initial_heat = old.initial_heat
+        self.halvings = old.halvings
+        for name in ("iterations", "dirichlet_heat", "source_heat", "_steps_at_record", "transfers"):
+            setattr(self, name, getattr(old, name))
+        self.records = old.records
+        self.transfers.append((len(self.records["time_s"]), float(heat_change)))
+
+    # -- checkpoints --------------------------------------------------------------------------------------
+    def capture(self) -> tuple[dict, dict]:
+        """The solver's state (:meth:`StefanSolver.capture`: the nodal enthalpy, the predictor rate, the Newton
+        matrix's reuse state) as ``stefan/...`` arrays and the lengths of the histories."""
+        arrays = {f"stefan/{k}": v for k, v in self.solver.capture().items()}
+        return arrays, {"steps": len(self.iterations), "records": len(self.records["time_s"])}
+
+    def meta(self, lengths: dict) -> dict:
+        n, k = lengths["steps"], lengths["records"]
+        rec = self.records
+        return {"initial_heat": self.initial_heat, "iterations": self.iterations[:n],
+                "dirichlet_heat": self.dirichlet_heat[:n], "source_heat": self.source_heat[:n],
+                "steps_at_record": self._steps_at_record[:k],
+                "records": {"time_s": rec["time_s"][:k], "heat_content": rec["heat_content"][:k],
+                            "melted_volume": {r: v[:k] for r, v in rec["melted_volume"].items()},
+                            "latent_heat_stored": {r: v[:k] for r, v in rec["latent_heat_stored"].items()}}}
+
+    def restore(self, arrays: dict, meta: dict) -> None:
+        self.solver.restore({k.split("/", 1)[1]: v for k, v in arrays.items() if k.startswith("stefan/")})
+        self.initial_heat = float(meta["initial_heat"])
+        self.iterations[:] = [int(i) for i in meta["iterations"]]
+        self.dirichlet_heat[:] = [float(v) for v in meta["dirichlet_heat"]]
+        self.source_heat[:] = [float(v) for v in meta["source_heat"]]
+        self._steps_at_record[:] = [int(v) for v in meta["steps_at_record"]]
+        r = meta["records"]
+        self.records["time_s"][:] = r["time_s"]
+        self.records["heat_content"][:] = r["heat_content"]
+        for name in self.regions:
+            self.records["melted_volume"][name][:] = r["melted_volume"][name]
+            self.records["latent_heat_stored"][name][:] = r["latent_heat_stored"][name]
