@@ -17,8 +17,9 @@ A quoted table stands between an opening comment on a line of its own and ``<!--
     <!-- /table -->
 
 ``convergence QUANTITY [HNAME]`` renders the results' ``convergence`` entry of that quantity (columns HNAME,
-default ``h``, dofs, error and the rate between rows, then the observed and expected order); ``metrics NAME[:FMT]
-...`` renders a table of the named metrics. Each table ends with a line naming the study and the level of its
+default ``h``, dofs, error and the rate between rows, then the observed and expected order); ``orders [PREFIX]``
+the observed and expected order of every convergence entry (whose quantity starts with PREFIX); ``metrics
+NAME[:FMT] ...`` a table of the named metrics. Each table ends with a line naming the study and the level of its
 results, so a reader sees which level a table is from.
 """
 
@@ -37,7 +38,7 @@ QUOTE = re.compile(r"<!-- q (?P<study>[a-z0-9_]+) (?P<metric>[A-Za-z0-9_]+)(?: (
                    r"(?P<value>.*?)<!-- /q -->")
 
 
-TABLE = re.compile(r"<!-- table (?P<study>[a-z0-9_]+) (?P<kind>convergence|metrics) (?P<args>[^>]*?) -->\n"
+TABLE = re.compile(r"<!-- table (?P<study>[a-z0-9_]+) (?P<kind>convergence|orders|metrics)(?: (?P<args>[^>]*?))? -->\n"
                    r"(?P<body>.*?)<!-- /table -->", re.S)
 
 
@@ -83,8 +84,24 @@ def convergence_table(study: str, quantity: str, hname: str = "h") -> str:
         rows.append(f"| {h:.4g} | {d} | {e:.3e} | {rate} |")
     order = c["observed_order"]
     observed = "-" if order is None else f"{order:.2f}"
-    rows += ["", f"*`{quantity}`: observed order {observed} (expected {c['expected_order']}); "
+    rows += ["", f"*`{quantity}`: observed order {observed} (expected {_expected(c['expected_order'])}); "
                  f"`{study}`, level {data['level']}.*"]
+    return "\n".join(rows) + "\n"
+
+
+def _expected(value) -> str:
+    return format(value, ".3g") if isinstance(value, float) else str(value)
+
+
+def orders_table(study: str, prefix: str = "") -> str:
+    """The Markdown table of the observed and expected orders of a study's convergence entries."""
+    data = results(study)
+    rows = ["| quantity | finest error | observed order | expected |", "| --- | --- | --- | --- |"]
+    for c in data["convergence"]:
+        if c["quantity"].startswith(prefix):
+            order = "-" if c["observed_order"] is None else f"{c['observed_order']:.2f}"
+            rows.append(f"| `{c['quantity']}` | {c['errors'][-1]:.2e} | {order} | {_expected(c['expected_order'])} |")
+    rows += ["", f"*`{study}`, level {data['level']}.*"]
     return "\n".join(rows) + "\n"
 
 
@@ -104,13 +121,15 @@ def render(text: str) -> tuple[str, list[str]]:
     changed = []
 
     def table(m: re.Match) -> str:
-        args = m["args"].split()
+        args = (m["args"] or "").split()
         if m["kind"] == "convergence":
             body = convergence_table(m["study"], *args[:2])
+        elif m["kind"] == "orders":
+            body = orders_table(m["study"], *args[:1])
         else:
             body = metrics_table(m["study"], args)
         if body != m["body"]:
-            changed.append(f"{m['study']} table {m['kind']} {m['args']}: rows differ")
+            changed.append(f"{m['study']} table {m['kind']} {m['args'] or ''}: rows differ")
         return m[0].replace(f"-->\n{m['body']}<!-- /table -->", f"-->\n{body}<!-- /table -->")
 
     text = TABLE.sub(table, text)
