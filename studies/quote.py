@@ -89,6 +89,13 @@ def convergence_table(study: str, quantity: str, hname: str = "h") -> str:
     return "\n".join(rows) + "\n"
 
 
+def _format(value: float | int, fmt: str) -> str:
+    """``value`` in format ``fmt``; ``d`` takes a float that holds an integer (counts stored as floats)."""
+    if fmt.endswith("d") and isinstance(value, float) and value.is_integer():
+        value = int(value)
+    return format(value, fmt)
+
+
 def _expected(value) -> str:
     return format(value, ".3g") if isinstance(value, float) else str(value)
 
@@ -111,7 +118,7 @@ def metrics_table(study: str, names: list[str]) -> str:
     rows = ["| metric | value |", "| --- | --- |"]
     for item in names:
         name, _, fmt = item.partition(":")
-        rows.append(f"| `{name}` | {format(metric(study, name), fmt or '.3g')} |")
+        rows.append(f"| `{name}` | {_format(metric(study, name), fmt or '.3g')} |")
     rows += ["", f"*`{study}`, level {data['level']}.*"]
     return "\n".join(rows) + "\n"
 
@@ -136,7 +143,7 @@ def render(text: str) -> tuple[str, list[str]]:
 
     def fill(m: re.Match) -> str:
         fmt = m["fmt"] or ".3g"
-        value = format(metric(m["study"], m["metric"]), fmt)
+        value = _format(metric(m["study"], m["metric"]), fmt)
         if value != m["value"]:
             changed.append(f"{m['study']}.{m['metric']}: {m['value']!r} -> {value!r}")
         return m[0].replace(f"-->{m['value']}<!-- /q -->", f"-->{value}<!-- /q -->")
