@@ -103,7 +103,7 @@ def _expected(value) -> str:
 def orders_table(study: str, prefix: str = "") -> str:
     """The Markdown table of the observed and expected orders of a study's convergence entries."""
     data = results(study)
-    rows = ["| quantity | finest error | observed order | expected |", "| --- | --- | --- | --- |"]
+    rows = ["| quantity | finest value | observed order | expected |", "| --- | --- | --- | --- |"]
     for c in data["convergence"]:
         if c["quantity"].startswith(prefix):
             order = "-" if c["observed_order"] is None else f"{c['observed_order']:.2f}"
