@@ -14,18 +14,15 @@ P1 and P2. (3) Near incompressibility: plane strain manufactured u = curl psi + 
 nu = 0.3 and 0.4999, P1 and P2: relative errors of u (L2, H1) and of the stress; with the displacement
 formulation P1 locks (and P2's stress is poor), with the mixed displacement-pressure formulation (Taylor-Hood
 P2-P1, stabilized P1-P1; ``formulation = "mixed"``, what "auto" picks at nu > 0.45) the errors at nu = 0.4999 are
-within 7 % of the compressible ones (H1 ratio 1.07 at h = 0.025, P1 and P2), optimal orders.
+close to the compressible ones, with optimal orders.
 
 Command: ``python studies/thermoelastic_verification/run.py --level 0 --out out/thermoelastic_verification``
 (writes ``results.json``; prints the tables).
 
-Cost on 2 cores (measured while other jobs shared them): level 0 8-14 s before the mixed-formulation runs, 54 s
-with them on a busy machine (near incompressibility 27 s of it); since 2026-11-26 level 0 stops the manufactured
-and near-incompressibility runs at h = 0.05 (12 s alone; h = 0.025 is level 1's), for the default suite's
-10-minute limit; level 1 (cylinders down to
-h = 0.025, manufactured and near incompressibility to h = 0.0125) about 26 s; level 2 (cylinders to
-h = 0.0125, free ends 1.07M dofs; manufactured and near incompressibility to h = 0.00625, 240k dofs) about
-5 min.
+Cost on one NGSolve thread: level 0 (manufactured and near-incompressibility runs to h = 0.05) about 30 s;
+level 1 (cylinders down to h = 0.025, manufactured and near incompressibility to h = 0.0125) about a minute;
+level 2 (cylinders to h = 0.0125, free ends 1.07M dofs; manufactured and near incompressibility to
+h = 0.00625, 240k dofs) about 5 min.
 """
 
 from __future__ import annotations
