@@ -2,19 +2,19 @@
 
 Physics. (1) Thick-walled cylinder a = 1 < r < b = 2 m with free surfaces, steady temperature from the thermal
 solve (100 K at r = a, 0 at r = b, stress free at 0), E = 70 GPa, nu = 0.25, alpha = 8e-6 1/K, P2, against the
-closed forms (verification.md section 4): a plane strain quarter ring with symmetry conditions on its straight
-edges, an axisymmetric section 0 < z < 0.5 m with u_z = 0 on both ends (plane strain), and an axisymmetric
-free-ended cylinder 0 < z < 12 m (symmetry at z = 0) compared at z <= 1 m with the generalized plane strain
-closed form. Error: max over sample radii of |sigma_h - sigma| per component (r, theta, z), divided by
-max |sigma_theta| = 45.7 MPa. (2) Manufactured plane strain thermo-elasticity on the unit square split at
-x = 0.5 into an orthotropic (rotated) and a fully anisotropic region with anisotropic thermal expansion
-tensors, displacement and traction continuous across x = 0.5, temperature from the thermal solve of a
-manufactured T (same elements), exact body force (ElasticSetup.body_force) and Dirichlet data: L2/H1 orders of
-P1 and P2. (3) Near incompressibility: plane strain manufactured u = curl psi + (mu/lambda) grad phi at
-nu = 0.3 and 0.4999, P1 and P2: relative errors of u (L2, H1) and of the stress; with the displacement
-formulation P1 locks (and P2's stress is poor), with the mixed displacement-pressure formulation (Taylor-Hood
-P2-P1, stabilized P1-P1; ``formulation = "mixed"``, what "auto" picks at nu > 0.45) the errors at nu = 0.4999 are
-close to the compressible ones, with optimal orders.
+closed forms (:mod:`ngs_geomech.verification.thermoelastic`): a plane strain quarter ring with symmetry conditions
+on its straight edges, an axisymmetric section 0 < z < 0.5 m with u_z = 0 on both ends (plane strain), and an
+axisymmetric free-ended cylinder 0 < z < 12 m (symmetry at z = 0) compared at z <= 1 m with the generalized plane
+strain closed form. Error: max over sample radii of |sigma_h - sigma| per component (r, theta, z), divided by max
+|sigma_theta| = 45.7 MPa. (2) Manufactured plane strain thermo-elasticity on the unit square split at x = 0.5 into
+an orthotropic (rotated) and a fully anisotropic region with anisotropic thermal expansion tensors, displacement
+and traction continuous across x = 0.5, temperature from the thermal solve of a manufactured T (same elements),
+exact body force (ElasticSetup.body_force) and Dirichlet data: L2/H1 orders of P1 and P2. (3) Near
+incompressibility: plane strain manufactured u = curl psi + (mu/lambda) grad phi at nu = 0.3 and 0.4999, P1 and P2:
+relative errors of u (L2, H1) and of the stress; with the displacement formulation P1 locks (and P2's stress is
+poor), with the mixed displacement-pressure formulation (Taylor-Hood P2-P1, stabilized P1-P1; ``formulation =
+"mixed"``, what "auto" picks at nu > 0.45) the errors at nu = 0.4999 are close to the compressible ones, with
+optimal orders.
 
 Command: ``python studies/thermoelastic_verification/run.py --level 0 --out out/thermoelastic_verification``
 (writes ``results.json``; prints the tables).
@@ -47,7 +47,7 @@ LEVELS = {
 """Per level: the cylinder level (mesh sizes in te.CYLINDER_LEVELS), mesh sizes (m) of the manufactured and
 near-incompressibility runs."""
 EXPECTED = {(1, "l2"): 2, (1, "h1"): 1, (1, "stress"): 1, (2, "l2"): 3, (2, "h1"): 2, (2, "stress"): 2}
-"""Expected orders of smooth, compressible problems (verification.md section 6)."""
+"""Expected orders of smooth, compressible problems: h^(p+1) in L2, h^p in H1 and in the stress."""
 NUS = (0.3, 0.4999)
 
 
