@@ -15,7 +15,7 @@ def test_every_quoted_number_equals_its_committed_result():
     stale, count = [], 0
     for path in quote.documents():
         text = path.read_text()
-        count += len(quote.QUOTE.findall(text))
+        count += len(quote.QUOTE.findall(text)) + len(quote.TABLE.findall(text))
         stale += [f"{path.name}: {c}" for c in quote.render(text)[1]]
     assert count > 0, "no quoted numbers found: the marker syntax changed?"
     assert not stale, "stale quoted numbers (run python studies/quote.py):\n" + "\n".join(stale)
@@ -31,3 +31,11 @@ def test_a_stale_number_and_a_missing_metric_are_reported(tmp_path):
         assert "no_such_metric" in str(exc)
     else:
         raise AssertionError("a quote of a missing metric must fail")
+
+
+def test_a_stale_table_is_reported_and_rendered_from_the_results():
+    text = "<!-- table scene_figures metrics contact_melting_stick_nodes:d -->\n| stale |\n<!-- /table -->"
+    new, changed = quote.render(text)
+    assert changed and "| stale |" not in new
+    assert "| `contact_melting_stick_nodes` | " in new and "level" in new
+    assert quote.render(new) == (new, [])

@@ -14,35 +14,13 @@ switches per node (chattering), the rebound velocity; the consistent mass (no re
 Command: ``python studies/dynamics_verification/run.py --level 0 --out out/dynamics_verification``
 (writes ``results.json``; prints the tables).
 
-Cost on 2 cores (one NGSolve thread, measured with the process start): level 0 1.5 s, level 1 2.3 s, level 2 3.4 s.
+Cost on one NGSolve thread: level 0 about 2 s, level 1 about 3 s, level 2 about 4 s.
 
-Measured (level 0, 2 cores, one thread):
-
-    bar, h = L/4, L/8, L/16 (dt = T/1000): frequency rel. error 5.81e-3, 1.52e-3, 3.88e-4: order 1.95 (P1, 2)
-    bar, h = L/16, dt = T/10, T/20, T/40: time rel. error 3.11e-2, 8.11e-3, 2.05e-3: order 1.96 (2), equal to the
-        closed form of the rule tan(Omega dt/2) = omega_h dt/2 to 1e-9; energy drift over a period 8e-13
-    Kelvin-Voigt creep + recovery, dt = 0.1, 0.05, 0.025 tau: max rel. error 2.27e-2, 1.16e-2, 5.86e-3: order 0.98
-        (backward Euler, 1)
-    SLS creep, same dt: 5.39e-5, 1.35e-5, 3.37e-6: order 2.00 (exponential branch rule after the jump at t = 0)
-    SLS relaxation: 4e-15 (the exponential rule is exact for a constant strain)
-    impact, h = L/8, L/16, L/32 (dt = h/c): energy gain 1.5e-14, 1.6e-14, 8.5e-14 (relative, round-off; also no
-        loss: the contact starts at g = 0, stays closed, and opens with lam = 0); duration error 1/16, 1/32, 1/64
-        (one step late: 2n + 1 steps instead of 2n); 2 status switches per node (closes once, opens once);
-        penetration < 1e-20 m
-    impact with the consistent mass (h = L/16): 4 switches on one node (chattering), 0.33 % of the energy lost;
-        lumped without redistribution: 6 switches on a node, 2.6 % lost.
-
-Level 2 (h down to L/64 for the bar, L/128 for the impact, dt down to tau/160): frequency error 2.17e-5 (order
-2.01 in h, 1.98 in dt), Kelvin-Voigt 1.48e-3 (0.99), SLS creep 2.1e-7 (2.00), impact energy gain 9.8e-13 (round-off
-growing with the number of steps), duration 2n + 1 or 2n + 2 steps (errors 1/16, 1/32, 1/64, 1/64, 1/128: order
-0.70 fitted, one or two steps late), rebound 0.985 v0, mean contact pressure 0.985 rho c v0.
-
-What falls short: the rebound velocity of the column is 0.932, 0.951, 0.966, 0.977 v0 for h = L/8 ... L/64 (order
-about 0.5: the dispersion of the P1 / Newmark wave leaves part of the energy as vibration of the released column;
-the closed form is a perfect rebound); the mean contact pressure is 0.91 ... 0.97 rho c v0 for the same reason. The
-contact duration converges with order 1 (one step, not better: the release is detected at step ends). The energy
-statement holds for rho_inf = 1; generalized-alpha with rho_inf < 1 dissipates (3 % at rho_inf = 0.5 in the impact)
-but gains nothing here. Friction in the dynamic solver acts on the slip increment of the step.
+Limits: the rebound velocity of the column and its mean contact pressure approach the closed form (a perfect
+rebound) slowly, at about half order, because the dispersion of the P1 / Newmark wave leaves part of the energy
+as vibration of the released column; the contact duration converges with order 1 (the release is detected at
+step ends). The energy statement holds for rho_inf = 1; generalized-alpha with rho_inf < 1 dissipates but gains
+nothing. Friction in the dynamic solver acts on the slip increment of the step.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Stability at the extremes (issue 8 section 2): a test matrix of small problems at the edges of the parameter
+"""Stability at the extremes: a test matrix of small problems at the edges of the parameter
 ranges, each classified as 'accurate', 'clear_error' or 'nan_or_hang'.
 
 Every case is a small problem run through the product's public paths (scene dicts through
@@ -24,71 +24,17 @@ aspect ratio 1.6e2, 1.6e3 and a 10 um thin bar; coarse (maxh 100 m on 1 m) and v
 solutions); geologic (100 km, 1e5 years, 2.6 GPa) against laboratory (1 cm, 10 s) scales with the same scaled
 problem (transient heat against erfc, a gravity column, the heated bar between foundations).
 
-Measured at level 0 (one NGSolve thread, 2 shared cores): 72 cases, 62 accurate, 10 clear errors, 0 nan_or_hang
-(at first 71 cases, 55 / 10 / 6: the contact cases below were fixed; then 60 / 10 / 2 until the mixed
-displacement-pressure formulation fixed the P2 mean stress at nu = 0.49 and 0.4999);
-8 s in all (the slowest case, the fine heat patch test at 18.7k dofs, 2.7 s). Per group (acc = accurate,
-error / tolerance; clear = clear_error and the item its message names):
-
-- Poisson ratio: 0.3: acc 1.5e-3/1e-2; 0.45: acc 5.2e-3 (displacement formulation); 0.49, 0.4999: acc 3.7e-4
-  (mixed formulation, 'auto' above nu = 0.45; were nan_or_hang 2.8e-2, 3.2); u_r + deviatoric 0.49, 0.4999: acc
-  4.7e-4 (were 1.7e-3, 5.5e-3); 0.5: clear (materials.wall.poisson_ratio)
-- stiffness contrast: contact 1e-6, 1, 1e6: acc 4e-11/1e-6; glued 1e6, 1e-6: acc 7e-11, 9e-16
-- gaps and overlaps: gap closes 3.7e-11, stays open 8e-11, gap with contrast 1e6 3.6e-11; overlap heated
-  3.3e-11/1e-8; overlap without heating: acc 3.3e-11 (was nan_or_hang: 'not held by the active contact set')
-- anisotropy: glued 1, 1e2, 1e4: acc 3-4e-16/1e-8; contact 1e4: acc 1.9e-13
-- lambda law: lam 0.3, 0.5, 1, 2, 3 Newton and 0.3, 3 secant: acc <= 5e-15/1e-6; lam 0, -1: clear
-  (materials.rock.rheology_lambda)
-- Stefan number: one phase 0.01, 0.1, 1, 10, 100: acc 7e-5 ... 1.8e-2/3e-2; two phases 0.01, 100: acc 7e-4, 9e-3;
-  energy balance <= 1e-8
-- dt vs h^2/a: Stefan 1e-3: acc 2.8e-3/3e-2; Stefan 1e3: acc 7.5e-3/5e-2 (Newton mean 11.9); heat BE 1e-4:
-  8e-15/1e-8; BE ~4e2: 1.1e-2/2e-2 (order 0.95); CN ~4e2: 3.4e-4 (order 3.35)
-- slip bound g_c: 0 moved: acc 0; 0 pushed: clear (body block: translation along x is not held); 5e4 pushed:
-  acc 1.5e-13 (was nan_or_hang); 1e6 pushed / moved: acc 8e-15, 2e-11; 1e15 (stick everywhere): acc 6e-15, no slip node
-- Coulomb F_c: 0 in a scene (frictionless) pushed: clear (body block: translation along x is not held), moved: acc
-  0; 0 in ContactLaw: clear; 1e-3, 1e-2 pushed: acc 1.3e-11, 1e-13 (were nan_or_hang); 0.1, 0.3, 1 pushed,
-  1 at 0.99 capacity, 1 moved: acc <= 2e-14/1e-8
-- floating bodies: held by Coulomb contact only (two blocks): acc 1.2e-12; pushed over capacity, pulled off: clear
-  (body block: translation along x / y is not held); no support at all: clear (translation along x of body loose)
-- aspect ratio, mesh size: aspect 161, 1.6e3: acc 2e-12, 1e-11; 10 um bar: clear (blocks.rock: netgen could not
-  mesh this block); maxh 100 m on a 1 m bar, maxh 10 m heat patch: acc 6e-16, 4e-16; fine bar (5.7k elements),
-  fine heat patch (18.7k dofs): acc 2e-14, 5e-14
-- scales: heat erfc: acc 7.3e-4/1e-2, geologic and laboratory scaled answers 2.1e-5 apart (netgen meshes differ
-  slightly); gravity column: acc 5e-15, same to 1e-15; heated bar: acc 5.6e-11, same p
-
-What failed at first and how it was fixed:
-- A second body with no support at all (two blocks, one fixed, the other loose under gravity, no contact) ran
-  to the end: the rigid motions were checked for the whole mesh, which one held body already holds, so the
-  singular system was solved without a word. ``ElasticForms.unheld_rigid_motions`` (physics/elasticity.py)
-  now checks body by body; the run stops with "the bodies are not held against translation along x of body
-  loose, ...".
-- A 1 m x 10 um block with maxh = 1 m: netgen meshed 26 % of it (reporting the failure on stdout only) and the
-  elastic solve failed with "the matrix is singular: a body without enough displacement or symmetry
-  conditions" (wrong cause). ``make_mesh`` (geometry/mesh.py) now compares each block's meshed area (volume)
-  with the geometry's and stops naming the block ("blocks.rock: netgen could not mesh this block (the mesh
-  covers 26 % of it ...)").
-- ContactSolver stopped on solvable floating blocks with a small friction (Tresca g_c = 5e4 Pa, Coulomb
-  F_c <= 0.01 under 5 MPa, pushed at half the capacity: "not held by the active contact set"): the block spreads
-  under its load, so its nodes slip both ways; the solver reset every node to stick when all slipped, and the sets
-  cycled. Fixed in solvers/contact.py: the point where the slip direction turns is moved until one sticking node
-  can balance the load within its bound, the shift's residual along the rigid motions is refined away (it was
-  2e-4 of the load: enough to call a held body unheld).
-- A contact problem driven by its gaps alone (no load vector) was refused ("not held" at iteration 1): the
-  rigid-motion balance was measured against the load norm, 0 here; now against the contact forces too.
-- F_c = 0 was refused in scenes ("must be positive"); it is now frictionless contact (the issue's range 0 ... 1).
-- The P2 mean stress near nu = 1/2 (error ~ h / (1 - 2 nu): 2.8e-2 at 0.49, 3.2 at 0.4999; displacements and
-  deviatoric stresses stayed accurate): an element-wise B-bar projection was measured and not adopted (docs/
-  design.md); fixed by the mixed displacement-pressure formulation (physics/elasticity.py, ElasticSetup.formulation
-  'auto': Taylor-Hood P2-P1 in isotropic linear regions with nu > 0.45): 3.7e-4 at both.
-- The study's own first versions: the glued contrast case with nu = 0.25 is not uniaxial (the lateral strains
-  differ across the glued interface), the sliding cases moved the block by 1 mm, which at F_c = 1 is just the
-  strain the capacity needs (the far end stuck), the closed-form helper of the heated bar (heated_bar_pressure,
-  brentq on a bracket 10 alpha dT wide) fails without heating (a closed form is given here), the scale comparison
-  of the heat problem cannot be 1e-8 on two netgen meshes.
+What the cases guard: a body with no support at all is named (rigid motions are checked body by body); a
+block netgen cannot mesh completely is named with the share it covers; floating blocks with small friction
+whose nodes slip both ways are solved (the slip-direction turning point is moved until one sticking node
+balances the load); a contact problem driven by its gaps alone is solved; F_c = 0 is frictionless contact;
+the P2 mean stress near nu = 1/2 is accurate with the mixed displacement-pressure formulation.
 
 Command: ``python studies/extremes/run.py --level 0 --out out/extremes`` (writes ``results.json`` with the
 metrics and the per-case table under ``cases``; prints the table). Level 1 refines the Stefan strips (h = 0.025)
-and the 'very fine' meshes (h = 0.004); not measured, expect about 30 s. Cost of level 0: 8-10 s on 2 cores.
+and the 'very fine' meshes (h = 0.004).
+
+Cost on one NGSolve thread: level 0 about 8 s, level 1 about 30 s.
 """
 
 from __future__ import annotations

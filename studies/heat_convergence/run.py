@@ -14,9 +14,9 @@ run_scene), from :mod:`ngs_geomech.verification.point_source`.
 Command: ``python studies/heat_convergence/run.py --level 0 --out out/heat_convergence``
 (writes ``results.json``; prints the tables).
 
-Cost on 2 cores (measured while other jobs shared them): level 0 about 15 s, of which the point source
-run is 12 s; level 1 (one more refinement in h and dt) about 80 s (point source 60 s); level 2 (h down to
-1/80, P2 up to ~60k dofs; point source 43k dofs, 552 steps) about 4 min (point source 3.5 min).
+Cost on one NGSolve thread: level 0 about 25 s, most of it the point source run; level 1 (one more
+refinement in h and dt) about 80 s; level 2 (h down to 1/80, P2 up to ~60k dofs; point source 43k dofs, 552
+steps) about 4 min.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ LEVELS = {
 }
 """Mesh sizes (m) of the steady runs, time steps (s) of the transient runs, slab mesh sizes (m) per level."""
 EXPECTED = {(1, "l2"): 2, (1, "h1"): 1, (2, "l2"): 3, (2, "h1"): 2}
-"""Expected orders of smooth problems (verification.md section 6)."""
+"""Expected orders of smooth problems: h^(p+1) in L2, h^p in H1."""
 
 
 def run(level: int) -> tuple[dict, dict]:

@@ -1,97 +1,42 @@
-"""Mesh convergence, uniform against adaptive refinement (issue 6 section 3, the (2.35)-(2.36) checks): error
-against dofs and wall time for a heat problem with a re-entrant corner and for Hertz contact, and the effectivity
-indices of the a posteriori estimators.
+"""Mesh convergence, uniform against adaptive refinement (the (2.35)-(2.36) checks): error against dofs and wall
+time for a heat problem with a re-entrant corner, for Hertz contact and for the Stefan front, and the
+effectivity indices of the a posteriori estimators.
 
 Physics. (1) Effectivity indices eta / ||e|| (energy norm) of the Zienkiewicz-Zhu recovery estimator ("zz") and
 the explicit residual estimator ("residual", :mod:`ngs_geomech.adapt.estimators`) on the manufactured steady
 two-region anisotropic heat solution (:mod:`ngs_geomech.verification.manufactured`, glued, kappa
 [[2, .5], [.5, 1]] / [[1, -.3], [-.3, 3]] W/(m K)) and the two-region anisotropic plane-strain thermo-elastic
-solution (:mod:`ngs_geomech.verification.thermoelastic`), P1 and P2, h = 0.2, 0.1, 0.05 m. (2) The re-entrant
-corner: Laplace on the L-shaped domain (-1, 1)^2 minus [0, 1] x [-1, 0] with T = r^(2/3) sin(2 theta/3) (exact
-energy error by Galerkin orthogonality), P1 from maxh = 0.5: uniform refinement (every element bisected) against
-the adaptive loop (Doerfler theta = 0.5) with each estimator; orders fitted in dofs over the meshes with at least
-4x the start dofs (optimal P1: 1/2; the singularity limits uniform meshes to 1/3). (3) Hertz line contact
-(:func:`ngs_geomech.verification.contact_problems.hertz`, P1, frictionless, quarter cylinder R = 1 m on a rigid
-flat, a = R/50), from a start mesh with h = a/2 on the contact arc: uniform refinement against the adaptive loop
-(ZZ stress recovery + the contact-zone indicator with the whole contact zone flagged, Doerfler 0.5; the forms and
-contact operators rebuilt and the mesh curved again after every refinement, the contact solver warm-started from
-the last active set). Errors: p0 (nodal pressure on the axis) against a reference p0 from a finer adaptive run
-(the closed form is a half space's: the finite cylinder differs from it by ~2-3e-3, which no refinement removes;
-the error against the closed form is reported too), and the half width (midpoint of the last contact node and the
-first open one) against the closed form. (4) The Neumann two-phase Stefan strip (verification/stefan.py, t = 0.05
--> 0.5 s): uniform meshes (dt = 0.2 h) against front-following meshes (:mod:`ngs_geomech.adapt.stefan`: netgen
-remeshes the strip from a 0.05 m base with the size restricted to 0.05 / 2^levels on the elements the iso-line 1/2
-crosses plus 2 levels + 2 rings, whenever the front is about to leave that band; the enthalpy carried over by the
-lumped projection; dt = 0.2 h_fine); error of the front from the melted volume.
+solution (:mod:`ngs_geomech.verification.thermoelastic`), P1 and P2, h = 0.2, 0.1, 0.05 m. For P2 the ZZ estimator
+uses the superconvergent patch recovery (the averaging recovery underestimates for P2 on unstructured meshes).
+(2) The re-entrant corner: Laplace on the L-shaped domain (-1, 1)^2 minus [0, 1] x [-1, 0] with
+T = r^(2/3) sin(2 theta/3) (exact energy error by Galerkin orthogonality), P1 from maxh = 0.5: uniform refinement
+(every element bisected) against the adaptive loop (Doerfler theta = 0.5) with each estimator; orders fitted in
+dofs over the meshes with at least 4x the start dofs (optimal P1: 1/2; the singularity limits uniform meshes to
+1/3). (3) Hertz line contact (:func:`ngs_geomech.verification.contact_problems.hertz`, P1, frictionless, quarter
+cylinder R = 1 m on a rigid flat, a = R/50), from a start mesh with h = a/2 on the contact arc: uniform refinement
+against the adaptive loop (ZZ stress recovery + the contact-zone indicator, Doerfler 0.5; the forms and contact
+operators rebuilt and the mesh curved again after every refinement, the contact solver warm-started from the last
+active set). Errors: p0 (nodal pressure on the axis) against a reference p0 from a finer adaptive run (the closed
+form is a half space's, from which the finite cylinder differs by a fixed amount that no refinement removes; the
+error against the closed form is reported too), and the half width against the closed form (a node-position
+quantity that jumps between steps: the headline ratios use p0). (4) The Neumann two-phase Stefan strip
+(:mod:`ngs_geomech.verification.stefan`, t = 0.05 -> 0.5 s): uniform meshes (dt = 0.2 h) against front-following
+meshes (:mod:`ngs_geomech.adapt.stefan`: the strip remeshed from a 0.05 m base with the size 0.05 / 2^levels at the
+front whenever it is about to leave its band, the enthalpy carried over by the lumped projection; dt = 0.2
+h_fine); error of the front from the melted volume.
 
 Ratios: the first adaptive step whose error is at most the finest uniform mesh's: its dofs over the finest
-uniform mesh's dofs (``hertz_dof_ratio_adaptive_vs_uniform``, p0 against the reference), and the adaptive run's
-cumulative wall time to that step (every solve on the coarser meshes, estimates, refinements) over ONE solve on the
-finest uniform mesh (forms, contact operator, contact solve; its mesh refinement not counted)
-(``hertz_time_ratio_adaptive_vs_uniform``). Targets (issue 6): <= 1/5 of the dofs, <= 1/3 of the wall time;
-effectivity indices within [0.5, 3].
+uniform mesh's dofs (``*_dof_ratio_adaptive_vs_uniform``), and the adaptive run's cumulative wall time to that
+step (every solve on the coarser meshes, estimates, refinements) over ONE solve on the finest uniform mesh
+(``*_time_ratio_adaptive_vs_uniform``). Targets, reported: <= 1/5 of the dofs, <= 1/3 of the wall time;
+effectivity indices within [0.5, 3]. On small meshes the fixed costs of each adaptive solve (forms, contact
+operators built in Python, netgen remeshing) weigh more, so the time ratios improve with the level.
 
 Command: ``python studies/mesh_convergence/run.py --level 0 --out out/mesh_convergence`` (writes
-``results.json``; prints the tables). One NGSolve thread.
+``results.json``; prints the tables). One NGSolve thread. Levels: 0 the corner to ~12k adaptive dofs, Hertz
+adaptive to 20k dofs, Stefan h to 0.0125; 1 the corner to ~180k dofs, Hertz uniform to 123k, Stefan h to 0.003125.
 
-Measured (2 shared cores, one NGSolve thread; level 0 16-24 s alone, 42 s beside other jobs; level 1 about 2 min):
-
-    effectivity (h = 0.2, 0.1, 0.05)   P1 zz            P1 residual      P2 zz            P2 residual
-    heat (two regions, anisotropic)    1.00 1.02 1.01   1.91 1.88 1.92   1.02 1.01 1.03   1.69 1.64 1.65
-    thermo-elastic (two regions)       0.98 1.00 1.00   1.45 1.50 1.46   1.02 1.01 1.02   1.70 1.73 1.65
-    effectivity_min 0.977, effectivity_max 1.917 (level 0; target [0.5, 3] met, effectivity_target_met 1)
-    (level 1 adds h = 0.025: P1 1.00 / 1.91 heat, 1.00 / 1.47 elastic; P2 zz 1.03 heat, 1.03 elastic; at
-    h = 0.0125, outside the study: 1.04 / 1.03. P2 zz is the superconvergent patch recovery, the default for
-    p >= 2; the averaging recovery it replaced gave 0.63 0.50 0.43 heat, 0.70 0.63 0.56 elastic, falling with h.
-    P3, not part of the study: zz 1.34 1.21 1.05 heat, 1.06 1.08 1.02 elastic; residual 1.73-1.96)
-
-    corner, P1 energy error     uniform            adaptive zz                  adaptive residual
-    level 0                     0.34 (to 2945)     0.51 (to 11.6k dofs)         0.51 (to 10.4k)
-    level 1                     0.34 (to 45.6k)    0.51 (to 183k)               0.51
-    effectivity along the runs  zz 1.00-1.10, residual 0.76-1.00
-    finest uniform error 5.08e-2 (2945 dofs, level 0) reached adaptively with 0.17 of the dofs (zz; residual
-    0.16); level 1: 2.04e-2 at 45.6k uniform dofs, with 0.073 (zz) / 0.068 (residual) of the dofs
-
-    Hertz P1, p0 error against the reference (adaptive, ~100k dofs level 0, ~250k level 1; it differs from the
-    half-space closed form by +2.5e-3 / +2.6e-3):
-        level 0  uniform  156 548 2046 7898 31026 dofs:      2.0e-1 8.4e-2 7.6e-2 3.7e-2 1.8e-2
-                 adaptive 156 240 440 906 1768 3690 7122 13936 26672 dofs:
-                          2.0e-1 8.3e-2 6.9e-2 3.5e-2 1.7e-2 7.7e-3 4.2e-3 1.7e-3 7.8e-4
-                 (since 2026-11-26 level 0 stops the adaptive run at 20k dofs and its reference at ~60k, for the
-                 suite's time: the same uniform errors, adaptive 2.0e-1 ... 1.5e-3 at 13.9k dofs, dof ratio 0.057,
-                 reference 2.2e-3 from the closed form; hertz 16 s of the study's 27 s alone)
-                 -> the finest uniform error (1.8e-2, 31k dofs) at 1768 adaptive dofs: dof ratio 0.057; time ratio
-                    0.20-0.22 (0.21 s of adaptive loop against 0.95-1.0 s for the one solve on the finest uniform mesh)
-        level 1  uniform to 123k dofs: 9.3e-3; adaptive reaches it at 3690 dofs: dof ratio 0.030, time ratio 0.086
-                 (0.36 s against 4.1 s); the adaptive run goes on to 1.6e-4 at 98k dofs
-        orders in dofs: uniform 0.42-0.44 (p0), adaptive ~1.0 (p0 is a nodal value at the axis, where the
-        contact-zone indicator refines every step)
-    Stefan front (level 1 measured alone; relative front error, dofs of the front-following runs = mean over the
-    steps):
-        uniform  h = 0.025 0.0125 0.00625 0.003125:   717 2842 10806 42051 dofs, 6.34e-3 3.34e-3 1.37e-3 6.34e-4,
-                 0.04 0.27 1.41 25.4 s
-        front    levels 2 3 4 (h_min 0.013 0.0065 0.0032): 391 636 1048 dofs, 3.25e-3 2.28e-3 3.81e-4, 0.30 0.69 3.15 s,
-                 2 2 9 remeshes, heat change per transfer <= 8e-6, energy balance 6e-15
-        -> the finest uniform error (6.3e-4) at 4 levels: stefan_dof_ratio 0.025, stefan_time_ratio 0.12 (targets
-           1/5, 1/3: met). The front error of the front-following runs is not monotone in the levels (3 levels:
-           2.3e-3, worse than the uniform mesh of the same finest size): away from the band the mesh is the
-           0.05 m base, whose flux error reaches the front; a gradient (ZZ) criterion beside the front indicator
-           is the next step. Level 0 (h to 0.0125, levels 1-2): dof ratio 0.14, time ratio 1.2 (netgen's
-           remeshing dominates such small runs).
-    Contact solver warm start from the previous active set (same adaptive meshes, 156 ... 51k dofs): 1-2
-    iterations and one factorization per mesh, against 5-14 iterations and 1-4 factorizations cold (contact solve
-    0.6 s instead of 2.8 s at 51k dofs). The uniform series is warm-started too, so its solve time, the
-    denominator of the time ratio, is the favourable one.
-
-The P2 ZZ figures come from the superconvergent patch recovery (``recovery="spr"``, the default for p >= 2):
-the averaging recovery underestimates for P2 (0.43-0.70, falling with h: the averaged field is not superconvergent
-on these unstructured meshes; L2-projection recovery was worse, 0.25-0.37); both stay available by name.
-
-What falls short: on small Hertz meshes the fixed costs of each adaptive solve (forms, contact operator built in
-Python) weigh more: the time ratio was 0.5 when the finest uniform mesh had 8k dofs (the test's size), 0.2 at 31k
-and 0.09 at 123k. The half-width error is a node-position quantity and jumps between steps (0.2 % ... 8 %):
-its ratio metrics (``hertz_half_width_*``) are reported, the headline ratios use p0. The ZZ/residual effectivities
-on the Hertz problem itself are not measured (no exact solution).
+Cost on one thread: level 0 about 11 s, level 1 about 2-3 minutes.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The contact part of studies/scaling (issue 10): the Newton steps of the frictional contact solver by GMRES
+"""The contact part of studies/scaling: the Newton steps of the frictional contact solver by GMRES
 with the augmented-Lagrangian AMG preconditioner (:mod:`ngs_geomech.contact.krylov`) against the direct
 factorizations, on the 3D punch of :func:`ngs_geomech.verification.contact_problems.punch_3d` (Coulomb F_c = 0.3,
 pushed at 0.7 of the capacity: stick and slip zones; the punch held by the contact alone), P1 and P2, h halved.

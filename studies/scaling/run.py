@@ -1,69 +1,36 @@
-"""Scaling of the 3D thermo-elastic solve (issue 10): wall time and peak memory against dofs, direct vs
-preconditioned CG, CG iterations under refinement, and MPI (1 versus 2 worker ranks).
+"""Scaling of the 3D thermo-elastic solve: wall time and peak memory against dofs, direct vs preconditioned CG,
+CG iterations under refinement, MPI (1 versus 2 worker ranks), and the contact Newton steps by GMRES.
 
 Physics: the box of :mod:`ngs_geomech.verification.scaling` (2 x 1 x 1 m rock, P2, steady heat with T = 100 K /
 0 K on the ends and a uniform source, then the thermal stress with the base fixed), built from its scene dict
 through the library classes. Each size and solver runs in its own process (``worker.py``) so that its peak memory
 is the process's max RSS (NGSolve's C++ allocations included). Solvers: "direct" (sparse Cholesky for heat,
 UMFPACK for elasticity: the library's direct path) up to :data:`DIRECT_MAX` dofs, "iterative" (CG with the
-library's preconditioners, tolerance 1e-10) at every size; 2 NGSolve threads. ``time_exponent`` is the slope of
-log(heat + elastic solve time) against log(dofs) for the default solver ("auto": direct below
-``AUTO_DOFS[3]`` dofs per system, iterative above) over the sizes; ``dofs`` = heat + elastic dofs.
+library's preconditioners: two-level AMG for elasticity, BDDC with the AMG vertex problem for heat; tolerance
+1e-10) at every size, and "bddc" (``preconditioner="bddc"``, the vertex problem factored directly) for
+comparison. ``time_exponent`` is the slope of log(heat + elastic solve time) against log(dofs) for the default
+solver ("auto": direct below ``AUTO_DOFS[3]`` dofs per system, iterative above); ``dofs`` = heat + elastic dofs.
+Per-iteration cost grows faster than the dofs at the largest sizes because the vectors leave the cache: the
+time exponent then exceeds 1 although the CG counts stay constant.
 
 MPI (when ``mpiexec`` and mpi4py are installed: ``pip install mpi4py mpich``, which NGSolve's pip wheel runs with):
 ``mpiexec -n 3 python studies/scaling/mpi_box.py`` at the largest MPI size of the level. netgen's
 ``Distribute`` keeps no elements on rank 0, so 3 ranks are 2 workers; ``mpi_speedup_2_ranks`` = the serial
 1-thread iterative solve time / the 2-worker solve time (1 thread each), ``mpi_max_rel_difference`` the largest
 difference of T and u at 63 sample points between the distributed and the serial solution (relative to the
-largest value of each field).
+largest value of each field). With more busy processes than cores the speed-up is below 1.
 
 Contact (``contact_steps.py``, every level): the contact Newton steps by GMRES with the augmented-Lagrangian AMG
 preconditioner against the direct solves on the 3D Coulomb punch (P1 h = 0.2 at level 0; P1 to h = 0.05 and P2 to
 h = 0.1 at level 1; level 2 adds P1 h = 0.025 and P2 h = 0.05 without the direct solve): GMRES iterations per Newton
 step (``contact_gmres_max_p1``, ``contact_gmres_max_p2`` and their finest / coarsest ratios), the time against the
 direct solves (``contact_direct_over_iterative_time_p*``, largest size with both) and ``contact_max_rel_difference``.
-Measured 2026-11-26 (one thread; the table in :mod:`ngs_geomech.contact.krylov`): P1 GMRES max 41 / 43 /
-52 / 90 at 663 / 3.5k / 19k / 121k dofs, P2 54 / 51 / 99 at 3.8k / 22k / 130k; direct / GMRES time 4.3 at 19k P1
-(60 / 13.9 s), 1.3 at 22k P2, 5.9 at 130k P2 (399 / 67.5 s); same stick / slip sets, differences <= 7e-10.
 
-Command: ``python studies/scaling/run.py --level 0 --out out/scaling`` (level 0: 2 sizes up to 9.9k dofs
-and the P1 punch, 11 s; level 1: up to ~0.4M dofs and the contact table to 22k dofs, ~10 min; level 2: up to ~1.5M
-dofs and the contact table to 130k dofs, on demand, ~35 min).
+Command: ``python studies/scaling/run.py --level 0 --out out/scaling``. Levels: 0 two sizes up to 9.9k dofs and
+the P1 punch, one NGSolve thread, no BDDC and no MPI comparison; 1 up to ~0.4M dofs and the contact table to 22k
+dofs; 2 up to ~1.5M dofs and the contact table to 130k dofs, the faster of two runs per size.
 
-Measured (level 2, 2026-11-25, 1281 s in all; 2 NGSolve threads; the faster of two runs per size and
-preconditioner, the other in brackets; direct only up to DIRECT_MAX; "auto" with AUTO_DOFS[3] = 60k per system).
-"iter": the default preconditioners (two-level AMG for elasticity, BDDC with the AMG vertex problem for heat);
-"bddc": ``preconditioner="bddc"``, the vertex problem factored directly (the default before this change):
-
-      maxh      dofs  cg T  cg u   iter s           iter GiB  cgB T cgB u   bddc s          bddc GiB  direct s
-     0.150     15080    30    98     0.41 (0.51)     0.21      29    70     0.42 (0.46)     0.19      0.74
-     0.100     58296    33   100     1.66 (1.75)     0.26      32    75     1.76 (2.15)     0.28      5.82
-     0.070    212936    31   105     7.63 (8.53)     0.43      30    70    10.18 (11.14)    0.67         -
-     0.050    432060    38   111    16.07 (16.69)    0.69      37    86    22.49 (27.14)    1.29         -
-     0.040    684576    42   113    21.35 (28.86)    0.99      40   106    53.38 (56.57)    2.08         -
-     0.035   1526724    34   114    64.98 (70.28)    2.01      31    77   129.80 (133.39)   5.28         -
-    MPI at 684576 dofs: serial 1 thread 36.32 s (BDDC 89.26 s), 2 workers (3 ranks, BDDC: the two-level
-    preconditioner is serial only, its P1 injection uses global dof numbers) 105.73 s, CG serial [42, 113] / MPI
-    [41, 107], max rel. difference 1.1e-10
-
-    time_exponent 0.87 (auto: direct at the two small sizes), time_exponent_iterative 1.09 (15k -> 1.53M dofs),
-    time_exponent_iterative_top3 1.14 (0.43M -> 1.53M); BDDC 1.26 and 1.36; largest_dofs 1.53e6,
-    peak_memory_gib_largest 2.0 (BDDC 5.3), bddc_over_default_time_largest 2.0, direct vs iterative 1.3e-10, BDDC vs
-    default 3.0e-10, mpi_speedup_2_ranks 0.34 (against the faster serial preconditioner),
-    mpi_speedup_2_ranks_same_preconditioner 0.84 (BDDC on both sides; rank 0 holds no elements but its MPI waits
-    poll a core: 3 busy processes on 2 cores), mpi_max_rel_difference 1.1e-10.
-    Single runs the same day scattered more: the default at 1.53M took 58.4 s and 79.4 s in two level-2 runs
-    (top-three exponents 1.20 and 1.50), hence the best of two.
-    Why the top sizes grow faster than linearly with constant CG counts: the assembly grows linearly
-    (x3.6 for x3.5 dofs), the per-iteration cost by x4.7: memory, not the algorithm. A plain product with the
-    P2 elasticity matrix (2 threads) cost 0.85 ns per stored entry at 0.32M dofs (26M entries, 22 ms) and 1.63 ns
-    at 1.15M (96M entries, 156 ms): its vectors (2.6 MB -> 9.2 MB each) no longer stay in the 32 MB L3 cache.
-Level 0 as it was (23 s): 2.5k / 9.9k / 15k dofs, iterative 0.13 / 0.32 / 0.54 s, direct 0.19 / 0.49 / 0.92 s, BDDC
-at 15k 0.45 s. Since 2026-11-26 level 0 runs 2.5k and 9.9k dofs, BDDC at 9.9k (20 s alone), for the default test
-suite's 10-minute limit; since the contact table joined it (the same day; the suite took 633 s, this study 96 s of
-it under the suite's load), level 0 runs neither BDDC nor the MPI comparison (tests/test_iterative_solvers.py
-compares 2 workers with serial on the same box), and its workers run one NGSolve thread (two spinning threads per
-worker beside the suite's other jobs made it take 81 s there, 11 s alone).
+Cost: level 0 about 5 s; level 1 about 10 minutes; level 2 about 35 minutes (2 NGSolve threads).
 """
 
 from __future__ import annotations

@@ -9,30 +9,24 @@ u~_{n+1} - u_n), both from the linear elastic solution with tolerance 1e-8 on
 ||u_{n+1} - u_n||_1 / ||u_{n+1}||_1 (2.35): iteration counts and wall times side by side, the (2.35)
 sequence per iteration at each h, the observed contraction rate against the theory |1 - lam|/lam, the H1
 difference of the two solutions; also the plain secant iteration (relaxation 1, rate bound 2|1 - lam|: it
-diverges for lam >= 1.5) and Newton with the exact Hessian. The secant method at lam = 0.5 contracts at
-~0.985 and is run on the coarse meshes only. (2) Uniaxial strain bar (displacement- and traction-driven)
-against the closed forms, lam = 0.5, 1, 2, both methods. (3) The regularization delta = 1e-2 ... 1e-10 for
-lam = 0.5 and 0.3 on one mesh: change of the solution (H1, reaction force, local stress) and iterations.
-(1b) Nested iteration at lam = 0.5 (``mechanics.nested_levels``, :mod:`ngs_geomech.mechanics.nested`): scene runs of
-the plate at each h with Newton started from the solutions on the meshes 2, 4, ... times coarser down to h = 0.2 m,
-against the same scene from the linear solution. Measured at level 0 as it was then (2026-11-25, beside another job;
-level 1 has these meshes now): Newton steps on the scene's mesh 9, 10, 9 at h = 0.1, 0.05, 0.025 (from the linear
-solution 12, 14, 16), every coarse solve at most 10; the whole nested run 0.81 times the cold run's wall time at h =
-0.025; the two solutions differ by 6.4e-15 in H1. ``newton_iterations_max_with_nested_at_lam0p5`` (10) is the issue's
-target quantity: the most Newton steps for lam in [0.5, 2] with nested iteration at lam = 0.5 (lam >= 0.75 from the
-linear solution: 4 - 7).
+diverges for lam >= 1.5) and Newton with the exact Hessian. The secant method at lam = 0.5 contracts slowly
+and is run on the coarse meshes only. (1b) Nested iteration at lam = 0.5 (``mechanics.nested_levels``): scene
+runs of the plate at each h with Newton started from the solutions on the meshes 2, 4, ... times coarser down
+to h = 0.2 m, against the same scene from the linear solution; ``newton_iterations_max_with_nested_at_lam0p5``
+is the most Newton steps for lam in [0.5, 2] with nested iteration at lam = 0.5. (2) Uniaxial strain bar
+(displacement- and traction-driven) against the closed forms, lam = 0.5, 1, 2, both methods. (3) The
+regularization delta = 1e-2 ... 1e-10 for lam = 0.5 and 0.3 on one mesh: change of the solution (H1, reaction
+force, local stress) and iterations.
 
 Headline metrics ``secant_iterations`` and ``newton_iterations`` (and their wall times, the contraction
 rate): lam = 0.75 on the finest mesh, tolerance 1e-8; per-lam metrics carry a ``_lam<value>`` suffix.
 
 Command: ``python studies/secant_convergence/run.py --level 0 --out out/secant_convergence``
-(writes ``results.json``; prints the tables).
+(writes ``results.json``; prints the tables). Levels: 0 h = 0.1, 0.05 (secant at lam = 0.5 and the delta study
+on h = 0.1); 1 down to h = 0.0125 (13k dofs; secant at lam = 0.5 on h = 0.1, 0.05; delta study on h = 0.025);
+2 h = 0.05 ... 0.00625 (53k dofs).
 
-Cost (one NGSolve thread, measured while other jobs shared the 2 cores): level 0 (h = 0.1, 0.05; secant at lam = 0.5
-on h = 0.1; delta study on h = 0.1) 32 s alone (2026-11-26; with h = 0.025 and the delta study on h = 0.05 it took
-70-150 s in the default suite, which came within 5 s of its 10-minute limit); level 1 (down to h = 0.0125, 13k dofs;
-secant at lam = 0.5 on h = 0.1, 0.05; delta study on h = 0.025) about 3.5 min, half of it lam = 0.5; level 2 (h = 0.05
-... 0.00625, 53k dofs) not measured, expect well over 10 min.
+Cost on one NGSolve thread: level 0 about 12 s, level 1 about 3-4 minutes, level 2 well over 10 minutes.
 """
 
 from __future__ import annotations

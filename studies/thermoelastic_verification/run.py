@@ -2,30 +2,27 @@
 
 Physics. (1) Thick-walled cylinder a = 1 < r < b = 2 m with free surfaces, steady temperature from the thermal
 solve (100 K at r = a, 0 at r = b, stress free at 0), E = 70 GPa, nu = 0.25, alpha = 8e-6 1/K, P2, against the
-closed forms (verification.md section 4): a plane strain quarter ring with symmetry conditions on its straight
-edges, an axisymmetric section 0 < z < 0.5 m with u_z = 0 on both ends (plane strain), and an axisymmetric
-free-ended cylinder 0 < z < 12 m (symmetry at z = 0) compared at z <= 1 m with the generalized plane strain
-closed form. Error: max over sample radii of |sigma_h - sigma| per component (r, theta, z), divided by
-max |sigma_theta| = 45.7 MPa. (2) Manufactured plane strain thermo-elasticity on the unit square split at
-x = 0.5 into an orthotropic (rotated) and a fully anisotropic region with anisotropic thermal expansion
-tensors, displacement and traction continuous across x = 0.5, temperature from the thermal solve of a
-manufactured T (same elements), exact body force (ElasticSetup.body_force) and Dirichlet data: L2/H1 orders of
-P1 and P2. (3) Near incompressibility: plane strain manufactured u = curl psi + (mu/lambda) grad phi at
-nu = 0.3 and 0.4999, P1 and P2: relative errors of u (L2, H1) and of the stress; with the displacement
-formulation P1 locks (and P2's stress is poor), with the mixed displacement-pressure formulation (Taylor-Hood
-P2-P1, stabilized P1-P1; ``formulation = "mixed"``, what "auto" picks at nu > 0.45) the errors at nu = 0.4999 are
-within 7 % of the compressible ones (H1 ratio 1.07 at h = 0.025, P1 and P2), optimal orders.
+closed forms (:mod:`ngs_geomech.verification.thermoelastic`): a plane strain quarter ring with symmetry conditions
+on its straight edges, an axisymmetric section 0 < z < 0.5 m with u_z = 0 on both ends (plane strain), and an
+axisymmetric free-ended cylinder 0 < z < 12 m (symmetry at z = 0) compared at z <= 1 m with the generalized plane
+strain closed form. Error: max over sample radii of |sigma_h - sigma| per component (r, theta, z), divided by max
+|sigma_theta| = 45.7 MPa. (2) Manufactured plane strain thermo-elasticity on the unit square split at x = 0.5 into
+an orthotropic (rotated) and a fully anisotropic region with anisotropic thermal expansion tensors, displacement
+and traction continuous across x = 0.5, temperature from the thermal solve of a manufactured T (same elements),
+exact body force (ElasticSetup.body_force) and Dirichlet data: L2/H1 orders of P1 and P2. (3) Near
+incompressibility: plane strain manufactured u = curl psi + (mu/lambda) grad phi at nu = 0.3 and 0.4999, P1 and P2:
+relative errors of u (L2, H1) and of the stress; with the displacement formulation P1 locks (and P2's stress is
+poor), with the mixed displacement-pressure formulation (Taylor-Hood P2-P1, stabilized P1-P1; ``formulation =
+"mixed"``, what "auto" picks at nu > 0.45) the errors at nu = 0.4999 are close to the compressible ones, with
+optimal orders.
 
 Command: ``python studies/thermoelastic_verification/run.py --level 0 --out out/thermoelastic_verification``
 (writes ``results.json``; prints the tables).
 
-Cost on 2 cores (measured while other jobs shared them): level 0 8-14 s before the mixed-formulation runs, 54 s
-with them on a busy machine (near incompressibility 27 s of it); since 2026-11-26 level 0 stops the manufactured
-and near-incompressibility runs at h = 0.05 (12 s alone; h = 0.025 is level 1's), for the default suite's
-10-minute limit; level 1 (cylinders down to
-h = 0.025, manufactured and near incompressibility to h = 0.0125) about 26 s; level 2 (cylinders to
-h = 0.0125, free ends 1.07M dofs; manufactured and near incompressibility to h = 0.00625, 240k dofs) about
-5 min.
+Cost on one NGSolve thread: level 0 (manufactured and near-incompressibility runs to h = 0.05) about 30 s;
+level 1 (cylinders down to h = 0.025, manufactured and near incompressibility to h = 0.0125) about a minute;
+level 2 (cylinders to h = 0.0125, free ends 1.07M dofs; manufactured and near incompressibility to
+h = 0.00625, 240k dofs) about 5 min.
 """
 
 from __future__ import annotations
@@ -50,7 +47,7 @@ LEVELS = {
 """Per level: the cylinder level (mesh sizes in te.CYLINDER_LEVELS), mesh sizes (m) of the manufactured and
 near-incompressibility runs."""
 EXPECTED = {(1, "l2"): 2, (1, "h1"): 1, (1, "stress"): 1, (2, "l2"): 3, (2, "h1"): 2, (2, "stress"): 2}
-"""Expected orders of smooth, compressible problems (verification.md section 6)."""
+"""Expected orders of smooth, compressible problems: h^(p+1) in L2, h^p in H1 and in the stress."""
 NUS = (0.3, 0.4999)
 
 
