@@ -202,7 +202,7 @@ def test_adaptive_heat_across_a_mortar_contact_interface():
     """The loop rebuilds the mortar coupling on each refined mesh (independent meshes on the two sides)."""
     from ngs_geomech.verification import manufactured as mms
     sol = mms.steady_solution()
-    mesh, forms, _ = mms._prepare(mms.two_region_scene(sol, 0.2, 1, "contact", 0.7), sol)
+    mesh, forms, _ = mms.prepare_two_region(mms.two_region_scene(sol, 0.2, 1, "contact", 0.7), sol)
     problem = StationaryHeat(mesh, forms.setup)
     errors = []
 

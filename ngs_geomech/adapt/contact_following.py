@@ -76,12 +76,12 @@ from ..heat.problem import set_initial_temperature
 from ..scene.model import Scene
 from .estimators import (
     _side_edges,
-    _vertex_coords,
     contact_status,
     contact_zone,
     element_sizes,
     element_vertices,
     phase_front,
+    vertex_coords,
 )
 from .front_following import TRANSFER_ORDER, phase_change_size
 
@@ -257,7 +257,7 @@ class ContactFollowing:
         return max((float(sizes[f].max()) / h for f, h in self._features(0) if f.any()), default=0.0)
 
     def _restrictions(self) -> list:
-        xy = _vertex_coords(self.mesh)
+        xy = vertex_coords(self.mesh)
         ev = element_vertices(self.mesh)
         out = []
         for flags, h in self._features(self.layers):

@@ -152,7 +152,7 @@ def element_vertices(mesh) -> np.ndarray:
     return np.array([[v.nr for v in el.vertices] for el in mesh.Elements(ngs.VOL)], dtype=np.int64)
 
 
-def _vertex_coords(mesh) -> np.ndarray:
+def vertex_coords(mesh) -> np.ndarray:
     try:
         xy = np.asarray(mesh.ngmesh.Coordinates(), dtype=float)
         if xy.shape[0] == mesh.nv:
@@ -164,7 +164,7 @@ def _vertex_coords(mesh) -> np.ndarray:
 
 def element_sizes(mesh) -> np.ndarray:
     """h_T: the longest edge of every volume element (straight-sided measure), m."""
-    xy = _vertex_coords(mesh)
+    xy = vertex_coords(mesh)
     ev = element_vertices(mesh)
     k = ev.shape[1]
     return np.max([np.linalg.norm(xy[ev[:, a]] - xy[ev[:, b]], axis=1) for a in range(k) for b in range(a + 1, k)],
@@ -295,7 +295,7 @@ def _recovery_order(order: int, wanted: int | None) -> int:
     return wanted if wanted is not None else (order if order == 1 else order + 1)
 
 
-def _cf_matrix(a: np.ndarray):
+def cf_matrix(a: np.ndarray):
     return ngs.CoefficientFunction(tuple(float(v) for v in np.asarray(a).flatten()), dims=np.asarray(a).shape)
 
 
@@ -375,7 +375,7 @@ def _spr_eta2(mesh, cf, region, degree: int, scale_cf, metric: np.ndarray) -> np
     patch = (sp.diags((~boundary).astype(float)) @ ring1 + sp.diags(boundary.astype(float)) @ ring2).tocsr()
     patch.eliminate_zeros()
     patch = patch.tocoo()
-    xv = _vertex_coords(mesh)[used]
+    xv = vertex_coords(mesh)[used]
     hT = element_sizes(mesh)[elems]
     hv = np.zeros(nv)
     np.maximum.at(hv, ev.ravel(), np.repeat(hT, dim + 1))
@@ -448,7 +448,7 @@ def zz_heat(forms: HeatForms, *, recovery: str | None = None, recovery_order: in
         qs = _recover(mesh, q, mesh.dim, _recovery_order(s.order, recovery_order), region,
                       "average" if recovery == "spr" else recovery)
         d = qs - q
-        eta2 += _element_integral(mesh, forms.weight / f * ngs.InnerProduct(_cf_matrix(kinv) * d, d), region)
+        eta2 += _element_integral(mesh, forms.weight / f * ngs.InnerProduct(cf_matrix(kinv) * d, d), region)
     return Estimate("zz", "estimator", np.sqrt(np.maximum(eta2, 0.0)))
 
 
@@ -510,7 +510,7 @@ def elastic_energy_error(forms: ElasticForms, strain_exact: dict, order: int | N
     tot = 0.0
     for name, e in strain_exact.items():
         d = forms.strain_vector(u) - e
-        tot += float(ngs.Integrate(forms.weight * ngs.InnerProduct(_cf_matrix(forms.D[name]) * d, d), forms.mesh,
+        tot += float(ngs.Integrate(forms.weight * ngs.InnerProduct(cf_matrix(forms.D[name]) * d, d), forms.mesh,
                                    order=q, definedon=forms.mesh.Materials(name)))
     return math.sqrt(max(tot, 0.0))
 
@@ -533,7 +533,7 @@ def zz_elastic(forms: ElasticForms, *, recovery: str | None = None, recovery_ord
         ss = _recover(mesh, sh, D.shape[0], _recovery_order(s.order, recovery_order), region,
                       "average" if recovery == "spr" else recovery)
         d = ss - sh
-        eta2 += _element_integral(mesh, forms.weight * ngs.InnerProduct(_cf_matrix(np.linalg.inv(D)) * d, d), region)
+        eta2 += _element_integral(mesh, forms.weight * ngs.InnerProduct(cf_matrix(np.linalg.inv(D)) * d, d), region)
     return Estimate("zz", "estimator", np.sqrt(np.maximum(eta2, 0.0)))
 
 
@@ -557,7 +557,7 @@ def residual_elastic(forms: ElasticForms, *, c_volume: float = C_VOLUME, c_jump:
     # element residual f + div sigma_h, region by region
     R_parts = {}
     for name, p in s.props.items():
-        D = _cf_matrix(forms.D[name])
+        D = cf_matrix(forms.D[name])
         div = [ngs.CoefficientFunction(0.0) for _ in range(dim)]
         if s.order >= 2:
             H = [u.components[c].Operator("hesse") for c in range(dim)]
@@ -671,7 +671,7 @@ def contact_zone(contacts, *, layers: int = 0, active: bool = False, local_reach
     segment, or with ``local_reach`` within that segment's own length (on a graded mesh the global reach takes
     coarse elements far from a transition: the meshes that follow contact zones over time use the local one)."""
     mesh, contacts = contacts
-    xy = _vertex_coords(mesh)
+    xy = vertex_coords(mesh)
     inc = _incidence(mesh)
     vmark = np.zeros(mesh.nv, dtype=bool)
     for op, status in contacts:

@@ -40,7 +40,7 @@ import numpy as np
 from ..geometry.assemble import GeometryModel
 from ..geometry.mesh import make_mesh
 from ..scene.model import Scene
-from .estimators import _vertex_coords, element_sizes, element_vertices, phase_front
+from .estimators import element_sizes, element_vertices, phase_front, vertex_coords
 from .stefan import RemeshRecord
 
 TRANSFER_ORDER = 4
@@ -122,7 +122,7 @@ class FrontFollowing:
                            predicted=liquids[1] if len(liquids) > 1 else None).eta > 0
 
     def _restrictions(self, mesh, flags: np.ndarray) -> list:
-        xy = _vertex_coords(mesh)
+        xy = vertex_coords(mesh)
         verts = np.unique(element_vertices(mesh)[flags])
         z = xy[verts, 2] if xy.shape[1] > 2 else np.zeros(len(verts))
         return [(float(xy[v, 0]), float(xy[v, 1]), float(zz), self.h_front) for v, zz in zip(verts, z)]

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..stefan.forms import StefanForms, StefanSetup
 from ..stefan.solver import StefanSolver
-from .estimators import _vertex_coords, element_sizes, element_vertices, phase_front
+from .estimators import element_sizes, element_vertices, phase_front, vertex_coords
 
 
 @dataclass
@@ -90,7 +90,7 @@ class FrontAdaptiveStefan:
         flags = phase_front(g, layers=self.layers).eta > 0
         if not flags.any():
             return []
-        xy = _vertex_coords(mesh)
+        xy = vertex_coords(mesh)
         verts = np.unique(element_vertices(mesh)[flags])
         z = xy[verts, 2] if xy.shape[1] > 2 else np.zeros(len(verts))
         return [(float(xy[v, 0]), float(xy[v, 1]), float(zz), float(h_target)) for v, zz in zip(verts, z)]
@@ -136,7 +136,7 @@ class FrontAdaptiveStefan:
         if self.transfer == "projection":
             e = self.forms.project_enthalpy(old_forms.gf_enthalpy, order=self.transfer_order)
         else:                                   # the old P1 enthalpy at the new vertices
-            xy = _vertex_coords(self.forms.mesh)
+            xy = vertex_coords(self.forms.mesh)
             pts = old_forms.mesh(*xy.T) if xy.shape[1] == 3 else old_forms.mesh(xy[:, 0], xy[:, 1])
             e = np.asarray(old_forms.gf_enthalpy(pts), dtype=float).ravel()
         self.solver.set_initial_enthalpy(e)

@@ -210,7 +210,7 @@ class ViscoelasticForms:
             self.M = sp.csr_matrix((X.ndof, X.ndof))
         cform = ngs.BilinearForm(X)
         for name, D in self.Dv.items():
-            cform += w * ngs.InnerProduct(ef._cf_matrix(D) * ef.strain_vector(u), ef.strain_vector(v)) * self._dx(name)
+            cform += w * ngs.InnerProduct(ef.cf_matrix(D) * ef.strain_vector(u), ef.strain_vector(v)) * self._dx(name)
         self.C = self._to_scipy(cform) if self.Dv else sp.csr_matrix(self.M.shape)
         switch = ef.linear_switch.Get()
         ef.linear_switch.Set(1.0)          # c* = c (the law is linear; no dependence on u_frozen)
@@ -218,7 +218,7 @@ class ViscoelasticForms:
         ef.linear_switch.Set(switch)
         for b in self.branches:
             bform = ngs.BilinearForm(X)
-            Db = ef._cf_matrix(b.D)
+            Db = ef.cf_matrix(b.D)
             bform += w * ngs.InnerProduct(Db * ef.strain_vector(u), ef.strain_vector(v)) * self._dx(b.region)
             b.K = self._to_scipy(bform)
         self.free = np.array(list(X.FreeDofs()), dtype=bool)
@@ -251,7 +251,7 @@ class ViscoelasticForms:
     def branch_stress(self, branch: Branch):
         """q_k = C_k e(w_k) (reduced Voigt vector, Pa) on the branch's region (zero elsewhere)."""
         ef = self.elastic
-        q = ef._cf_matrix(branch.D) * ef.strain_vector(branch.w)
+        q = ef.cf_matrix(branch.D) * ef.strain_vector(branch.w)
         zero = ngs.CoefficientFunction((0.0,) * branch.D.shape[0])
         return self.mesh.MaterialCF({branch.region: q}, default=zero)
 
@@ -260,7 +260,7 @@ class ViscoelasticForms:
         ef = self.elastic
         vel = velocity if velocity is not None else self.velocity
         n = len(next(iter(ef.D.values())))
-        vals = {name: ef._cf_matrix(D) * ef.strain_vector(vel) for name, D in self.Dv.items()}
+        vals = {name: ef.cf_matrix(D) * ef.strain_vector(vel) for name, D in self.Dv.items()}
         return self.mesh.MaterialCF(vals, default=ngs.CoefficientFunction((0.0,) * n))
 
     def dissipation_density(self, velocity=None):
@@ -271,10 +271,10 @@ class ViscoelasticForms:
         vals: dict[str, object] = {}
         for name, D in self.Dv.items():
             e = ef.strain_vector(vel)
-            vals[name] = ngs.InnerProduct(e, ef._cf_matrix(D) * e)
+            vals[name] = ngs.InnerProduct(e, ef.cf_matrix(D) * e)
         for b in self.branches:
             e = ef.strain_vector(b.w)
-            term = ngs.InnerProduct(e, ef._cf_matrix(b.D) * e) / b.tau
+            term = ngs.InnerProduct(e, ef.cf_matrix(b.D) * e) / b.tau
             vals[b.region] = vals[b.region] + term if b.region in vals else term
         return self.mesh.MaterialCF(vals, default=0.0) if vals else ngs.CoefficientFunction(0.0)
 

@@ -217,4 +217,4 @@ class DynamicsRun:
         self._started = bool(meta["started"])
         self.times[:] = meta["times"]
         self.history[:] = meta["history"]
-        s._sync_fields()
+        s.sync_fields()

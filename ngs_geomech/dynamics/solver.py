@@ -221,7 +221,7 @@ class _Stepper:
     def _update_branches(self, u_new: np.ndarray, coeffs) -> list[np.ndarray]:
         return [a * w + c * (u_new - self.u) for w, (a, c) in zip(self.w, coeffs)]
 
-    def _sync_fields(self):
+    def sync_fields(self):
         nv = self.f.nv
         ef = self.f.elastic
         ef.gf.vec.FV().NumPy()[:] = self.u
@@ -296,7 +296,7 @@ class DynamicSolver(_Stepper):
         if len(dofs):
             self.a[dofs] = spla.spsolve(self.M[dofs][:, dofs].tocsc(), r[dofs])
         self.energy_history = [self._energies(EnergyRecord(self.t, 0, 0, 0, 0))]
-        self._sync_fields()
+        self.sync_fields()
 
     def _energies(self, rec: EnergyRecord) -> EnergyRecord:
         kin = 0.5 * float(self.v @ (self.M @ self.v))
@@ -364,13 +364,13 @@ class DynamicSolver(_Stepper):
         rec.numerical_dissipation = (rec.external_work + rec.dirichlet_work + rec.contact_work - (rec.total - e0)
                                      - rec.viscous_dissipation - rec.branch_dissipation)
         self.energy_history.append(rec)
-        self._sync_fields()
+        self.sync_fields()
         info.wall_s = time.perf_counter() - tic
         self.steps.append(info)
         return info
 
-    def _sync_fields(self):
-        super()._sync_fields()
+    def sync_fields(self):
+        super().sync_fields()
         self.f.velocity.vec.FV().NumPy()[:] = self.v[:self.f.nv]
 
 
@@ -384,7 +384,7 @@ class ViscousSolver(_Stepper):
         self.u = np.zeros(self.n) if u0 is None else np.array(u0, dtype=float)
         self.w = [np.zeros(self.n) for _ in self.f.branches]
         self.dissipated = 0.0
-        self._sync_fields()
+        self.sync_fields()
 
     def jump(self) -> StepInfo:
         """The instantaneous response at the current time (loads and prescribed displacements at t, the branches
@@ -426,7 +426,7 @@ class ViscousSolver(_Stepper):
             self.dissipated += float(du @ (F.C @ du)) / dt
         F.velocity.vec.FV().NumPy()[:] = (du / dt)[:F.nv] if dt > 0 else 0.0
         self.u, self.w, self.t = u1, w1, t1
-        self._sync_fields()
+        self.sync_fields()
         info.wall_s = time.perf_counter() - tic
         self.steps.append(info)
         return info

@@ -68,7 +68,7 @@ class HeatSetup:
         return any(p.nonlinear for p in self.props.values())
 
 
-def _check_pressure_factors(mesh, gf_pressure, coefficients: dict, changed) -> tuple[float, float]:
+def check_pressure_factors(mesh, gf_pressure, coefficients: dict, changed) -> tuple[float, float]:
     """Factors 1 + c_p p per element of the regions with c_p != 0: their (min, max); ValueError naming the
     region and the pressure when one is not positive. Calls ``changed()`` (the conductivity changed)."""
     p = gf_pressure.vec.FV().NumPy()
@@ -195,7 +195,7 @@ class HeatForms:
         if self.gf_pressure is None:
             raise ValueError("set_pressure: no region has a pressure coefficient")
         self.gf_pressure.Set(pressure)
-        return _check_pressure_factors(self.mesh, self.gf_pressure, self.setup.pressure_coefficients,
+        return check_pressure_factors(self.mesh, self.gf_pressure, self.setup.pressure_coefficients,
                                        self._bump)
 
     def _bump(self) -> None:

@@ -375,7 +375,7 @@ class ElasticForms:
             return ngs.CoefficientFunction((G[0, 0], G[1, 1], u[0] / ngs.x, G[0, 1] + G[1, 0]))
         return ngs.CoefficientFunction((G[0, 0], G[1, 1], G[0, 1] + G[1, 0]))
 
-    def _cf_matrix(self, a: np.ndarray):
+    def cf_matrix(self, a: np.ndarray):
         return ngs.CoefficientFunction(tuple(float(v) for v in a.flatten()), dims=a.shape)
 
     def _cf_vector(self, a: np.ndarray):
@@ -406,7 +406,7 @@ class ElasticForms:
 
     def A1(self, name: str, e):
         """A1 = e : c : e (Pa) of region ``name`` for the reduced strain vector e (2.2)."""
-        return ngs.InnerProduct(e, self._cf_matrix(self.D[name]) * e)
+        return ngs.InnerProduct(e, self.cf_matrix(self.D[name]) * e)
 
     def stress_vector(self, name: str, u):
         """Reduced Voigt stress of region ``name`` (Pa), the law (2.18) with the lambda factor. In a region of
@@ -416,12 +416,12 @@ class ElasticForms:
         if name in self.mixed:
             mx = self.mixed[name]
             m = self._cf_vector(np.asarray(_TRACE[self.setup.model], dtype=float))
-            s = self._cf_matrix(mx.Ddev) * e + self.pressure(name) * m
+            s = self.cf_matrix(mx.Ddev) * e + self.pressure(name) * m
             if dT is not None:
                 s = s - dT * self._cf_vector(mx.bdev)
             s0 = self._sigma0_vector()
             return s if s0 is None else s + s0
-        s = self.factor(name, e) * (self._cf_matrix(self.D[name]) * e)
+        s = self.factor(name, e) * (self.cf_matrix(self.D[name]) * e)
         if dT is not None:
             s = s - dT * self._cf_vector(self.b[name])
         s0 = self._sigma0_vector()
@@ -457,7 +457,7 @@ class ElasticForms:
         ps = self.pressure_scale
         p, q = ps * pt, ps * qt
         eu, ev = self.strain_vector(u), self.strain_vector(v)
-        Dd = self._cf_matrix(mx.Ddev)
+        Dd = self.cf_matrix(mx.Ddev)
         tu, tv = self.trace_strain(eu), self.trace_strain(ev)
         a = ngs.InnerProduct(Dd * eu, ev) + p * tv + q * tu - p * q / mx.K
         lag = 0.5 * ngs.InnerProduct(Dd * eu, eu) + p * tu - p * p / (2 * mx.K)
@@ -473,7 +473,7 @@ class ElasticForms:
             lag = lag - dT * (ngs.InnerProduct(self._cf_vector(mx.bdev), eu) + mx.bm_over_K * p)
         return a, f, lag
 
-    def _trial_test(self):
+    def trial_test(self):
         """(u, v, trials, tests): displacement trial/test functions and those of X (tuples when compound)."""
         trials, tests = self.X.TnT()
         if self.compound:
@@ -482,7 +482,7 @@ class ElasticForms:
 
     def _build(self):
         s, w = self.setup, self.weight
-        u, v, trials, tests = self._trial_test()
+        u, v, trials, tests = self.trial_test()
         # energy (Newton) -------------------------------------------------------------------------
         energy = 0
         for name, p in s.props.items():
@@ -523,7 +523,7 @@ class ElasticForms:
                 if self.delta_T(name) is not None:
                     rhs += w * f * mdx
             else:
-                D = self._cf_matrix(self.D[name])
+                D = self.cf_matrix(self.D[name])
                 fac = self.linear_switch + (1 - self.linear_switch) * self.factor(name,
                                                                                   self.strain_vector(self.u_frozen))
                 sec += w * fac * ngs.InnerProduct(D * self.strain_vector(u), self.strain_vector(v)) * mdx
@@ -751,7 +751,7 @@ class ElasticForms:
                 mx = self.mixed[name]
                 dT = self.delta_T(name)
                 ktr = self.pressure(name) + (mx.bm * dT if dT is not None else 0.0)
-                vals[name] = 0.5 * ngs.InnerProduct(self._cf_matrix(mx.Ddev) * e, e) + ktr * ktr / (2 * mx.K)
+                vals[name] = 0.5 * ngs.InnerProduct(self.cf_matrix(mx.Ddev) * e, e) + ktr * ktr / (2 * mx.K)
                 continue
             vals[name] = p.energy(self.A1(name, e), self.setup.regularization)
         return self.mesh.MaterialCF(vals, default=0.0)

@@ -436,14 +436,14 @@ class _PrimalDual:
         sig = ngs.CoefficientFunction(tuple(self.sig))
         self.step_gf = ngs.GridFunction(f.V)
         u_gf = f.displacement()
-        u, v, trials, tests = f._trial_test()
+        u, v, trials, tests = f.trial_test()
         w = f.weight
         delta = s.regularization
         form = ngs.BilinearForm(f.X, symmetric=False)
         lin, cons, bound, dinv = {}, {}, {}, {}
         zero_v = ngs.CoefficientFunction((0.0,) * self.nv)
         for name, p in s.props.items():
-            D = f._cf_matrix(f.D[name])
+            D = f.cf_matrix(f.D[name])
             e = f.strain_vector(u_gf)
             De = D * e
             A1 = ngs.InnerProduct(e, De)
@@ -463,7 +463,7 @@ class _PrimalDual:
                 bound[name] = (p.lam * math.sqrt(p.A_ref) * base ** p.lam
                                / (2 * (1 - p.lam) * ngs.sqrt(A1 / p.A_ref + 1e-300)))
                 Dinv = np.linalg.inv(f.D[name])
-                dinv[name] = f._cf_matrix(0.5 * (Dinv + Dinv.T))
+                dinv[name] = f.cf_matrix(0.5 * (Dinv + Dinv.T))
         for k, (name, nvec) in enumerate(f.oblique):
             lam, mu = trials[1 + k], tests[1 + k]
             nn = ngs.CoefficientFunction(tuple(float(c) for c in nvec[:f.dim]))

@@ -85,7 +85,7 @@ def apply_overrides(data: dict, overrides: list[str]) -> dict:
         node: Any = data
         ok = True
         for i, part in enumerate(parts[:-1]):
-            nxt = _child(node, part)
+            nxt = child_table(node, part)
             if nxt is None:
                 if isinstance(node, dict):
                     node[part] = {}
@@ -109,7 +109,7 @@ def apply_overrides(data: dict, overrides: list[str]) -> dict:
     return data
 
 
-def _child(node: Any, part: str) -> Any:
+def child_table(node: Any, part: str) -> Any:
     if isinstance(node, dict):
         return node.get(part)
     if isinstance(node, list):

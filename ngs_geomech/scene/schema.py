@@ -27,6 +27,13 @@ class Invalid(ValueError):
 Conv = Callable[[Any, str, list], Any]
 
 
+def _label(conv: Conv, what: str, schema: type | None = None, item: Conv | None = None) -> Conv:
+    """Attach what a converter accepts (``what``, for the generated key reference), and the schema class
+    (``schema``) or item converter (``item``) it reads, so the reference can walk nested tables."""
+    conv.what, conv.schema, conv.item = what, schema, item
+    return conv
+
+
 def field(conv: Conv, default: Any = MISSING, doc: str = "") -> Any:
     """A dataclass field with a converter and a docstring (units belong in ``doc``)."""
     md = {"conv": conv, "doc": doc}
@@ -83,7 +90,7 @@ def at_most(limit: float, unit: str = "") -> Conv:
             raise Invalid(f"{float(min(abs(v), 1e308)) * (1 if v > 0 else -1):g}{u} is beyond the physical "
                           f"range (magnitude at most {limit:g}{u})")
         return number(v, path, problems)
-    return conv
+    return _label(conv, f"number, magnitude at most {limit:g}{u}")
 
 
 def integer(v, path, problems):
@@ -120,6 +127,13 @@ def time(v, path, problems):
     return t
 
 
+_label(number, "number")
+_label(integer, "integer")
+_label(string, "string")
+_label(boolean, "true or false")
+_label(time, "time: s, or a string such as `'10 year'`")
+
+
 class Expression(str):
     """An expression string read by :func:`expr` (marks it for the value checks of validation)."""
 
@@ -138,6 +152,9 @@ def expr(v, path, problems):
     raise Invalid(f"expected a number or an expression string, got {_show(v)}")
 
 
+_label(expr, "number or expression")
+
+
 def one_of(*choices: str) -> Conv:
     def conv(v, path, problems):
         if v not in choices:
@@ -145,13 +162,13 @@ def one_of(*choices: str) -> Conv:
             extra = f" (did you mean {hint[0]!r}?)" if hint else ""
             raise Invalid(f"{_show(v)} is not one of {', '.join(map(repr, choices))}{extra}")
         return v
-    return conv
+    return _label(conv, "one of " + ", ".join(f"`{c!r}`" for c in choices))
 
 
 def optional(conv: Conv) -> Conv:
     def c(v, path, problems):
         return None if v is None else conv(v, path, problems)
-    return c
+    return _label(c, getattr(conv, "what", "?"), getattr(conv, "schema", None), getattr(conv, "item", None))
 
 
 def list_of(conv: Conv, length: int | None = None) -> Conv:
@@ -165,7 +182,8 @@ def list_of(conv: Conv, length: int | None = None) -> Conv:
             r = convert(conv, item, f"{path}[{i}]", problems)
             out.append(r)
         return out
-    return c
+    n = f" {length}" if length is not None else ""
+    return _label(c, f"list of{n} {_plural(conv)}", item=conv)
 
 
 def dict_of(conv: Conv) -> Conv:
@@ -173,7 +191,7 @@ def dict_of(conv: Conv) -> Conv:
         if not isinstance(v, dict):
             raise Invalid(f"expected a table, got {_show(v)}")
         return {str(k): convert(conv, item, f"{path}.{k}", problems) for k, item in v.items()}
-    return c
+    return _label(c, f"table of {_plural(conv)} by name", item=conv)
 
 
 def either(*convs: Conv, what: str) -> Conv:
@@ -190,13 +208,18 @@ def either(*convs: Conv, what: str) -> Conv:
                     why.append(str(exc))
                 continue
         raise Invalid(why[0] if why else f"expected {what}, got {_show(v)}")
-    return c
+    return _label(c, what)
 
 
 def nested(cls: type) -> Conv:
     def c(v, path, problems):
         return read(cls, v, path, problems)
-    return c
+    return _label(c, "table", schema=cls)
+
+
+def _plural(conv: Conv) -> str:
+    what = getattr(conv, "what", "?")
+    return {"number": "numbers", "integer": "integers", "string": "strings", "table": "tables"}.get(what, what)
 
 
 def convert(conv: Conv, value: Any, path: str, problems: list) -> Any:
@@ -250,13 +273,3 @@ def to_dict(obj: Any) -> Any:
     if isinstance(obj, (list, tuple)):
         return [to_dict(v) for v in obj]
     return obj
-
-
-def describe(cls: type, indent: str = "") -> str:
-    """Text reference of a schema (keys, defaults, docs) for the documentation."""
-    lines = []
-    for f in dataclasses.fields(cls):
-        default = "" if f.default is MISSING and f.default_factory is MISSING else \
-            f" = {f.default if f.default is not MISSING else f.default_factory()!r}"
-        lines.append(f"{indent}{f.name}{default}: {f.metadata.get('doc', '')}")
-    return "\n".join(lines)

@@ -235,7 +235,7 @@ class ConductivityRangeError(SolverError):
         self.regions = list(regions)
 
 
-def _time_function(value) -> Callable:
+def time_function(value) -> Callable:
     """A TimeFunction (make(t) -> CF) from a number, an expression string or a TimeFunction."""
     if isinstance(value, (int, float, str)):
         return expression_function(value)
@@ -450,7 +450,7 @@ class StefanForms:
         regions with a pressure coefficient (element averages): the stiffness matrices are assembled again
         (same pattern) and ``version`` changes, so that the solver refactors. Returns the (min, max) of the
         factors; ValueError naming the region when one is not positive."""
-        from ..heat.forms import _check_pressure_factors
+        from ..heat.forms import check_pressure_factors
 
         if self.gf_pressure is None:
             raise ValueError("set_pressure: no region has a pressure coefficient")
@@ -459,7 +459,7 @@ class StefanForms:
         def changed():
             self._collect_stiffness()
             self.version += 1
-        return _check_pressure_factors(self.mesh, self.gf_pressure, self.setup.pressure_coefficients, changed)
+        return check_pressure_factors(self.mesh, self.gf_pressure, self.setup.pressure_coefficients, changed)
 
     def _interface_matrix(self) -> sp.csr_matrix:
         """gamma_c B^T D^-1 B summed over the contact interfaces (module docstring), W/K per metre of depth in
@@ -545,16 +545,16 @@ class StefanForms:
         self._loads = None
         # assembled once only when every load is Steady (a Separable source, e.g. a decaying canister, is also
         # flagged time_dependent = False for the heat forms, which scale its vector; here it must be reassembled)
-        self._loads_static = all(isinstance(_time_function(f), Steady)
+        self._loads_static = all(isinstance(time_function(f), Steady)
                                  for f in list(s.sources.values()) + list(s.flux.values()))
         if not s.sources and not s.flux:
             return
         lf = ngs.LinearForm(self.V)
         for region, f in s.sources.items():
-            lf += _time_function(f)(self.t_load) * v * ngs.dx(definedon=self.mesh.Materials(region),
+            lf += time_function(f)(self.t_load) * v * ngs.dx(definedon=self.mesh.Materials(region),
                                                               intrules=self.rules)
         for name, f in s.flux.items():
-            lf += _time_function(f)(self.t_load) * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+            lf += time_function(f)(self.t_load) * v * ngs.ds(definedon=self.mesh.Boundaries(name))
         self._loads = lf
         self._loads_assembled = False
 
@@ -772,7 +772,7 @@ class StefanForms:
         if not self.setup.dirichlet:
             return np.zeros(0)
         self.t_load.Set(t)
-        cf = self.mesh.BoundaryCF({n: _time_function(f)(self.t_load) for n, f in self.setup.dirichlet.items()},
+        cf = self.mesh.BoundaryCF({n: time_function(f)(self.t_load) for n, f in self.setup.dirichlet.items()},
                                   default=0.0)
         self._dir_tmp.Set(cf, ngs.BND, definedon=self.mesh.Boundaries(regions_regex(self.setup.dirichlet)))
         return self._dir_tmp.vec.FV().NumPy()[self.dirichlet_dofs].copy()

@@ -152,7 +152,7 @@ import scipy.sparse.linalg as spla
 
 from .. import parallel
 from ..errors import SolverError
-from .forms import NodalState, PhaseChangeMaterial, StefanForms, _time_function
+from .forms import NodalState, PhaseChangeMaterial, StefanForms, time_function
 
 
 @dataclass
@@ -997,7 +997,7 @@ class StefanSolver:
             self.jac = _ColumnJacobian(forms, max_changed)
         self.iterations: list[int] = []
         self._state = None                # (e, NodalState of e) of the last step's end
-        self._dirichlet_static = all(getattr(_time_function(v), "time_dependent", True) is False
+        self._dirichlet_static = all(getattr(time_function(v), "time_dependent", True) is False
                                      for v in forms.setup.dirichlet.values())
         self._dirichlet_cache = None
 

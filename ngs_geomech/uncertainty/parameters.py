@@ -18,7 +18,7 @@ from scipy import stats
 
 from ..errors import Problem, SceneError
 from ..scene.model import UncertainParameter, Uncertainty
-from ..scene.parse import _child
+from ..scene.parse import child_table
 
 
 @dataclass(frozen=True)
@@ -215,7 +215,7 @@ class _LogTruncNorm:
 def _lookup(raw: dict, key: str) -> tuple[bool, object]:
     node: object = raw
     for part in key.split("."):
-        node = _child(node, part)
+        node = child_table(node, part)
         if node is None:
             return False, None
     return True, node

@@ -65,7 +65,7 @@ def effectivities(order: int = 1, hs=(0.2, 0.1, 0.05), estimators=("zz", "residu
     heat = {"h": [], "ndof": [], "error": [], **{name: [] for name in estimators}}
     sol = mms.steady_solution()
     for h in hs:
-        _, forms, solver = mms._prepare(mms.two_region_scene(sol, h, order, "glued", 0.7), sol)
+        _, forms, solver = mms.prepare_two_region(mms.two_region_scene(sol, h, order, "glued", 0.7), sol)
         forms.t_new.Set(0.0)
         solver.solve("effectivity, manufactured heat")
         err = est.heat_energy_error(forms, {r: sol.gradient(r, forms.t_new) for r in mms.REGIONS})

@@ -204,7 +204,7 @@ def creep(model: str, test: str, dt: float, *, t_end: float = 3.0, E: float = 1.
         u = ef.displacement()
         if test == "creep":
             return float(ngs.Integrate(ngs.grad(u)[0, 0], mesh))
-        D = ef._cf_matrix(ef.D["dom"])
+        D = ef.cf_matrix(ef.D["dom"])
         s = (D * ef.strain_vector(u))[0] + forms.branch_stress(forms.branches[0])[0]
         return float(ngs.Integrate(s, mesh))
     if model == "sls":

@@ -169,7 +169,7 @@ def two_region_scene(solution: TwoRegionSolution, maxh: float, order: int, inter
     return scene_from_dict(data, source="heat_mms")
 
 
-def _prepare(scene, solution: TwoRegionSolution):
+def prepare_two_region(scene, solution: TwoRegionSolution):
     """Mesh, forms (with the manufactured sources) and solver of a two-region scene."""
     geo = validate(scene)
     mesh = make_mesh(geo, scene.mesh)
@@ -204,7 +204,7 @@ def steady_convergence(order: int, hs, interface: str = "glued", ratio: float = 
     solution = steady_solution()
     out = {"order": order, "interface": interface, "ratio": ratio, "h": [], "ndofs": [], "l2": [], "h1": []}
     for h in hs:
-        mesh, forms, solver = _prepare(two_region_scene(solution, h, order, interface, ratio), solution)
+        mesh, forms, solver = prepare_two_region(two_region_scene(solution, h, order, interface, ratio), solution)
         forms.t_new.Set(0.0)
         solver.solve("steady manufactured solution")
         e0, e1 = _errors(mesh, forms.temperature(), solution, forms.t_new, order)
@@ -226,7 +226,7 @@ def patch_test(order: int, interface: str = "glued", maxh: float = 0.25, ratio: 
     H1 errors ~1e-2 K for P1 and P2 (multiplier end dofs removed, element-based quadrature of the coupling).
     """
     solution = patch_solution(min(order, 2))
-    mesh, forms, solver = _prepare(two_region_scene(solution, maxh, order, interface, ratio), solution)
+    mesh, forms, solver = prepare_two_region(two_region_scene(solution, maxh, order, interface, ratio), solution)
     forms.t_new.Set(0.0)
     solver.solve("steady patch test")
     e0, e1 = _errors(mesh, forms.temperature(), solution, forms.t_new, order)
@@ -249,7 +249,7 @@ def transient_convergence(scheme: str, dts, t_end: float = 1.0, order: int = 2, 
     for dt in dts:
         scene = two_region_scene(solution, maxh, order, interface, ratio, scheme=scheme, dt=dt, t_end=t_end,
                                  startup_steps=startup_steps)
-        mesh, forms, solver = _prepare(scene, solution)
+        mesh, forms, solver = prepare_two_region(scene, solution)
         ts = scene.time
         T = forms.temperature()
         forms.t_new.Set(ts.start)

@@ -327,7 +327,7 @@ def regularization_effect(lam: float, deltas=(1e-2, 1e-4, 1e-6, 1e-8, 1e-10), *,
             continue
         e = forms.strain_vector(u)
         p = forms.setup.props["rock"]
-        a = ngs.InnerProduct(e, forms._cf_matrix(forms.D["rock"]) * e) / p.A_ref
+        a = ngs.InnerProduct(e, forms.cf_matrix(forms.D["rock"]) * e) / p.A_ref
         row.update(reaction=_reaction(forms, u), sigma_xx_hole_top=float(forms.stress_tensor(u)[0, 0](point)),
                    rigid_fraction=float(ngs.Integrate(ngs.IfPos(100 * d - a, 1.0, 0.0), mesh)) / area)
         rows.append(row)

@@ -267,7 +267,7 @@ def _anisotropy(ratio: float, interface: str = "glued", maxh: float = 0.25, orde
 
     from ngs_geomech.verification import manufactured as mf
     sol = mf.patch_solution(2, _kappa(ratio, 30.0), _kappa(ratio, -50.0))
-    mesh, forms, solver = mf._prepare(mf.two_region_scene(sol, maxh, order, interface, 0.7), sol)
+    mesh, forms, solver = mf.prepare_two_region(mf.two_region_scene(sol, maxh, order, interface, 0.7), sol)
     forms.t_new.Set(0.0)
     solver.solve("anisotropy patch test")
     e0, e1 = mf._errors(mesh, forms.temperature(), sol, forms.t_new, order)
@@ -541,7 +541,7 @@ def _fine_heat(h: float) -> dict:
 
     from ngs_geomech.verification import manufactured as mf
     sol = mf.patch_solution(1, _kappa(10.0, 30.0), _kappa(10.0, -50.0))
-    mesh, forms, solver = mf._prepare(mf.two_region_scene(sol, h, 1, "glued", 0.7), sol)
+    mesh, forms, solver = mf.prepare_two_region(mf.two_region_scene(sol, h, 1, "glued", 0.7), sol)
     forms.t_new.Set(0.0)
     solver.solve("fine patch test")
     e0, _ = mf._errors(mesh, forms.temperature(), sol, forms.t_new, 1)
