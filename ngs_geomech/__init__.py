@@ -5,4 +5,10 @@ Geomechanics" (2001). Entry points: :func:`ngs_geomech.api.run`, :func:`ngs_geom
 :func:`ngs_geomech.scene.parse.load_scene`; the scene objects are in :mod:`ngs_geomech.scene.model`.
 """
 
+import logging as _logging
+
 __version__ = "0.1.0"
+
+# the package's messages (warnings of a run, notes, solver diagnostics) go to the "ngs_geomech" loggers; the
+# application (the command line, a script) decides where they go
+_logging.getLogger(__name__).addHandler(_logging.NullHandler())

@@ -1,8 +1,15 @@
-"""Command line: ``ngs-geomech run|validate|list|uncertain``. It only parses arguments and calls the package."""
+"""Command line: ``ngs-geomech [-v | -q] run|validate|list|uncertain``. It only parses arguments and calls the
+package.
+
+A command's result (the ``wrote OUT (...)`` line, ``validate``'s summary, ``list``) goes to stdout; the package's
+log messages go to stderr: warnings by default, notes with ``-v``, solver diagnostics with ``-vv``, only errors
+with ``-q`` (which also turns the progress display off). Errors are ``ngs-geomech: error: ...`` with exit code 2.
+"""
 
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 
@@ -10,6 +17,7 @@ from .errors import GeomechError
 
 OVERWRITE = ("allow an --out directory that holds other files: the outputs are written into it, files of the same "
              "names replaced, no other file removed")
+PROG = "ngs-geomech"
 
 
 def _count(text: str) -> int:
@@ -23,11 +31,38 @@ def _count(text: str) -> int:
     return n
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="ngs-geomech", description="Coupled thermo-mechanics in geomechanics "
-                                     "(NGSolve). Scenes are TOML files or built-in names (see 'list').")
+def version() -> str:
+    """The installed distribution's version, else the package's ``__version__`` (a source checkout)."""
+    from importlib.metadata import PackageNotFoundError
+    from importlib.metadata import version as dist_version
+
+    try:
+        return dist_version("ngs-geomech")
+    except PackageNotFoundError:
+        from . import __version__
+
+        return __version__
+
+
+def _verbosity() -> argparse.ArgumentParser:
+    """-v / -q, accepted before the subcommand and after it (defaults suppressed: the subcommand's parse does not
+    reset what was given before it)."""
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,
+                   help="more messages on stderr: -v notes (remeshes, resumption), -vv solver diagnostics")
+    p.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
+                   help="only errors on stderr, and no progress display")
+    return p
+
+
+def _parser() -> argparse.ArgumentParser:
+    verbosity = _verbosity()
+    parser = argparse.ArgumentParser(prog=PROG, parents=[verbosity],
+                                     description="Coupled thermo-mechanics in geomechanics (NGSolve). Scenes are "
+                                                 "TOML files or built-in names (see 'list').")
+    parser.add_argument("--version", action="version", version=f"{PROG} {version()}")
     sub = parser.add_subparsers(dest="command", required=True)
-    p_run = sub.add_parser("run", help="run a scene and write VTK, figures and summary.json")
+    p_run = sub.add_parser("run", parents=[verbosity], help="run a scene and write VTK, figures and summary.json")
     p_run.add_argument("scene", help="scene file or built-in scene name")
     p_run.add_argument("--out", help="output directory: new, empty, or the output of an earlier run (its files "
                                      "are replaced when the run succeeds, other files in it are kept); an existing "
@@ -39,14 +74,14 @@ def main(argv: list[str] | None = None) -> int:
                             "output settings may change)")
     p_run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                        help="override a scene value, e.g. --set mesh.maxh=2 --set time.end='10 year'")
-    p_run.add_argument("--quiet", action="store_true", help="no progress display")
     p_run.add_argument("--threads", type=_count, default=None, help="number of threads (default: NGSolve's)")
-    p_val = sub.add_parser("validate", help="check a scene (no meshing, no solving)")
+    p_val = sub.add_parser("validate", parents=[verbosity], help="check a scene (no meshing, no solving)")
     p_val.add_argument("scene")
     p_val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
-    sub.add_parser("list", help="list the built-in scenes")
-    p_unc = sub.add_parser("uncertain", help="worst-scenario or Monte Carlo study over the scene's [uncertainty] "
-                                             "table: results.json, table.md/.csv, figures, samples.jsonl")
+    sub.add_parser("list", parents=[verbosity], help="list the built-in scenes")
+    p_unc = sub.add_parser("uncertain", parents=[verbosity],
+                           help="worst-scenario or Monte Carlo study over the scene's [uncertainty] table: "
+                                "results.json, table.md/.csv, figures, samples.jsonl")
     p_unc.add_argument("scene", help="scene file or built-in scene name (with an [uncertainty] table)")
     p_unc.add_argument("--out", required=True, help="output directory (its samples.jsonl keeps every finished "
                                                     "sample): new, empty, or the output of an earlier study")
@@ -64,8 +99,46 @@ def main(argv: list[str] | None = None) -> int:
                        help="NGSolve threads of a serial study (default: NGSolve's); pools use one per worker")
     p_unc.add_argument("--resume", action="store_true",
                        help="continue the killed study in --out from its samples.jsonl (same scene and --set)")
-    p_unc.add_argument("--quiet", action="store_true", help="no progress display")
     p_unc.add_argument("--no-figures", action="store_true", help="write no PNG figures")
+    return parser
+
+
+class _Formatter(logging.Formatter):
+    """``warning: ...``, plain notes, ``debug: module: ...``, ``ngs-geomech: error: ...``."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        text = super().format(record)
+        if record.levelno >= logging.ERROR:
+            return f"{PROG}: error: {text}"
+        if record.levelno >= logging.WARNING:
+            return f"warning: {text}"
+        if record.levelno >= logging.INFO:
+            return text
+        return f"debug: {record.name}: {text}"
+
+
+def _log_to_stderr(verbose: int, quiet: bool) -> tuple[logging.Handler, int]:
+    """One handler on the package logger, writing to stderr at the chosen level; returns it and the logger's
+    previous level (restored by :func:`_stop_logging`)."""
+    level = logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_Formatter("%(message)s"))
+    handler.setLevel(level)
+    logger = logging.getLogger("ngs_geomech")
+    previous = logger.level
+    logger.setLevel(level)
+    logger.addHandler(handler)
+    return handler, previous
+
+
+def _stop_logging(handler: logging.Handler, previous: int) -> None:
+    logger = logging.getLogger("ngs_geomech")
+    logger.removeHandler(handler)
+    logger.setLevel(previous)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = _parser()
     args = parser.parse_args(argv)
     if args.command == "run":
         if isinstance(args.resume, str):
@@ -74,7 +147,23 @@ def main(argv: list[str] | None = None) -> int:
             args.out = args.resume
         if args.out is None:
             parser.error("the following arguments are required: --out")
+    args.quiet = getattr(args, "quiet", False)
+    handler, previous = _log_to_stderr(getattr(args, "verbose", 0), args.quiet)
+    try:
+        code = _call(args)
+        sys.stdout.flush()                 # a closed pipe is found here, not at the interpreter's exit
+        return code
+    except BrokenPipeError:
+        # stdout closed early (``ngs-geomech list | head -1``): end quietly, as a command killed by SIGPIPE
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
+    finally:
+        _stop_logging(handler, previous)
 
+
+def _call(args: argparse.Namespace) -> int:
+    """Run the parsed command; its result on stdout, errors on stderr (exit 2), Ctrl-C exits 130."""
     from .api import list_builtin, run, validate_scene
     from .parallel import world, world_rank
     try:
@@ -105,14 +194,14 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     except GeomechError as exc:
         if world_rank() == 0:              # a distributed run raises it on every rank: said once
-            print(f"ngs-geomech: error: {exc}", file=sys.stderr)
+            print(f"{PROG}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
         what = str(exc) or "no output written"
         if args.command == "uncertain":
             what = (f"the finished samples are in {os.path.join(args.out, 'samples.jsonl')}; continue with the "
                     "same command and --resume")
-        print(f"ngs-geomech: interrupted; {what}", file=sys.stderr)
+        print(f"{PROG}: interrupted; {what}", file=sys.stderr)
         return 130
 
 

@@ -28,6 +28,7 @@ every rank takes every output branch. No checkpoints are written.
 
 from __future__ import annotations
 
+import logging
 import math
 import time as _time
 from dataclasses import dataclass, field
@@ -80,6 +81,8 @@ from .scene.validate import distributed_problems, stefan_scene, validate
 from .stefan.forms import vertex_rules
 from .stefan.problem import StefanRun
 
+log = logging.getLogger(__name__)
+
 
 @dataclass
 class RunResult:
@@ -123,7 +126,7 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
     root = comm is None or comm.rank == 0
     staging = None
     if out is not None:
-        if cp is None and progress and root:
+        if cp is None and root:
             _note_resumable(Path(out))
         try:
             staging = _staging(Path(out), cp, comm, overwrite, scene.scene.name)
@@ -199,11 +202,11 @@ def _checkpoint_to_resume(scene: Scene, out) -> Checkpoint:
 
 
 def _note_resumable(out: Path) -> None:
-    """Tell (on stdout) about checkpoints of interrupted runs into ``out`` that this run will supersede."""
+    """Warn about checkpoints of interrupted runs into ``out`` that this run will supersede (and remove)."""
     for d in staging_dirs(out):
         if has_checkpoint(d) and not is_locked(d):
-            print(f"note: {d} holds a checkpoint of an interrupted run into {out}; it is removed when this run "
-                  "finishes (stop it and add --resume to continue that run instead)", flush=True)
+            log.warning("%s holds a checkpoint of an interrupted run into %s; it is removed when this run "
+                        "finishes (stop it and add --resume to continue that run instead)", d, out)
 
 
 def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool, timings: dict,
@@ -219,31 +222,35 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     ad = scene.adaptivity
     if ad is not None and scene.time is not None and "contact_zone" in ad.indicators:
         # validated: static mechanics with contact, plane or axisymmetric (the mesh changes at mechanics solves)
-        zone = ContactFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m), show)
+        zone = ContactFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m))
     elif ad is not None and scene.time is not None and "phase_front" in ad.indicators:   # validated: plane Stefan
-        front = FrontFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m), show)
+        front = FrontFollowing(scene, geo, phys, lambda m: _Physics(scene, geo, m))
         phys = front.start(scene.time.start)
         mesh = phys.mesh
         timings["adaptivity_s"] = _time.perf_counter() - tic
     elif ad is not None and scene.time is not None:
         # validated: transient heat without a followed feature: the mesh adapted once to the steady heat problem
         # with the data at the start time, the run on it
-        pre = _SceneAdaptive(scene, geo, phys, show, steady_at=scene.time.start)
+        pre = _SceneAdaptive(scene, geo, phys, steady_at=scene.time.start)
         pre.result = adaptive_solve(pre, **pre.settings())
         phys, mesh = pre.phys, pre.mesh
         timings["adaptivity_s"] = _time.perf_counter() - tic
     elif ad is not None:                      # validated: a stationary scene
-        adaptive = _SceneAdaptive(scene, geo, phys, show)
+        adaptive = _SceneAdaptive(scene, geo, phys)
         run_ = adaptive_solve(adaptive, **adaptive.settings())
         adaptive.result = run_
         phys, mesh = adaptive.phys, adaptive.mesh
         timings["adaptivity_s"] = _time.perf_counter() - tic
     fields, heat, solver, T, stefan, mech, coupling = (phys.fields, phys.heat, phys.solver, phys.T, phys.stefan,
                                                        phys.mech, phys.coupling)
+    root = comm is None or comm.rank == 0
+    if comm is None:
+        log.info("%s: %d elements, %d vertices; mesh %.2f s, setup %.2f s", name, mesh.ne, mesh.nv,
+                 timings["mesh_s"], _time.perf_counter() - tic)
     shown = list(mech.warnings) if mech is not None else []
-    if show:
+    if root:                                  # a distributed run says them once
         for w in shown:
-            print(f"warning: {w}", flush=True)
+            log.warning("%s", w)
     probes = ProbeSet(mesh, scene.output.probes, axi)
     timings["setup_s"] = _time.perf_counter() - tic
     vtk = None
@@ -369,8 +376,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                 _update_pressure(heat, stefan, mech, "resume")
             solve_s = float(cp.meta["solve_s"])
             t_done = float(cp.meta["time_s"])
-            if show:
-                print(f"resuming from the checkpoint at {checkpoint_where(cp)} of {nsteps}", flush=True)
+            log.info("resuming from the checkpoint at %s of %d", checkpoint_where(cp), nsteps)
         every = scene.output.checkpoint_every
         if every is None:
             every, wall = max(1, math.ceil(nsteps / 10)), CHECKPOINT_WALL_S
@@ -385,7 +391,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
             for j, (a, b) in enumerate(plan.steps):
                 k = plan.k0 + j
                 tic = _time.perf_counter()
-                written = write_s
+                written, newton = write_s, len(history["newton_iterations"])
                 where = f"step {k + 1} (t = {format_time(b)})"
                 if coupling is not None:
                     _coupled_step(scene, a, b, where, heat, solver, stefan, mech, coupling, history)
@@ -413,6 +419,10 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
                     follow(b, where)
                 output(b, k, k == nsteps - 1, where)
                 solve_s += _time.perf_counter() - tic - (write_s - written)
+                if log.isEnabledFor(logging.DEBUG):
+                    its = history["newton_iterations"][newton:]
+                    log.debug("%s: %.3f s%s", where, _time.perf_counter() - tic,
+                              f", Newton iterations {its}" if its else "")
                 if snapshots:       # (a run writing nothing has no checkpoints, nor one on front- or
                     # contact-zone-following meshes or a distributed one)
                     snap = state.capture(k + 1, b, solve_s)
@@ -438,10 +448,10 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         counts = {"vertices": ngs.H1(mesh, order=1).ndofglobal, "elements": parallel.allsum(mesh, mesh.ne),
                   "ranks": comm.size, "elements_per_rank": parallel.allgather(mesh, mesh.ne)}
     thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity in THERMAL), [])
-    if show and mech is not None:             # the warnings of the solves (small-strain range)
+    if root and mech is not None:             # the warnings of the solves (small-strain range)
         for w in mech.warnings:
             if w not in shown:
-                print(f"warning: {w}", flush=True)
+                log.warning("%s", w)
     summary = {
         "scene": to_dict(scene),
         "versions": versions(),
@@ -599,7 +609,7 @@ def _stop(exc: BaseException, staging: OutputDir | None, state: RunState, snap: 
         try:
             state.save(snap, staging.scratch, plan)
         except Exception as err:   # noqa: BLE001 - report the original failure, not this one
-            print(f"warning: could not write the checkpoint of step {snap.step}: {err}", flush=True)
+            log.warning("could not write the checkpoint of step %d: %s", snap.step, err)
     if not has_checkpoint(staging.path):
         return
     hint = (f"The last good state (step {state.saved_step} of {nsteps}, t = {format_time(state.saved_time)}) is "
@@ -658,9 +668,9 @@ class _SceneAdaptive:
     error; refining bisects the marked elements (curved again to the mesh order) and builds the physics anew on
     the refined mesh (contact pairs and mortar couplings included)."""
 
-    def __init__(self, scene: Scene, geo: GeometryModel, phys: _Physics, show: bool, steady_at: float | None = None):
+    def __init__(self, scene: Scene, geo: GeometryModel, phys: _Physics, steady_at: float | None = None):
         a = scene.adaptivity
-        self.scene, self.geo, self.phys, self.mesh, self.show = scene, geo, phys, phys.mesh, show
+        self.scene, self.geo, self.phys, self.mesh = scene, geo, phys, phys.mesh
         self.steady_at = steady_at
         """A transient scene's start time (s): each step solves the steady heat problem with the data at that time
         (the step operator with 1/dt = 0 and theta = 1), the mechanics not at all (a pre-adapted mesh)."""
@@ -696,8 +706,7 @@ class _SceneAdaptive:
             self.heat_info = p.solver.solve(where)
         if p.mech is not None and self.steady_at is None:
             p.mech.solve(0.0, where, record=False)
-        if self.show:
-            print(f"adaptivity: step {self.refinements}: {p.ndof} dofs, {self.mesh.ne} elements", flush=True)
+        log.info("adaptivity: step %d: %d dofs, %d elements", self.refinements, p.ndof, self.mesh.ne)
         return {}
 
     def estimator_input(self, needs: str):

@@ -62,6 +62,7 @@ Units: m, s, K, Pa, J.
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -84,6 +85,8 @@ from .estimators import (
     vertex_coords,
 )
 from .front_following import TRANSFER_ORDER, phase_change_size
+
+log = logging.getLogger(__name__)
 
 BAND_FACTOR = 1.25
 """remesh_every = 0: remesh when a transition lies in elements this much larger than the band's."""
@@ -207,9 +210,9 @@ class ContactFollowing:
     contacts), ``heat``, ``solver`` (heat, or None) and ``T``); ``phys`` is the current one, replaced at each
     remesh; :meth:`solve` is the mechanics solve of an output step."""
 
-    def __init__(self, scene: Scene, geo: GeometryModel, phys, build: Callable, show: bool = False):
+    def __init__(self, scene: Scene, geo: GeometryModel, phys, build: Callable):
         a = scene.adaptivity
-        self.scene, self.geo, self.build, self.show = scene, geo, build, show
+        self.scene, self.geo, self.build = scene, geo, build
         self.levels, self.layers, self.remesh_every = a.levels, a.layers, a.remesh_every
         self.phys = phys
         mesh = phys.mesh
@@ -347,9 +350,8 @@ class ContactFollowing:
         except SolverError as exc:
             # the run goes on on the old mesh (its solve at t stands); the remesh is counted as rejected
             self.rejected.append({"t_s": t, "reason": str(exc)})
-            if self.show:
-                print(f"contact-zone following: remesh at t = {t:.6g} s rejected (the contact solve on the new "
-                      f"mesh failed: {exc}); going on on the current mesh", flush=True)
+            log.warning("contact-zone following: remesh at t = %.6g s rejected (the contact solve on the new mesh "
+                        "failed: %s); going on on the current mesh", t, exc)
             raise _Rejected from None
         if commit is not None:
             commit()
@@ -370,11 +372,9 @@ class ContactFollowing:
                             resolve_h1_difference_rel=diff / max(norm, 1e-300),
                             wall_s=time.perf_counter() - tic, reason=reason)
         self.remeshes.append(rec)
-        if self.show:
-            print(f"contact-zone following: remesh at t = {t:.6g} s ({reason}): {rec.ndof_before} -> "
-                  f"{rec.ndof_after} dofs; transfer: strain norm {rec.strain_change_rel:.1e}, normal force "
-                  f"{rec.normal_force_change_rel:.1e}"
-                  + (f", heat content {heat_change:.1e}" if heat_change is not None else ""), flush=True)
+        log.info("contact-zone following: remesh at t = %.6g s (%s): %d -> %d dofs; transfer: strain norm %.1e, "
+                 "normal force %.1e%s", t, reason, rec.ndof_before, rec.ndof_after, rec.strain_change_rel,
+                 rec.normal_force_change_rel, f", heat content {heat_change:.1e}" if heat_change is not None else "")
 
     @property
     def factorizations(self) -> int:

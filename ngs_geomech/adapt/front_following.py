@@ -30,6 +30,7 @@ Units: m, s, J per m of depth (plane scenes).
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -42,6 +43,8 @@ from ..geometry.mesh import make_mesh
 from ..scene.model import Scene
 from .estimators import element_sizes, element_vertices, phase_front, vertex_coords
 from .stefan import RemeshRecord
+
+log = logging.getLogger(__name__)
 
 TRANSFER_ORDER = 4
 """Extra quadrature order of the lumped projection (the old P1 field is piecewise linear on the old mesh)."""
@@ -91,9 +94,9 @@ class FrontFollowing:
     physics on a mesh (an object with ``mesh`` and ``stefan``, a :class:`StefanRun`); ``phys`` is the current one,
     replaced at each remesh."""
 
-    def __init__(self, scene: Scene, geo: GeometryModel, phys, build: Callable, show: bool = False):
+    def __init__(self, scene: Scene, geo: GeometryModel, phys, build: Callable):
         a = scene.adaptivity
-        self.scene, self.geo, self.build, self.show = scene, geo, build, show
+        self.scene, self.geo, self.build = scene, geo, build
         self.levels, self.layers, self.remesh_every = a.levels, a.layers, a.remesh_every
         self.phys = phys
         self.h_base = phase_change_size(phys.mesh, phys.stefan.regions)
@@ -227,9 +230,8 @@ class FrontFollowing:
         rec = Remesh(t, old.forms.n, new.forms.n, heat_before, heat_after, time.perf_counter() - tic,
                      elements_after=mesh.ne, repeated_step=repeated, passes=passes)
         self.remeshes.append(rec)
-        if self.show:
-            print(f"front-following: remesh at t = {t:.6g} s: {rec.ndof_before} -> {rec.ndof_after} dofs, heat "
-                  f"content change {rec.transfer_error:.1e}", flush=True)
+        log.info("front-following: remesh at t = %.6g s: %d -> %d dofs, heat content change %.1e", t,
+                 rec.ndof_before, rec.ndof_after, rec.transfer_error)
 
     @property
     def factorizations(self) -> int:

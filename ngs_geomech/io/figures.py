@@ -1,4 +1,9 @@
-"""PNG figures with matplotlib (Agg backend, headless): fields with region outlines, probe time curves."""
+"""PNG figures with matplotlib: fields with region outlines, probe time curves.
+
+Figures are drawn with matplotlib's object-oriented API on an Agg canvas of their own (no ``pyplot``, no
+``matplotlib.use``), so the caller's backend and pyplot state stay as they are; matplotlib is imported only
+when a figure is drawn.
+"""
 
 from __future__ import annotations
 
@@ -6,19 +11,25 @@ import os
 import tempfile
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import LineCollection  # noqa: E402
-from matplotlib.tri import Triangulation  # noqa: E402
-
-from .atomic import _umask  # noqa: E402
-from .meshdata import MeshArrays  # noqa: E402
+from .atomic import _umask
+from .meshdata import MeshArrays
 
 
-def _save(fig, path: Path) -> None:
+def new_figure(figsize: tuple[float, float], nrows: int = 1, ncols: int = 1, **subplots):
+    """A figure on its own Agg canvas and its axes: ``(fig, ax)``, or ``(fig, axes)`` with ``subplots``
+    keywords of :meth:`matplotlib.figure.Figure.subplots` (``squeeze=False``, ``sharex=True``)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize)
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots(nrows, ncols, **subplots)
+
+
+def save_figure(fig, path: Path) -> None:
+    """Write ``fig`` as PNG (130 dpi) to ``path`` atomically (a temporary file renamed)."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".png")
     os.close(fd)
@@ -27,9 +38,15 @@ def _save(fig, path: Path) -> None:
         os.chmod(tmp, 0o666 & ~_umask())    # mkstemp creates 0600
         os.replace(tmp, path)
     finally:
-        plt.close(fig)
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def line_collection(segments, **kwargs):
+    """A :class:`matplotlib.collections.LineCollection` of ``segments`` (k x 2 x 2)."""
+    from matplotlib.collections import LineCollection
+
+    return LineCollection(segments, **kwargs)
 
 
 def field_figure(m: MeshArrays, values: np.ndarray, path: Path, *, title: str, label: str,
@@ -37,7 +54,9 @@ def field_figure(m: MeshArrays, values: np.ndarray, path: Path, *, title: str, l
                  lines_label: str = "") -> None:
     """A filled plot of vertex values with the region outlines; ``window`` = [xmin, xmax, ymin, ymax];
     ``lines`` (k x 2 x 2 segment coordinates, e.g. an iso-line) are drawn over it, labelled ``lines_label``."""
-    fig, ax = plt.subplots(figsize=(7, 5.5))
+    from matplotlib.tri import Triangulation
+
+    fig, ax = new_figure((7, 5.5))
     tri = Triangulation(m.points[:, 0], m.points[:, 1], m.triangles)
     vmin = vmax = None
     if window is not None:  # colour range of what is shown
@@ -46,9 +65,9 @@ def field_figure(m: MeshArrays, values: np.ndarray, path: Path, *, title: str, l
         if inside.any():
             vmin, vmax = float(values[inside].min()), float(values[inside].max())
     pc = ax.tripcolor(tri, values, shading="gouraud", cmap=cmap, vmin=vmin, vmax=vmax)
-    ax.add_collection(LineCollection(m.outline, colors="white", linewidths=0.8))
+    ax.add_collection(line_collection(m.outline, colors="white", linewidths=0.8))
     if lines is not None and len(lines):
-        ax.add_collection(LineCollection(np.asarray(lines)[:, :, :2], colors="cyan", linewidths=1.8,
+        ax.add_collection(line_collection(np.asarray(lines)[:, :, :2], colors="cyan", linewidths=1.8,
                                          label=lines_label or None))
         if lines_label:
             ax.legend(loc="best", fontsize=8, framealpha=0.8)
@@ -61,14 +80,14 @@ def field_figure(m: MeshArrays, values: np.ndarray, path: Path, *, title: str, l
     ax.set_ylabel(axis_labels[1])
     ax.set_title(title)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def time_curves(times: np.ndarray, curves: dict[str, np.ndarray], path: Path, *, title: str,
                 ylabel: str, time_unit: float = 1.0, time_label: str = "t (s)",
                 hlines: dict[str, float] | None = None) -> None:
     """Curves over time (one per probe), optional horizontal reference lines (e.g. a design limit)."""
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = new_figure((7, 4.5))
     t = np.asarray(times) / time_unit
     for name, vals in curves.items():
         ax.plot(t, vals, label=name, marker="." if len(t) < 40 else None)
@@ -80,7 +99,7 @@ def time_curves(times: np.ndarray, curves: dict[str, np.ndarray], path: Path, *,
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def interface_profiles(s: np.ndarray, panels: list[dict[str, np.ndarray]], path: Path, *, title: str,
@@ -89,7 +108,7 @@ def interface_profiles(s: np.ndarray, panels: list[dict[str, np.ndarray]], path:
     """Quantities along an interface: one panel per dict of curves (e.g. pressure and traction, gap and
     slip) over the arc length ``s``; ``status`` (0 open, 1 stick, 2 slip, 3 prescribed: held by the supports)
     shades the panels' background."""
-    fig, axes = plt.subplots(len(panels), 1, figsize=(7, 2.6 * len(panels) + 0.6), sharex=True, squeeze=False)
+    fig, axes = new_figure((7, 2.6 * len(panels) + 0.6), len(panels), 1, sharex=True, squeeze=False)
     for ax, curves, ylabel in zip(axes[:, 0], panels, ylabels):
         for name, vals in curves.items():
             ax.plot(s, vals, label=name, marker="." if len(s) < 60 else None, linewidth=1.0)
@@ -108,12 +127,12 @@ def interface_profiles(s: np.ndarray, panels: list[dict[str, np.ndarray]], path:
     axes[-1, 0].set_xlabel(xlabel)
     axes[0, 0].set_title(title)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def convergence_figure(dofs, curves: dict[str, list], path: Path, *, title: str, ylabel: str) -> None:
     """Log-log curves against the number of unknowns (e.g. an adaptive run's estimates)."""
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    fig, ax = new_figure((6.5, 4.5))
     for name, vals in curves.items():
         ax.loglog(dofs, vals, marker="o", label=name)
     ax.set_xlabel("unknowns")
@@ -122,4 +141,4 @@ def convergence_figure(dofs, curves: dict[str, list], path: Path, *, title: str,
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)

@@ -1,4 +1,4 @@
-"""A progress display on stdout for time loops and adaptive loops (stderr is for errors only)."""
+"""A progress display on stdout for time loops and adaptive loops (log messages and errors go to stderr)."""
 
 from __future__ import annotations
 

@@ -17,12 +17,8 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from matplotlib.colors import LinearSegmentedColormap
-from matplotlib.lines import Line2D
-from matplotlib.offsetbox import AnchoredOffsetbox, AuxTransformBox, HPacker, TextArea
-from matplotlib.tri import TrapezoidMapTriFinder, Triangulation
 
-from .figures import LineCollection, _save, plt
+from .figures import line_collection, new_figure, save_figure
 from .meshdata import MeshArrays
 
 COMPRESSION_COLOR = "#1f4fd6"   # blue
@@ -56,12 +52,16 @@ class Samples(NamedTuple):
     spacing: float = math.nan
 
 
-def _triangulation(m: MeshArrays) -> Triangulation:
+def _triangulation(m: MeshArrays):
+    from matplotlib.tri import Triangulation
+
     return Triangulation(m.points[:, 0], m.points[:, 1], m.triangles)
 
 
 def find_triangles(m: MeshArrays, xy) -> np.ndarray:
     """The triangle (row of ``m.triangles``) containing each point of ``xy`` (n, 2), -1 outside the mesh."""
+    from matplotlib.tri import TrapezoidMapTriFinder
+
     xy = np.atleast_2d(np.asarray(xy, dtype=float))
     try:
         finder = TrapezoidMapTriFinder(_triangulation(m))
@@ -175,7 +175,10 @@ def _estimate_spacing(xy: np.ndarray, m: MeshArrays) -> float:
 
 
 def _light_greys():
-    base = plt.get_cmap("Greys")
+    from matplotlib import colormaps
+    from matplotlib.colors import LinearSegmentedColormap
+
+    base = colormaps["Greys"]
     return LinearSegmentedColormap.from_list("light_greys", base(np.linspace(0.0, 0.55, 256)))
 
 
@@ -208,7 +211,10 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
             spacing = _estimate_spacing(xy, m)
         scale = 0.9 * spacing / smax if smax > 0 else 0.0
 
-    fig, ax = plt.subplots(figsize=(7.5, 6.2))
+    from matplotlib.lines import Line2D
+    from matplotlib.offsetbox import AnchoredOffsetbox, AuxTransformBox, HPacker, TextArea
+
+    fig, ax = new_figure((7.5, 6.2))
     if background is not None:
         values = np.asarray(background, dtype=float)
         vmin = vmax = None
@@ -220,12 +226,12 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
         pc = ax.tripcolor(_triangulation(m), values, shading="gouraud", cmap=cmap or _light_greys(),
                           vmin=vmin, vmax=vmax)
         fig.colorbar(pc, ax=ax, label=background_label or "", shrink=0.85)
-    ax.add_collection(LineCollection(m.outline, colors="k", linewidths=0.9))
+    ax.add_collection(line_collection(m.outline, colors="k", linewidths=0.9))
 
     segs, s = cross_segments(xy, s1, s2, theta1, scale)
     drawn = np.abs(s) > 0
     colours = np.where(s < 0, COMPRESSION_COLOR, EXTENSION_COLOR)
-    ax.add_collection(LineCollection(segs[drawn], colors=colours[drawn], linewidths=linewidth,
+    ax.add_collection(line_collection(segs[drawn], colors=colours[drawn], linewidths=linewidth,
                                      capstyle="butt", zorder=3))
 
     if window is not None:
@@ -258,4 +264,4 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
         anchored.set_in_layout(True)
         ax.add_artist(anchored)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)

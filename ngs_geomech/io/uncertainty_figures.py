@@ -7,13 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .figures import _save, plt
+from .figures import new_figure, save_figure
 
 
 def ranges_figure(rows: list[dict], path: Path, *, title: str) -> None:
     """One panel per criterion: every sample's value (dots), the nominal value, the worst-scenario range
     (bar from min to max) and the limit. ``rows``: name, unit, values, nominal, min, max, limit."""
-    fig, axes = plt.subplots(len(rows), 1, figsize=(7.5, 1.3 + 1.1 * len(rows)), squeeze=False)
+    fig, axes = new_figure((7.5, 1.3 + 1.1 * len(rows)), len(rows), 1, squeeze=False)
     for ax, r in zip(axes[:, 0], rows):
         v = np.asarray(r["values"], dtype=float)
         jitter = 0.12 * (np.linspace(-1, 1, len(v)) if len(v) > 1 else np.zeros(1))
@@ -32,7 +32,7 @@ def ranges_figure(rows: list[dict], path: Path, *, title: str) -> None:
     axes[0, 0].legend(loc="upper right", fontsize=7, ncol=4, framealpha=0.8)
     axes[0, 0].set_title(title, fontsize=10)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def scatter_figure(params: dict[str, np.ndarray], values: np.ndarray, tags: list[str], path: Path, *,
@@ -40,7 +40,7 @@ def scatter_figure(params: dict[str, np.ndarray], values: np.ndarray, tags: list
     """The criterion against each parameter over all samples, coloured by how each sample arose (design,
     finite difference, line search); ``marks``: label -> parameter values of highlighted points (the extrema)."""
     names = list(params)
-    fig, axes = plt.subplots(1, len(names), figsize=(3.2 * len(names) + 0.6, 3.4), squeeze=False)
+    fig, axes = new_figure((3.2 * len(names) + 0.6, 3.4), 1, len(names), squeeze=False)
     kinds = ["design" if t in ("design", "nominal") else ("derivative" if t.endswith(":fd") or t == "fd_check"
                                                           else "search step") for t in tags]
     colours = {"design": "tab:gray", "derivative": "tab:orange", "search step": "tab:green"}
@@ -58,13 +58,13 @@ def scatter_figure(params: dict[str, np.ndarray], values: np.ndarray, tags: list
     axes[0, 0].set_ylabel(criterion)
     axes[0, -1].legend(fontsize=7, loc="best")
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def distribution_figure(values: np.ndarray, running: dict, path: Path, *, criterion: str, unit: str,
                         mean_ci: list[float] | None, limit: float | None) -> None:
     """Histogram of a criterion over the samples and its running mean with the confidence band."""
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.8))
+    fig, (a1, a2) = new_figure((10, 3.8), 1, 2)
     label = f"{criterion} ({unit})" if unit else criterion
     a1.hist(values, bins=max(5, min(30, len(values) // 3)), color="tab:gray", alpha=0.8)
     if mean_ci:
@@ -85,4 +85,4 @@ def distribution_figure(values: np.ndarray, running: dict, path: Path, *, criter
     a2.grid(True, alpha=0.3)
     a2.legend(fontsize=7)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)

@@ -60,7 +60,7 @@ def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> E
 
 
 def mechanics_warnings(scene: Scene, setup: ElasticSetup) -> list[str]:
-    """Warnings a user should see before trusting the result (printed on stdout, kept in summary.json)."""
+    """Warnings a user should see before trusting the result (logged as warnings, kept in summary.json)."""
     mixed, notes = mixed_regions(setup)
     out = list(notes)
     if scene.mesh.order == 1:
