@@ -24,22 +24,29 @@ from pathlib import Path
 from .outdir import INNER_STAGING, MARKER, check_output, creating, owned_files
 
 
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write a text file so that readers see the old file or the whole new one, never a truncated one."""
+@contextlib.contextmanager
+def replacing(path: Path, suffix: str = ".tmp"):
+    """A temporary file beside ``path`` to write into: renamed to ``path`` (with the usual permissions) when the
+    block ends, removed when it fails, so readers see the old file or the whole new one, never a truncated one."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix)
+    os.close(fd)
     try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o666 & ~_umask())    # mkstemp creates 0600; give the file the usual permissions
+        yield Path(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())    # mkstemp creates 0600
         os.replace(tmp, path)
-    except BaseException:
+    finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
-        raise
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write a text file completely or not at all (:func:`replacing`), synced to the disk before the rename."""
+    with replacing(path) as tmp, open(tmp, "w") as fh:
+        fh.write(text)
+        fh.flush()
+        os.fsync(fh.fileno())
 
 
 def _umask() -> int:

@@ -7,13 +7,11 @@ when a figure is drawn.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .atomic import _umask
+from .atomic import replacing
 from .meshdata import MeshArrays
 
 
@@ -29,17 +27,9 @@ def new_figure(figsize: tuple[float, float], nrows: int = 1, ncols: int = 1, **s
 
 
 def save_figure(fig, path: Path) -> None:
-    """Write ``fig`` as PNG (130 dpi) to ``path`` atomically (a temporary file renamed)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".png")
-    os.close(fd)
-    try:
+    """Write ``fig`` as PNG (130 dpi) to ``path`` completely or not at all (:func:`.atomic.replacing`)."""
+    with replacing(path, ".png") as tmp:
         fig.savefig(tmp, dpi=130)
-        os.chmod(tmp, 0o666 & ~_umask())    # mkstemp creates 0600
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def line_collection(segments, **kwargs):
