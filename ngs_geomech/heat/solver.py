@@ -104,6 +104,11 @@ class HeatSolver:
                                   "a singularity or a function outside its domain")
         raise SolverError("the boundary temperatures are not finite at some points of the mesh")
 
+    def forget_factorizations(self) -> None:
+        """Drop the cached step operators: the next step assembles and factors anew (for timing a step with its
+        factorization)."""
+        self._cache.clear()
+
     def _system(self, key: str):
         """(matrix, inverse) of the step operator for one dt, cached for the last two dts."""
         hit = self._cache.get(key)

@@ -277,7 +277,7 @@ class _LinearReference:
     def step(self, a: float, b: float, fresh: bool = False) -> tuple[float, float]:
         forms = self.forms
         if fresh:
-            self.solver._cache.clear()
+            self.solver.forget_factorizations()
         start, cpu = time.perf_counter(), time.process_time()
         forms.gf_old.vec.data = forms.gf.vec
         forms.t_old.Set(a)
