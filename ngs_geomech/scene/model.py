@@ -12,8 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .schema import (
+    RELATIVE_TOLERANCE,
     at_most,
     boolean,
+    bounded,
     dict_of,
     either,
     expr,
@@ -24,6 +26,7 @@ from .schema import (
     number,
     one_of,
     optional,
+    positive,
     string,
     time,
 )
@@ -69,21 +72,26 @@ class Physics:
                               "deformation heating -Theta_0 beta : e(u_t) of (2.49) from the previous step's "
                               "displacement rate enters the heat step, mechanics is solved every step) or "
                               "'iterated' (the heat and mechanics steps repeated within a step until they agree)")
-    coupling_tolerance: float = field(number, 1e-6,
+    coupling_tolerance: float = field(bounded(number, **RELATIVE_TOLERANCE), 1e-6,
                                       doc="'iterated': relative change of T and u between two passes that ends "
                                           "a step's iteration")
-    coupling_max_iterations: int = field(integer, 20, doc="'iterated': passes per step before the run stops")
+    coupling_max_iterations: int = field(bounded(integer, 1), 20,
+        doc="'iterated': passes per step before the run stops")
 
 
 @dataclass(frozen=True, kw_only=True)
 class MeshSettings:
     """``[mesh]``: mesh size and finite element order."""
 
-    maxh: float = field(number, 1.0, doc="global maximal element size, m")
-    order: int = field(integer, 1, doc="polynomial order of the fields (curved boundaries to the same order)")
-    grading: float = field(number, 0.3, doc="netgen grading in (0, 1): smaller gives slower growth")
-    boundary_maxh: dict = field(dict_of(number), {}, doc="maximal element size per boundary name, m")
-    max_elements: int = field(integer, 5_000_000,
+    maxh: float = field(positive(number), 1.0, doc="global maximal element size, m")
+    order: int = field(bounded(integer, 1, 6), 1,
+        doc="polynomial order of the fields (curved boundaries to the same order)")
+    grading: float = field(bounded(number, 0.05, 1, note="(netgen's finest preset is 0.1)"), 0.3,
+                           doc="netgen grading: smaller gives slower growth; below 0.05 netgen's meshes grow far "
+                               "beyond the element estimate of max_elements (0.001 gives ten times the elements of "
+                               "0.01) and below about 1e-4 netgen runs out of memory or crashes")
+    boundary_maxh: dict = field(dict_of(positive(number)), {}, doc="maximal element size per boundary name, m")
+    max_elements: int = field(bounded(integer, 1), 5_000_000,
                               doc="largest mesh accepted: a scene whose element count, estimated before meshing from "
                                   "the blocks' areas (volumes) and the element sizes, exceeds it is refused (netgen "
                                   "makes 0.5 to 3 times the estimate); raise it for a larger machine")
@@ -119,7 +127,7 @@ class Block:
     boundaries: dict = field(dict_of(either(string, list_of(string), what="a selector or list of selectors")),
                              {}, doc="boundary name -> selector(s) of this block's own sides: "
                                      + ", ".join(SELECTORS))
-    maxh: float | None = field(optional(number), None, doc="maximal element size in this block, m")
+    maxh: float | None = field(optional(positive(number)), None, doc="maximal element size in this block, m")
 
 
 CONTACT_LAWS = ("frictionless", "tresca", "coulomb")
@@ -138,22 +146,23 @@ class ContactMechanics:
     slip_bound: object = field(optional(expr), None,
                                doc="Tresca slip bound g_c, Pa: a number or an expression of x, y (z), "
                                    "evaluated at the contact nodes")
-    friction: float | None = field(optional(number), None, doc="Coulomb friction coefficient F_c (>= 0; 0 is "
-                                                               "frictionless contact)")
+    friction: float | None = field(optional(bounded(number, 0, note="(0: frictionless)")), None,
+        doc="Coulomb friction coefficient F_c (>= 0; 0 is "
+            "frictionless contact)")
     method: str = field(one_of(*CONTACT_METHODS), "ssn",
                         doc="'ssn': semi-smooth Newton / primal-dual active set on the augmented Lagrangian "
                             "(exact constraints; the default), 'penalty': plain penalty (penetration "
                             "~ pressure / augmentation), 'uzawa': the seed's Uzawa algorithm (2.66) for the "
                             "friction multipliers (reference; slow; 2D only)")
-    uzawa_step: float | None = field(optional(number), None,
+    uzawa_step: float | None = field(optional(positive(number)), None,
                                      doc="method = 'uzawa': the step rho of the friction multipliers, Pa/m (> 0; "
                                          "default 2 x the largest stiffness entry over the extent of the contact "
                                          "side, 2 E/L; a step above about 2 E/L oscillates and is halved after 30 "
                                          "steps without progress)")
-    augmentation: float | None = field(optional(number), None,
+    augmentation: float | None = field(optional(positive(number)), None,
                                        doc="augmentation / penalty parameter c, Pa/m (default: the largest "
                                            "stiffness entry of the materials over the nodal size, E/h)")
-    search_distance: float | None = field(optional(number), None,
+    search_distance: float | None = field(optional(positive(number)), None,
                                           doc="largest initial gap seen as contact, m (default a quarter of "
                                               "the contact side's extent); points of the side farther from the "
                                               "other side never come into contact")
@@ -319,7 +328,7 @@ class BoundaryCondition:
     flux: object = field(optional(expr), None,
                          doc="prescribed heat flux into the body q0 = kappa_ij dT/dx_j n_i (2.21), W/m^2")
     insulated: bool = field(boolean, False, doc="kappa dT/dn = 0 (2.20)")
-    heat_transfer_coefficient: float | None = field(optional(number), None,
+    heat_transfer_coefficient: float | None = field(optional(positive(number)), None,
                                                     doc="Robin: q = h (T_ambient - T), W/(m^2 K)")
     ambient_temperature: object = field(optional(expr), None, doc="Robin ambient temperature, degC or K")
     displacement: list | None = field(optional(list_of(either(expr, one_of("free"), what="an expression or 'free'"))),
@@ -384,19 +393,23 @@ class MechanicsSettings:
     nonlinear_solver: str = field(one_of("newton", "secant"), "newton",
                                   doc="for rheology_lambda != 1: Newton on W (line search) or the secant modules "
                                       "method (2.32)-(2.34)")
-    secant_relaxation: float | None = field(optional(number), None,
+    secant_relaxation: float | None = field(optional(bounded(number, 0, 2, lo_open=True)), None,
                                             doc="secant method step: none (default) takes the energy-minimising "
                                                 "step along the secant direction; 1.0 is the plain method (2.32)")
-    tolerance: float = field(number, 1e-8, doc="relative tolerance of the nonlinear iteration")
-    max_iterations: int = field(integer, 100, doc="iteration limit of the nonlinear solver")
-    uzawa_max_steps: int = field(integer, 1000, doc="contacts with method = 'uzawa': the most Uzawa steps (2.66) "
-                                                    "per contact solve (>= 1)")
-    regularization: float = field(number, 1e-6, doc="delta in (A1/A_ref + delta)^lambda (lambda < 1 is singular "
-                                                    "at zero strain)")
-    nested_levels: int = field(integer, 0, doc="Newton on the lambda law (no contact): start from the solution on "
-                                               "meshes 2^k times coarser (mesh.maxh and boundary_maxh scaled), k = "
-                                               "nested_levels ... 1, each started from the one before (nested "
-                                               "iteration); 0: from the linear elastic solution")
+    tolerance: float = field(bounded(number, **RELATIVE_TOLERANCE), 1e-8,
+                             doc="relative tolerance of the nonlinear iteration")
+    max_iterations: int = field(bounded(integer, 1), 100, doc="iteration limit of the nonlinear solver")
+    uzawa_max_steps: int = field(bounded(integer, 1), 1000,
+        doc="contacts with method = 'uzawa': the most Uzawa steps (2.66) "
+            "per contact solve (>= 1)")
+    regularization: float = field(bounded(number, 0), 1e-6,
+        doc="delta in (A1/A_ref + delta)^lambda (lambda < 1 is singular "
+            "at zero strain)")
+    nested_levels: int = field(bounded(integer, 0, 6), 0,
+        doc="Newton on the lambda law (no contact): start from the solution on "
+            "meshes 2^k times coarser (mesh.maxh and boundary_maxh scaled), k = "
+            "nested_levels ... 1, each started from the one before (nested "
+            "iteration); 0: from the linear elastic solution")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -412,8 +425,9 @@ class SolverSettings:
                             "Lagrangian AMG preconditioner) or 'auto' (iterative above 60k unknowns per system in 3D, "
                             "1M in 2D; contact Newton steps above 20k displacement dofs in 3D, Stefan Newton steps "
                             "above 5k nodes in 3D)")
-    tolerance: float = field(number, 1e-10, doc="relative residual of the iterative solver")
-    max_iterations: int = field(integer, 2000, doc="iteration limit of the iterative solver")
+    tolerance: float = field(bounded(number, **RELATIVE_TOLERANCE), 1e-10,
+                             doc="relative residual of the iterative solver")
+    max_iterations: int = field(bounded(integer, 1), 2000, doc="iteration limit of the iterative solver")
     preconditioner: str = field(one_of("auto", "bddc"), "auto",
                                 doc="of the iterative solver: 'auto' (two-level AMG for 3D P2 elasticity, BDDC with an "
                                     "AMG vertex problem for 3D P2 heat, BDDC for order >= 2 otherwise, AMG for P1) or "
@@ -427,12 +441,12 @@ class TimeSettings:
 
     start: float = field(time, 0.0, doc="start time, s")
     end: float = field(time, doc="end time, s")
-    dt: float = field(time, doc="first time step, s")
-    dt_growth: float = field(number, 1.0, doc="factor applied to dt after each step (>= 1)")
+    dt: float = field(positive(time), doc="first time step, s")
+    dt_growth: float = field(bounded(number, 1), 1.0, doc="factor applied to dt after each step")
     dt_max: float | None = field(optional(time), None, doc="largest time step, s")
     scheme: str = field(one_of("backward_euler", "crank_nicolson"), "backward_euler",
                         doc="theta scheme: backward Euler (theta=1) or Crank-Nicolson (theta=1/2)")
-    startup_steps: int = field(integer, 0,
+    startup_steps: int = field(bounded(integer, 0), 0,
                                doc="crank_nicolson: take the first N steps with backward Euler (Rannacher's "
                                    "start-up: damps the stiff modes that a source or boundary value switched on "
                                    "at the start excites and Crank-Nicolson never damps; 2-4 typical)")
@@ -471,13 +485,15 @@ class Output:
                               doc="mechanics with contact: write each contact's series <scene>_contact_<name> (.vtp "
                                   "per output time and a .pvd: nodal pressure, traction, gap, slip, status, slip "
                                   "bound), independently of vtk (the only nodal output of the multipliers)")
-    every: int = field(integer, 1, doc="write VTK every N-th step (the last step is always written)")
-    checkpoint_every: int | None = field(optional(integer), None,
+    every: int = field(bounded(integer, 1), 1, doc="write VTK every N-th step (the last step is always written)")
+    checkpoint_every: int | None = field(optional(bounded(integer, 0, note="(0: no checkpoints)")), None,
                                          doc="time-dependent runs: a checkpoint every N steps (0: no periodic ones; a "
                                              "failing step still saves the last good state); default every tenth "
                                              "of the steps and at least every 5 minutes of wall time")
     figures: bool = field(boolean, True, doc="write PNG figures")
-    subdivision: int = field(integer, 0, doc="VTK subdivision of each element (for order > 1)")
+    subdivision: int = field(bounded(integer, 0, 6, note="(each level splits every element into 2^dim cells)"), 0,
+                             doc="VTK subdivision of each element (for order > 1); 6 levels already write 4096 (2D) "
+                                 "or 262144 (3D) cells per element")
     figure_window: list | None = field(optional(list_of(number, 4)), None,
                                        doc="[xmin, xmax, ymin, ymax] of an extra zoomed field figure, m")
     probes: list = field(list_of(nested(Probe)), [], doc="probes recorded over time")

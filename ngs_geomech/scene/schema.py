@@ -7,6 +7,7 @@ instead of stopping at the first.
 
 from __future__ import annotations
 
+import contextvars
 import dataclasses
 import difflib
 import math
@@ -22,6 +23,15 @@ MISSING = dataclasses.MISSING
 
 class Invalid(ValueError):
     """A value that cannot be converted; the message says why."""
+
+
+class OutOfRange(Invalid):
+    """A value of the right type outside the range declared with its key (:func:`bounded`)."""
+
+
+_RANGES = contextvars.ContextVar("ranges", default=True)
+"""Whether converters check the declared ranges: reading a scene (:func:`read`) converts the types only and keeps
+values out of range, so that validation (:func:`recheck`) reports them together with every other problem."""
 
 
 Conv = Callable[[Any, str, list], Any]
@@ -91,6 +101,37 @@ def at_most(limit: float, unit: str = "") -> Conv:
                           f"range (magnitude at most {limit:g}{u})")
         return number(v, path, problems)
     return _label(conv, f"number, magnitude at most {limit:g}{u}")
+
+
+def bounded(conv: Conv, lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
+            hi_open: bool = False, note: str = "") -> Conv:
+    """``conv`` (a number, integer or time) restricted to a range declared with the key: at least ``lo`` (above it
+    when ``lo_open``), at most ``hi`` (below it when ``hi_open``); ``note`` says why, after the range."""
+    if lo is not None and hi is not None:
+        rule = f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+    elif lo is not None:
+        rule = "positive" if lo == 0 and lo_open else f"{'>' if lo_open else '>='} {lo:g}"
+    else:
+        rule = f"{'<' if hi_open else '<='} {hi:g}"
+    suffix = f" {note}" if note else ""
+
+    def c(v, path, problems):
+        x = conv(v, path, problems)
+        low = lo is not None and (x <= lo if lo_open else x < lo)
+        high = hi is not None and (x >= hi if hi_open else x > hi)
+        if (low or high) and _RANGES.get():
+            raise OutOfRange(f"must be {rule}{suffix}, got {x:g}")
+        return x
+    return _label(c, f"{conv.what}, {rule}")
+
+
+def positive(conv: Conv) -> Conv:
+    """``conv`` above zero."""
+    return bounded(conv, 0, lo_open=True)
+
+
+RELATIVE_TOLERANCE = {"lo": 0, "hi": 1, "lo_open": True, "hi_open": True,
+                      "note": "(a relative tolerance: at 1 or above the first iterate already meets it)"}
 
 
 def integer(v, path, problems):
@@ -232,7 +273,16 @@ def convert(conv: Conv, value: Any, path: str, problems: list) -> Any:
 
 
 def read(cls: type, data: Any, path: str, problems: list[Problem]) -> Any:
-    """Build ``cls`` from ``data`` (a dict), appending problems; returns None when not a table."""
+    """Build ``cls`` from ``data`` (a dict), appending problems; returns None when not a table. The declared
+    ranges are not checked here but by :func:`recheck` (validation), with every other problem of the scene."""
+    token = _RANGES.set(False)
+    try:
+        return _read(cls, data, path, problems)
+    finally:
+        _RANGES.reset(token)
+
+
+def _read(cls: type, data: Any, path: str, problems: list[Problem]) -> Any:
     if dataclasses.is_dataclass(data) and isinstance(data, cls):
         return data
     if not isinstance(data, dict):
@@ -257,6 +307,25 @@ def read(cls: type, data: Any, path: str, problems: list[Problem]) -> Any:
             problems.append(Problem(p, "required key is missing"))
             kwargs[name] = None
     return cls(**kwargs)
+
+
+def recheck(obj: Any, path: str, problems: list[Problem]) -> None:
+    """Apply the declared converters again to the values of a schema object, appending problems: a scene built
+    in Python from the dataclasses (not read from TOML by :func:`read`) meets the same declared types and ranges."""
+    for f in dataclasses.fields(obj):
+        value, p = getattr(obj, f.name), _join(path, f.name)
+        if value is None:
+            continue
+        if dataclasses.is_dataclass(value):
+            recheck(value, p, problems)
+        elif isinstance(value, list) and value and all(dataclasses.is_dataclass(v) for v in value):
+            for i, v in enumerate(value):
+                recheck(v, f"{p}[{i}]", problems)
+        elif isinstance(value, dict) and value and all(dataclasses.is_dataclass(v) for v in value.values()):
+            for k, v in value.items():
+                recheck(v, f"{p}.{k}", problems)
+        else:
+            convert(f.metadata["conv"], value, p, problems)
 
 
 def _join(path: str, key: str) -> str:

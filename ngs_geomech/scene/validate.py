@@ -30,19 +30,16 @@ from . import expressions
 from .expression_values import check_expression_values, value_range
 from .model import Scene
 from .names import name_problem
+from .schema import recheck
 from .units import KELVIN
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-GRADING = (0.05, 1.0)
-"""Range of mesh.grading: below it netgen's mesh grows far beyond the element estimate of mesh.max_elements
-(0.001 gives ten times the elements of 0.01), and below about 1e-4 netgen runs out of memory or crashes."""
-MAX_SUBDIVISION = 6
-"""Largest output.subdivision: 6 levels already write 4^6 = 4096 (2D) or 8^6 = 262144 (3D) cells per element."""
 
 
 def validate(scene: Scene) -> GeometryModel:
     """Check a scene; return its geometry model, or raise SceneError listing every problem."""
     problems: list[Problem] = []
+    recheck(scene, "", problems)        # the declared types and ranges (also of a scene built in Python)
     _check_names(scene, problems)
     _check_settings(scene, problems)
     _check_materials(scene, problems)
@@ -131,9 +128,6 @@ def _check_mesh_size(scene: Scene, geo: GeometryModel, problems: list[Problem]) 
     """The mesh is not larger than ``mesh.max_elements``, from the geometry's estimate before meshing (meshing
     runs until memory is exhausted otherwise)."""
     m = scene.mesh
-    if m.max_elements < 1:
-        problems.append(Problem("mesh.max_elements", f"must be >= 1, got {m.max_elements}"))
-        return
     if not m.maxh > 0 or any(not h > 0 for h in m.boundary_maxh.values()) or any(
             b.maxh is not None and not b.maxh > 0 for b in scene.blocks):
         return                              # reported by _check_settings, _check_names
@@ -169,18 +163,9 @@ def _check_formulation(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem("mechanics.formulation", f"'mixed' needs the linear law (rheology_lambda = 1); "
                                     f"{bad} are not"))
     s = scene.solver
-    _check_relative_tolerance("solver.tolerance", s.tolerance, problems)
-    if s.max_iterations < 1:
-        problems.append(Problem("solver.max_iterations", f"must be >= 1, got {s.max_iterations}"))
     if s.preconditioner == "bddc" and scene.mesh.order < 2:
         problems.append(Problem("solver.preconditioner", "'bddc' needs mesh.order >= 2 (P1 elements have no "
                                 "interface dofs); use 'auto'"))
-
-
-def _check_relative_tolerance(item: str, tol: float, problems: list[Problem]) -> None:
-    """A relative tolerance lies in (0, 1): at 1 or above the first iterate already meets it (nothing is solved)."""
-    if not 0 < tol < 1:
-        problems.append(Problem(item, f"a relative tolerance must be in (0, 1), got {tol:g}"))
 
 
 def _check_dynamics(scene: Scene, problems: list[Problem]) -> None:
@@ -239,8 +224,6 @@ def _check_nested(scene: Scene, problems: list[Problem]) -> None:
     ms = scene.mechanics
     if ms.nested_levels == 0:
         return
-    if not 0 < ms.nested_levels <= 6:
-        problems.append(Problem("mechanics.nested_levels", f"must be between 0 and 6, got {ms.nested_levels}"))
     if scene.physics.mechanics != "static":
         problems.append(Problem("mechanics.nested_levels", "needs physics.mechanics = 'static'"))
     if ms.nonlinear_solver != "newton":
@@ -397,15 +380,6 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
         if ms.initial_stress is not None and (len(ms.initial_stress) != dim
                                               or any(len(r) != dim for r in ms.initial_stress)):
             problems.append(Problem("mechanics.initial_stress", f"must be a {dim}x{dim} table of expressions"))
-        _check_relative_tolerance("mechanics.tolerance", ms.tolerance, problems)
-        if ms.max_iterations < 1:
-            problems.append(Problem("mechanics.max_iterations", f"must be >= 1, got {ms.max_iterations}"))
-        if ms.uzawa_max_steps < 1:
-            problems.append(Problem("mechanics.uzawa_max_steps", f"must be >= 1, got {ms.uzawa_max_steps}"))
-        if ms.secant_relaxation is not None and not 0 < ms.secant_relaxation <= 2:
-            problems.append(Problem("mechanics.secant_relaxation", f"must be in (0, 2], got {ms.secant_relaxation}"))
-        if ms.regularization < 0:
-            problems.append(Problem("mechanics.regularization", f"must be >= 0, got {ms.regularization}"))
         softening = [n for n, m in scene.materials.items() if m.rheology_lambda < 1]
         if softening and ms.regularization <= 0:
             problems.append(Problem("mechanics.regularization", f"must be positive: rheology_lambda < 1 in "
@@ -435,31 +409,7 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
                                         f"physics.coupling = {ph.coupling!r} is proportional to the absolute "
                                         f"reference temperature, here {mat.stress_free_temperature + offset:g} K: "
                                         "it must be > 0 K (give it in the scene's temperature_unit)"))
-        _check_relative_tolerance("physics.coupling_tolerance", ph.coupling_tolerance, problems)
-        if ph.coupling_max_iterations < 1:
-            problems.append(Problem("physics.coupling_max_iterations",
-                                    f"must be >= 1, got {ph.coupling_max_iterations}"))
-    m = scene.mesh
-    if m.maxh <= 0:
-        problems.append(Problem("mesh.maxh", f"must be positive, got {m.maxh}"))
-    if not 1 <= m.order <= 6:
-        problems.append(Problem("mesh.order", f"must be between 1 and 6, got {m.order}"))
-    if not GRADING[0] <= m.grading <= GRADING[1]:
-        problems.append(Problem("mesh.grading", f"must be in [{GRADING[0]:g}, {GRADING[1]:g}], got {m.grading:g} "
-                                f"(netgen's finest preset is 0.1)"))
-    for k, h in m.boundary_maxh.items():
-        if h <= 0:
-            problems.append(Problem(f"mesh.boundary_maxh.{k}", f"must be positive, got {h}"))
     _check_time(scene, problems)
-    if scene.output.every < 1:
-        problems.append(Problem("output.every", f"must be >= 1, got {scene.output.every}"))
-    if scene.output.checkpoint_every is not None and scene.output.checkpoint_every < 0:
-        problems.append(Problem("output.checkpoint_every", f"must be >= 0 (0: no checkpoints), got "
-                                f"{scene.output.checkpoint_every}"))
-    if not 0 <= scene.output.subdivision <= MAX_SUBDIVISION:
-        problems.append(Problem("output.subdivision", f"must be between 0 and {MAX_SUBDIVISION}, got "
-                                f"{scene.output.subdivision} (each level splits every element into 2^dim cells "
-                                "of the VTK files)"))
     for i, s in enumerate(scene.sources):
         p = f"sources[{i}]"
         if (s.power is None) == (s.density is None):
@@ -510,9 +460,6 @@ def _check_settings(scene: Scene, problems: list[Problem]) -> None:
                 problems.append(Problem(f"{p}.{key}", f"needs {dim} components, got {len(v)}"))
         if (bc.heat_transfer_coefficient is None) != (bc.ambient_temperature is None):
             problems.append(Problem(p, "heat_transfer_coefficient and ambient_temperature go together"))
-        if bc.heat_transfer_coefficient is not None and bc.heat_transfer_coefficient <= 0:
-            problems.append(Problem(f"{p}.heat_transfer_coefficient",
-                                    f"must be positive, got {bc.heat_transfer_coefficient}"))
     if ph.mechanics is not None and not any(bc.displacement is not None or bc.symmetry or bc.foundation is not None
                                             for bc in scene.boundary_conditions.values()):
         problems.append(Problem("boundary_conditions", "the bodies are not held: mechanics needs a displacement, "
@@ -553,16 +500,10 @@ def _check_contact_law(c, p: str, problems: list[Problem]) -> None:
         problems.append(Problem(f"{p}.friction", "Coulomb friction needs a coefficient F_c"))
     if c.law != "coulomb" and c.friction is not None:
         problems.append(Problem(f"{p}.friction", f"applies to law = 'coulomb', not {c.law!r}"))
-    if c.friction is not None and not (c.friction >= 0 and math.isfinite(c.friction)):
-        problems.append(Problem(f"{p}.friction", f"must be >= 0 (0: frictionless), got {c.friction}"))
     if isinstance(c.slip_bound, (int, float)) and not (c.slip_bound >= 0 and math.isfinite(c.slip_bound)):
         problems.append(Problem(f"{p}.slip_bound", f"must be >= 0 (Pa), got {c.slip_bound}"))
     if isinstance(c.slip_bound, str) and "t" in expressions.uses(c.slip_bound):
         problems.append(Problem(f"{p}.slip_bound", "must not depend on time t (an expression of x, y, z)"))
-    for key in ("augmentation", "search_distance", "uzawa_step"):
-        v = getattr(c, key)
-        if v is not None and not (v > 0 and math.isfinite(v)):
-            problems.append(Problem(f"{p}.{key}", f"must be positive, got {v}"))
     if c.uzawa_step is not None and c.method != "uzawa":
         problems.append(Problem(f"{p}.uzawa_step", f"applies to method = 'uzawa', not {c.method!r}"))
 
@@ -580,14 +521,8 @@ def _check_time(scene: Scene, problems: list[Problem]) -> None:
         if scene.physics.thermal == "transient":
             problems.append(Problem("time", "a transient scene needs [time] with end and dt"))
         return
-    if t.dt <= 0:
-        problems.append(Problem("time.dt", f"must be positive, got {t.dt:g} s"))
     if t.end <= t.start:
         problems.append(Problem("time.end", f"end {t.end:g} s must be after start {t.start:g} s"))
-    if t.dt_growth < 1:
-        problems.append(Problem("time.dt_growth", f"must be >= 1, got {t.dt_growth}"))
-    if t.startup_steps < 0:
-        problems.append(Problem("time.startup_steps", f"must be >= 0, got {t.startup_steps}"))
     if t.dt_max is not None and t.dt_max < t.dt:
         problems.append(Problem("time.dt_max", f"{t.dt_max:g} s is smaller than dt {t.dt:g} s"))
     elif t.dt > 0 and t.end > t.start and t.dt_growth >= 1:
