@@ -95,13 +95,13 @@ def test_symmetry_check_of_the_bulk_matrix():
     rows, cols = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
     sym = ngs.la.SparseMatrixd.CreateFromCOO(rows, cols, np.array([2.0, -1.0, -1.0, 2.0]), 2, 2)
     non = ngs.la.SparseMatrixd.CreateFromCOO(rows, cols, np.array([2.0, -1.0, -0.5, 2.0]), 2, 2)
-    assert sc._is_symmetric(sym)
-    assert not sc._is_symmetric(non)
+    assert sc.is_symmetric(sym)
+    assert not sc.is_symmetric(non)
 
 
 def test_non_symmetric_bulk_goes_to_umfpack(one_thread, monkeypatch):
     """With K reported non-symmetric (e.g. a tangent of a non-symmetric law) no companion is factored."""
-    monkeypatch.setattr(sc, "_is_symmetric", lambda matrix: False)
+    monkeypatch.setattr(sc, "is_symmetric", lambda matrix: False)
     keep = _Keep()
     r = cp.hertz(0.1 * cp.R_HERTZ / 50, 2, solver_factory=functools.partial(keep))
     i = keep.solver.infos[-1]

@@ -100,7 +100,9 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 from ..linalg.direct import check_finite, inverse
+from .condensed import CondensedContact, applicable
 from .forms import ContactOperator
+from .linear_algebra import drop_prescribed_nodes, is_symmetric
 
 LAWS = ("frictionless", "tresca", "coulomb")
 COULOMB_FIXED_POINT_TOL = 1e-8    # Coulomb fallback: relative change of the slip bounds F_c p that ends it
@@ -235,16 +237,6 @@ class _Interface:
         return self.op.size
 
 
-def _drop_prescribed_nodes(ifs: list, free: np.ndarray, n: int) -> None:
-    """Take out of ``keep`` the nodes whose normal constraint involves only prescribed displacements (a
-    foundation's end node on a boundary with u_n given): its multiplier would be undetermined (1e21 Pa was
-    reported, balanced by an equal support reaction); the support carries that load."""
-    freef = np.asarray(free, dtype=float)
-    for it in ifs:
-        absB = abs(it.Bn[:, :n])
-        it.keep = it.keep & ((absB @ freef) > 1e-10 * (absB @ np.ones(n)))
-
-
 def _balance_slip(it, lam_t: np.ndarray, rigid: np.ndarray, n: int, imbalance: np.ndarray) -> np.ndarray:
     """2D, every active node of ``it`` slipping and the free rigid motions ``rigid`` unbalanced by ``imbalance``
     (rigid^T times the residual of the equilibrium rows): choose a node to stick and the slip directions of the
@@ -335,7 +327,6 @@ class ContactSolver:
             raise ValueError("the iterative contact solver needs the elastic forms (forms=): the displacement space "
                              "and its rigid motions")
         if linear == "auto":
-            from .condensed import applicable
             dim = 3 if any(op.Bt2 is not None for op, _ in interfaces) else 2
             linear = "condensed" if applicable(dim) else "direct"
         self.linear = linear
@@ -357,12 +348,12 @@ class ContactSolver:
         self.infos: list[ContactInfo] = []
         self._state: list[_Interface] | None = None
         self._pattern: _Pattern | None = None
-        self._converged = False
+        self.converged = False
         self._penalty_start = False      # a cold solve from the penalty start (after a failed exact start)
         self._exact_cold = False         # the last solve started cold with the exact constraints
         self.multipliers: list[tuple[np.ndarray, np.ndarray]] = []
 
-    def _interfaces(self, ndof: int) -> list[_Interface]:
+    def interfaces(self, ndof: int) -> list[_Interface]:
         if self._state is None:
             out, off = [], ndof
             for op, law in self.items:
@@ -371,25 +362,33 @@ class ContactSolver:
             self._state = out
         return self._state
 
+    def inner_solver(self, items: list[tuple[ContactOperator, ContactLaw]], floating: list) -> ContactSolver:
+        """A solver with this one's settings for other interfaces and floating bodies, on the sparse or dense
+        steps (the condensed problem's: its dense bulk selects the dense steps), without the solvability check
+        of the load (the caller checked it on all nodes: the candidate nodes alone could wrongly refuse it)."""
+        return ContactSolver(items, modulus=self.modulus, maxit=self.maxit, method=self.method, floating=floating,
+                             reuse_rows=self.reuse_rows, quasi_definite=self.quasi_definite, linear="direct",
+                             check_solvable=False)
+
     def cold_start(self) -> None:
         """Forget the sets of the last solve (or of :meth:`warm_start`): the next solve begins as the first one
         does, from the nodes touching first (with the exact constraints; the penalty phase for 3D friction or
         when the exact start fails)."""
-        self._state, self._pattern, self._converged = None, None, False
+        self._state, self._pattern, self.converged = None, None, False
 
     def warm_start(self, ndof: int, sets: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> None:
         """Start the next solve from given nodal sets, one (active, stick, slip) triple of bool arrays per
         interface (e.g. transferred from the solution on a coarser mesh): the solve then begins with the exact
         constraints of these sets, as after a converged solve, instead of the nodes touching first. ``ndof``: the size
         of the displacement vector X."""
-        ifs = self._interfaces(ndof)
+        ifs = self.interfaces(ndof)
         if len(sets) != len(ifs):
             raise ValueError(f"warm_start needs one set triple per interface ({len(ifs)}), got {len(sets)}")
         for it, (active, stick, slip) in zip(ifs, sets):
             it.active = np.asarray(active, dtype=bool) & it.keep
             it.stick = np.asarray(stick, dtype=bool) & it.active
             it.slip = np.asarray(slip, dtype=bool) & it.active & ~it.stick
-        self._converged = True
+        self.converged = True
 
     def capture(self) -> dict:
         """The warm start of the next solve as plain arrays (a checkpoint's): per interface ``"i/name"`` its node
@@ -400,7 +399,7 @@ class ContactSolver:
         for i, it in enumerate(self._state or []):
             out.update({f"{i}/{key}": val.copy() for key, val in vars(it).items() if isinstance(val, np.ndarray)})
         if self._state is not None:
-            out["converged"] = np.array(self._converged)
+            out["converged"] = np.array(self.converged)
         return out
 
     def restore(self, ndof: int, state: dict) -> None:
@@ -408,13 +407,13 @@ class ContactSolver:
         as the solve after the captured one would in an uninterrupted run."""
         items = [(key.split("/", 1), val) for key, val in state.items() if key.split("/", 1)[0].isdigit()]
         if items:
-            ifs = self._interfaces(ndof)
+            ifs = self.interfaces(ndof)
             for (i, key), val in items:
                 cur = getattr(ifs[int(i)], key, None) if int(i) < len(ifs) else None
                 if isinstance(cur, np.ndarray) and cur.shape == np.shape(val):
                     setattr(ifs[int(i)], key, np.array(val, dtype=cur.dtype))
         if "converged" in state:
-            self._converged = bool(np.ravel(state["converged"])[0])
+            self.converged = bool(np.ravel(state["converged"])[0])
 
     def solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str = "") -> tuple[np.ndarray, ContactInfo]:
         """The displacement vector (X) and the history; the multipliers per interface in
@@ -429,7 +428,6 @@ class ContactSolver:
         if rest is not None:
             return rest
         if self.linear == "condensed" and not isinstance(matrix, np.ndarray):
-            from .condensed import CondensedContact
             if self._condensed is None:
                 self._condensed = CondensedContact(self)
             out = self._condensed.solve(matrix, rhs, free, x0, where)
@@ -451,7 +449,7 @@ class ContactSolver:
         f = np.asarray(rhs, dtype=float)[:n]
         if np.any(f[free]) or np.any(np.asarray(x0)[~free]):
             return None
-        ifs = self._interfaces(n)
+        ifs = self.interfaces(n)
         if any(np.any(it.op.g0[it.keep] < 0) for it in ifs):
             return None
         info = ContactInfo(active=[0], stick=[0], slip=[0], changes=[0], newton_residual=[0.0])
@@ -475,7 +473,7 @@ class ContactSolver:
         except SolverError:
             if not self._exact_cold:
                 raise
-            self._state, self._converged, self._penalty_start = None, False, True
+            self._state, self.converged, self._penalty_start = None, False, True
             try:
                 out = self._solve(matrix, rhs, free, x0, where)
             finally:
@@ -498,7 +496,7 @@ class ContactSolver:
 
         def use(laws):
             self.items = [(op, laws.get(k, law)) for k, (op, law) in enumerate(items)]
-            self._state, self._pattern, self._converged = None, None, False
+            self._state, self._pattern, self.converged = None, None, False
 
         try:
             use({k: ContactLaw("frictionless", augmentation=items[k][1].augmentation, penalty=items[k][1].penalty)
@@ -543,8 +541,8 @@ class ContactSolver:
         tic = time.perf_counter()
         self._exact_cold = False
         n = len(x0)
-        ifs = self._interfaces(n)
-        _drop_prescribed_nodes(ifs, free, n)
+        ifs = self.interfaces(n)
+        drop_prescribed_nodes(ifs, free, n)
         N = n + sum(it.blocks * it.m for it in ifs)
         # a dense bulk (numpy, the condensed problem of .contact_condensed): the pattern holds the multiplier
         # entries only, the steps eliminate the multipliers against one Cholesky factorization of the bulk
@@ -564,7 +562,7 @@ class ContactSolver:
         for it in ifs:
             it.flips[:] = 0
         if self.floating and self.check_solvable:
-            self._check_solvable(ifs, f, where)
+            self.check_load(ifs, f, where)
         reg_dofs = np.zeros(0, dtype=np.int64)
         eps = 0.0
         if self.floating:
@@ -599,9 +597,9 @@ class ContactSolver:
         # factorizations with the penalty start, 9 and 5 without; Coulomb blocks at h = 0.02: 7 / 3 and 5 / 2).
         # A 3D frictional interface keeps the penalty start: from the first-touch nodes with exact stick rows
         # the block tests' first matrix was singular
-        penalty = self.method == "penalty" or (not self._converged and (
+        penalty = self.method == "penalty" or (not self.converged and (
             self._penalty_start or any(it.dim3 and it.law.kind != "frictionless" for it in ifs)))
-        self._exact_cold = not penalty and not self._converged
+        self._exact_cold = not penalty and not self.converged
         # one pattern for all solves with the same K sparsity (a time series, the secant loop): building it
         # (CreateFromCOO) cost as much as a factorization (0.22 s at 41k dofs)
         pattern = self._pattern
@@ -625,7 +623,7 @@ class ContactSolver:
         freedofs = ngs.BitArray(freemask.tolist())
         factored = None      # (the inverse, the COO values it was computed from, cached solves, zero columns)
         hint_unheld = "a body is not held by its supports and the nodes in contact now"
-        bulk_symmetric = not dense and self.linear != "iterative" and self.quasi_definite and _is_symmetric(matrix)
+        bulk_symmetric = not dense and self.linear != "iterative" and self.quasi_definite and is_symmetric(matrix)
         what = f"contact solve{' at ' + where if where else ''}"
         it_nr = 0
         krylov = self._krylov(n, N, ifs, freemask) if self.linear == "iterative" else None
@@ -943,7 +941,7 @@ class ContactSolver:
         info.wall_s = time.perf_counter() - tic
         self.multipliers = list(zip(lam_n, lam_t))
         self.infos.append(info)
-        self._converged = True
+        self.converged = True
         return u, info
 
     def _krylov(self, n: int, N: int, ifs: list[_Interface], freemask: np.ndarray):
@@ -1013,7 +1011,7 @@ class ContactSolver:
                 f"{float(mode @ f):.3g}, unbalanced {kind} {float(mode @ ru):.3g}): {why}; add a support "
                 "(displacement or symmetry condition) or change the load")
 
-    def _check_solvable(self, ifs: list[_Interface], f: np.ndarray, where: str) -> None:
+    def check_load(self, ifs: list[_Interface], f: np.ndarray, where: str) -> None:
         """Stop with a SolverError naming the body and the rigid motion when no admissible contact forces
         balance the load on the free rigid motions of the floating bodies: an LP for lam_n >= 0,
         |lam_t| <= g_c (Tresca) or F_c lam_n (Coulomb), lam_t = 0 (frictionless) with
@@ -1424,17 +1422,6 @@ def _relative_change(dx: np.ndarray, x: np.ndarray, n: int, freemask: np.ndarray
 
 def _span(sl: slice) -> np.ndarray:
     return np.arange(sl.start, sl.stop)
-
-
-def _is_symmetric(matrix) -> bool:
-    """Whether the bulk matrix K is symmetric (K x = K^T x for a random x, to 1e-12 relative)."""
-    x = matrix.CreateColVector()
-    x.FV().NumPy()[:] = np.random.default_rng(0).standard_normal(len(x))
-    y1, y2 = matrix.CreateColVector(), matrix.CreateColVector()
-    y1.data = matrix * x
-    y2.data = matrix.T * x
-    a, d = y1.FV().NumPy(), y1.FV().NumPy() - y2.FV().NumPy()
-    return bool(np.linalg.norm(d) <= 1e-12 * max(float(np.linalg.norm(a)), 1e-300))
 
 
 class _KrylovStep:

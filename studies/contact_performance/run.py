@@ -54,9 +54,9 @@ import numpy as np
 import scipy.linalg  # noqa: F401  (loads scipy's OpenBLAS before single_threaded_blas; linprog uses it)
 import scipy.optimize  # noqa: F401
 import scipy.sparse as sp
-from ngs_geomech.solvers import pardiso
 
 from ngs_geomech.contact.uzawa import UzawaSolver
+from ngs_geomech.linalg import pardiso
 from ngs_geomech.mechanics.materials import isotropic
 from ngs_geomech.verification import contact_problems as cp
 from ngs_geomech.verification.study import convergence_entry, metrics_lines, one_ngsolve_thread, study_cli, study_main
