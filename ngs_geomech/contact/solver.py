@@ -99,47 +99,20 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
-from ..linalg.direct import check_finite, inverse
+from ..linalg.direct import check_finite
 from .condensed import CondensedContact, applicable
 from .forms import ContactOperator
-from .linear_algebra import drop_prescribed_nodes, is_symmetric
+from .krylov import near_null_space
+from .laws import ContactLaw, slip_bound
+from .linear_algebra import drop_prescribed_nodes
+from .saddle import SaddlePattern
+from .steps import NewtonSystem, newton_steps, relative_change
 
-LAWS = ("frictionless", "tresca", "coulomb")
 COULOMB_FIXED_POINT_TOL = 1e-8    # Coulomb fallback: relative change of the slip bounds F_c p that ends it
 COULOMB_FIXED_POINT_MAXIT = 60
 NEWTON_TOL = 1e-11     # 3D slip rows: converged when max |lam_t - b z / |z|| <= NEWTON_TOL x the largest bound
 POLYGON = 16           # 3D solvability check: the friction disc |lam_t| <= b inside a regular 16-gon
-QUASI_DEFINITE = 1e8   # symmetric systems: the exact rows' zero diagonal -w / c becomes -w / (c x 1e8) when factored
-DENSE_SHIFT = 1e-7       # a dense bulk's relative shift (the sparse path's is 1e-10; module docstring of _DenseStep)
 INEXACT_REFINEMENTS = 6  # refinement steps with the quasi-definite factorization before factoring exactly
-
-
-@dataclass
-class ContactLaw:
-    """The law of one interface: ``kind`` in :data:`LAWS`; ``slip_bound`` g_c per node (Pa, Tresca);
-    ``friction`` F_c (Coulomb); ``augmentation`` c (Pa/m, None: E_max / nodal size); ``penalty``: this
-    interface keeps the penalty rows (lam_n = c x penetration, lam_t = c_t x stick slip) to the end instead of
-    switching to exact constraints (the whole solve is penalty with ContactSolver(method="penalty"))."""
-
-    kind: str = "frictionless"
-    slip_bound: np.ndarray | float | None = None
-    friction: float = 0.0
-    augmentation: float | None = None
-    penalty: bool = False
-
-    def __post_init__(self):
-        if self.kind not in LAWS:
-            raise ValueError(f"unknown contact law {self.kind!r}; choose one of {', '.join(LAWS)}")
-        if self.kind == "tresca" and self.slip_bound is None:
-            raise ValueError("Tresca friction needs a slip bound g_c (Pa)")
-        if self.kind == "coulomb" and not (self.friction > 0 and np.isfinite(self.friction)):
-            raise ValueError(f"Coulomb friction needs a positive coefficient, got {self.friction}")
-        if self.kind == "tresca":
-            g = np.asarray(self.slip_bound, dtype=float)
-            if not np.all(np.isfinite(g)) or np.any(g < 0):
-                raise ValueError(f"the Tresca slip bound g_c must be finite and >= 0 (Pa), got {self.slip_bound}")
-        if self.augmentation is not None and not (self.augmentation > 0 and np.isfinite(self.augmentation)):
-            raise ValueError(f"the augmentation c must be positive (Pa/m), got {self.augmentation}")
 
 
 class _Cycling(SolverError):
@@ -347,7 +320,7 @@ class ContactSolver:
         self.quasi_definite = quasi_definite
         self.infos: list[ContactInfo] = []
         self._state: list[_Interface] | None = None
-        self._pattern: _Pattern | None = None
+        self._pattern: SaddlePattern | None = None
         self.converged = False
         self._penalty_start = False      # a cold solve from the penalty start (after a failed exact start)
         self._exact_cold = False         # the last solve started cold with the exact constraints
@@ -538,53 +511,18 @@ class ContactSolver:
         return u, info
 
     def _solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str = "") -> tuple[np.ndarray, ContactInfo]:
+        """One active-set (semi-smooth Newton) iteration from the current sets (module docstring): each iteration
+        sets the rows of the current sets, solves the Newton step to the exact residual and takes the new sets;
+        the linear algebra of the steps is the strategy :func:`.steps.newton_steps` chooses for this solve."""
         tic = time.perf_counter()
         self._exact_cold = False
         n = len(x0)
         ifs = self.interfaces(n)
         drop_prescribed_nodes(ifs, free, n)
-        N = n + sum(it.blocks * it.m for it in ifs)
-        # a dense bulk (numpy, the condensed problem of .contact_condensed): the pattern holds the multiplier
-        # entries only, the steps eliminate the multipliers against one Cholesky factorization of the bulk
-        dense = isinstance(matrix, np.ndarray)
-        if dense:
-            kr = kc = np.zeros(0, dtype=np.int64)
-            kv = np.zeros(0)
-        else:
-            kr, kc, kv = (np.asarray(a) for a in matrix.COO())
-            kr, kc = kr.astype(np.int64), kc.astype(np.int64)
-        f = np.where(free, np.asarray(rhs, dtype=float), 0.0)   # (fixed dofs: their load is the support's)
-        if not np.all(np.isfinite(f)):
-            bad = int(np.count_nonzero(~np.isfinite(f)))
-            raise SolverError(f"contact solve{' at ' + where if where else ''}: the load vector has {bad} NaN or "
-                              "infinite entries on free dofs; check the loads, temperatures and material data")
-        info = ContactInfo()
-        for it in ifs:
-            it.flips[:] = 0
-        if self.floating and self.check_solvable:
-            self.check_load(ifs, f, where)
-        reg_dofs = np.zeros(0, dtype=np.int64)
-        eps = 0.0
-        if self.floating:
-            mask = np.zeros(n, dtype=bool)
-            for body in self.floating:
-                mask |= np.any(np.abs(body.modes) > 0, axis=1)
-            reg_dofs = np.where(mask & free)[0].astype(np.int64)
-        if dense and not len(reg_dofs):
-            # a dense bulk is eliminated by itself (_DenseStep): a rigid motion held only by the contact rows and
-            # not declared floating (a time step's matrix of a body on a foundation) would make S singular, so S
-            # gets the shift everywhere, and the refinement with the exact residual removes it as for the
-            # floating bodies
-            reg_dofs = np.where(free)[0].astype(np.int64)
-        if len(reg_dofs):
-            if dense:
-                diag = np.diag(matrix)
-            else:
-                diag = np.zeros(n)
-                np.add.at(diag, kr[kr == kc], kv[kr == kc])
-            eps = (DENSE_SHIFT if dense else 1e-10) * float(np.mean(np.abs(diag[reg_dofs])))
-        rigid = np.hstack([bd.modes[:n] for bd in self.floating]) if self.floating else np.zeros((n, 0))
-        x = np.zeros(N)
+        steps = newton_steps(matrix, self.linear, reuse_rows=self.reuse_rows, quasi_definite=self.quasi_definite,
+                             modes=self._krylov_modes, tol=self.linear_tol, maxit=self.linear_maxit)
+        s = self._system(matrix, rhs, free, n, ifs, steps, where)
+        x = np.zeros(s.N)
         x[:n] = x0
         lam_n = [np.zeros(it.m) for it in ifs]
         lam_t = [np.zeros((it.m, 2) if it.dim3 else it.m) for it in ifs]
@@ -600,321 +538,16 @@ class ContactSolver:
         penalty = self.method == "penalty" or (not self.converged and (
             self._penalty_start or any(it.dim3 and it.law.kind != "frictionless" for it in ifs)))
         self._exact_cold = not penalty and not self.converged
-        # one pattern for all solves with the same K sparsity (a time series, the secant loop): building it
-        # (CreateFromCOO) cost as much as a factorization (0.22 s at 41k dofs)
-        pattern = self._pattern
-        if pattern is not None and pattern.matches(N, kr, kc):
-            pattern.set_bulk(n, kv, reg_dofs, eps)
-        else:
-            pattern = self._pattern = _Pattern(n, N, kr, kc, kv, reg_dofs, eps, ifs, bulk=None if dense else matrix)
-        mat = pattern.matrix
-        bulk = None
-        if dense:
-            shifted = np.array(matrix, dtype=float)
-            shifted[reg_dofs, reg_dofs] += eps
-            bulk = _DenseBulk(shifted, f"contact solve{' at ' + where if where else ''}")
-            mat = _DenseOperator(pattern.matrix, shifted)
-        # the free unknowns are the same at every iteration: a fixed multiplier (open node, Tresca slip) has
-        # an identity row, so consecutive matrices differ only in the rows of the nodes whose state changed
-        freemask = np.zeros(N, dtype=bool)
-        freemask[:n] = free
-        for it in ifs:
-            freemask[it.offset:it.offset + (it.blocks * it.m if it.law.kind != "frictionless" else it.m)] = True
-        freedofs = ngs.BitArray(freemask.tolist())
-        factored = None      # (the inverse, the COO values it was computed from, cached solves, zero columns)
-        hint_unheld = "a body is not held by its supports and the nodes in contact now"
-        bulk_symmetric = not dense and self.linear != "iterative" and self.quasi_definite and is_symmetric(matrix)
-        what = f"contact solve{' at ' + where if where else ''}"
-        it_nr = 0
-        krylov = self._krylov(n, N, ifs, freemask) if self.linear == "iterative" else None
-        # 3D slip rows: the residual the Newton steps can reach is that of their linear solves (GMRES: 100 x its
-        # tolerance; measured 1e-11 ... 2e-11 with 1e-10 on the 3D punch, where the direct solves reach 1e-16)
-        newton_tol = NEWTON_TOL if krylov is None else max(NEWTON_TOL, 100.0 * krylov.tol)
-
-        def factor(exact: bool = False):
-            """Factor the current matrix: its symmetric quasi-definite companion by sparse Cholesky when it
-            has one (:meth:`_Pattern.symmetric`; the refinement below makes the solve exact), else (or
-            with ``exact``) the matrix itself by UMFPACK."""
-            sym = None if (exact or not bulk_symmetric) else pattern.symmetric(ifs)
-            if sym is not None:
-                pattern.update(sym)
-                try:
-                    inv = inverse(mat, freedofs, True, f"{what}, iteration {it_nr}", hint_unheld)
-                finally:
-                    pattern.update()
-                info.cholesky_factorizations += 1
-            else:
-                inv = inverse(mat, freedofs, False, f"{what}, iteration {it_nr}", hint_unheld)
-            info.factorizations += 1
-            zeroed = pattern.zero_columns(sym) if sym is not None else None
-            return (inv, pattern.values.copy(), {}, zeroed), _Fresh(inv, exact=sym is None)
-
+        newton_tol = max(NEWTON_TOL, steps.tol_floor)
+        info = s.info
         for it_nr in range(1, self.maxit + 1):
-            b = np.zeros(N)
-            b[:n] = f
-            vals = pattern.values
-            for it, seg in zip(ifs, pattern.segments):
-                on, ot = it.offset, it.offset + it.m
-                A = it.active & it.keep
-                b[on:on + it.m] = np.where(A, it.op.g0, 0.0)     # -Bn u = g0 (g = 0) or lam_n = 0
-                x[on:on + it.m] = np.where(A, x[on:on + it.m], 0.0)
-                pen_i = penalty or it.law.penalty
-                vals[seg["rows_n"]] = seg["rows_n_values"] * A[seg["rows_n_node"]]
-                # -Bn u - (weight / c) lam_n = g0 in the penalty phase (lam_n = -c g~)
-                # (the identity rows of fixed multipliers scaled like the penalty rows: -weight / c)
-                vals[seg["diag_n"]] = np.where(A & (not pen_i), 0.0, -it.w / it.c)
-                if it.law.kind == "frictionless":
-                    x[ot:it.offset + it.blocks * it.m] = 0.0
-                    continue
-                if it.dim3:
-                    _rows_3d(it, seg, vals, b, x, A, pen_i)
-                    continue
-                stick = A & it.stick
-                slip = A & it.slip
-                # stick rows -Bt u (- weight / ct lam_t) = 0; Coulomb slip rows lam_t - F sign lam_n = 0; Tresca
-                # slip rows lam_t = g_c sign; open nodes lam_t = 0
-                vals[seg["rows_t"]] = seg["rows_t_values"] * stick[seg["rows_t_node"]]
-                vals[seg["diag_t"]] = np.where(stick & (not pen_i), 0.0, -it.w / it.ct)
-                coulomb_slip = slip if it.law.kind == "coulomb" else np.zeros(it.m, dtype=bool)
-                vals[seg["couple"]] = np.where(coulomb_slip, it.w / it.ct * it.law.friction * it.sign, 0.0)
-                fixed_t = np.where(slip & (it.law.kind == "tresca"), it.bound0 * it.sign, 0.0)
-                b[ot:ot + it.m] = -it.w / it.ct * fixed_t
-                x[ot:ot + it.m] = np.where(stick | coulomb_slip, x[ot:ot + it.m], fixed_t)
-            pattern.update()
-
-
-            step = None
-            if krylov is not None:
-                step = _KrylovStep(krylov, pattern, b, info, f"{what}, iteration {it_nr}", rigid, n)
-            elif bulk is not None:
-                step = _DenseStep(bulk, pattern, n, freemask)
-            elif factored is not None:
-                rows = pattern.changed_rows(factored[1])
-                if not len(rows):                    # the factored matrix itself
-                    step = _Fresh(factored[0], exact=factored[3] is None)
-                else:
-                    # a companion's factorization: the columns it left out of the nodes now in contact or sticking
-                    cols = [] if factored[3] is None else [int(j) for j in pattern.entering(rows, factored[3])]
-                    new = (len([j for j in rows if int(j) not in factored[2]])
-                           + len([j for j in cols if ("col", j) not in factored[2]]))
-                    if new <= self.reuse_rows:
-                        step = _Reuse(mat, factored[0], rows, factored[2], info, exact=factored[3] is None,
-                                      columns={j: pattern.column(j) for j in cols})
-            if step is None:
-                factored, step = factor()
-            xv = mat.CreateColVector()
-            xv.FV().NumPy()[:] = x
-            r = mat.CreateColVector()
-            held = True
-            dx = mat.CreateColVector()
-            mode_size = float(np.max(np.linalg.norm(rigid, axis=0), initial=0.0))
-
-            def balance_scale() -> float:
-                """Forces the rigid-motion balance is measured against: the load, or the contact forces of the
-                iterate when there is none (a problem driven by its gaps alone: an overlap pressing a body)."""
-                xs = xv.FV().NumPy()
-                forces = float(np.linalg.norm(b[:n] * free))
-                for it in ifs:
-                    forces = max(forces, float(np.linalg.norm(it.Bn[:, :n].T @ xs[it.offset:it.offset + it.m])))
-                return max(forces * mode_size, 1e-300)
-            last_balance = math.inf
-            last_change = math.inf      # the last correction of an inexact (companion) step, relative
-            slow = False
-            for k_ref in range(20):   # refinement with the residual of the exact system (without the shift eps)
-                if not step.exact and (slow or k_ref == INEXACT_REFINEMENTS):
-                    # the quasi-definite companion does not converge fast to the exact system here: factor the matrix
-                    # itself
-                    factored, step = factor(exact=True)
-                r.data = mat * xv
-                ra = r.FV().NumPy()
-                ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
-                ra[:] = b - ra
-                ra[~freemask] = 0.0
-                if not step.apply(r, dx):        # the reused factorization did not converge: factor now
-                    factored, step = factor()
-                    step.apply(r, dx)
-                if not step.exact and not np.all(np.isfinite(dx.FV().NumPy())):
-                    # a companion's Cholesky without pivoting met a zero pivot (K singular beyond the known
-                    # floating bodies): UMFPACK factors the matrix itself, or names the singularity
-                    factored, step = factor(exact=True)
-                    step.apply(r, dx)
-                xv.data += dx
-                if krylov is not None and step.free_motions is not None:
-                    q = step.free_motions
-                    xs = xv.FV().NumPy()
-                    xs[:n] -= q @ (q.T @ xs[:n])
-                if not len(reg_dofs) and not step.exact:
-                    # no floating body: converged when the corrections of u and of the multipliers contract so that
-                    # the error left (about change q / (1 - q), q the last contraction) is below 1e-12 of the
-                    # solution: with the exact rows' regularization q ~ 1e-8 and two solves do; a contraction above
-                    # 1/4 goes to the exact factorization (leaving a Coulomb coupling out of the companion and
-                    # refining was tried: at the blocks' h = 0.01 the contraction was above 1/4, a third
-                    # factorization followed)
-                    change = _relative_change(dx.FV().NumPy(), xv.FV().NumPy(), n, freemask)
-                    q = change / last_change if math.isfinite(last_change) and last_change > 0 else math.inf
-                    last_change = change
-                    if not (q < 1.0 and change * q / (1.0 - q) <= 1e-12):
-                        slow = k_ref >= 2 and q > 0.25
-                        continue
-                if not len(reg_dofs):
-                    break
-                # floating bodies: the criteria below (designed for the shift eps, which the companion's
-                # regularization contracts alike) decide, a companion step included
-                # the correction relative to the solution (the residual mixes forces and lengths), without its
-                # rigid-motion part: a free motion without load (a frictionless body sliding sideways) is
-                # left at the small value the shift gives it. The corrections contract by about the relative
-                # shift (1e-10) when the sets hold the bodies: one of 1e-6 leaves an error of ~1e-16 (a third
-                # solve, needed with the threshold 1e-10, cost 10 % of a warm solve)
-                d = dx.FV().NumPy()[:n]
-                d = d - rigid @ np.linalg.lstsq(rigid, d, rcond=None)[0]
-                if float(np.linalg.norm(d)) <= 1e-6 * max(float(np.linalg.norm(xv.FV().NumPy()[:n])), 1e-300):
-                    if not rigid.shape[1]:
-                        break
-                    # the shift leaves a residual eps u along the rigid motions (eps x translation x dofs: 0.5 N
-                    # of a 2.5 kN load on a weak Coulomb interface); refine while that falls
-                    r.data = mat * xv
-                    ra = r.FV().NumPy()
-                    ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
-                    balance = float(np.max(np.abs(rigid.T @ ((b - ra)[:n] * free))))
-                    if balance <= 1e-10 * balance_scale() or balance > 0.5 * last_balance:
-                        break
-                    last_balance = balance
-            else:
-                held = False
-            if held and rigid.shape[1]:   # the loaded rigid motions must be balanced by the contact forces
-                r.data = mat * xv
-                ra = r.FV().NumPy()
-                ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
-                ru = (b - ra)[:n] * free
-                held = float(np.max(np.abs(rigid.T @ ru))) <= 1e-8 * balance_scale()
-            check_finite(xv, f"contact solve{' at ' + where if where else ''}, iteration {it_nr}")
-            x = np.array(xv.FV().NumPy())
-            for it in ifs:      # the fixed multipliers exactly (their identity rows hold them to round-off)
-                on, ot = it.offset, it.offset + it.m
-                A = it.active & it.keep
-                x[on:on + it.m] = np.where(A, x[on:on + it.m], 0.0)
-                if it.law.kind == "frictionless":
-                    x[ot:it.offset + it.blocks * it.m] = 0.0
-                elif it.dim3:
-                    x[ot:ot + it.m] = np.where(A, x[ot:ot + it.m], 0.0)
-                    x[ot + it.m:ot + 2 * it.m] = np.where(A, x[ot + it.m:ot + 2 * it.m], 0.0)
-                else:
-                    x[ot:ot + it.m] = np.where(~A, 0.0, np.where(A & it.slip & (it.law.kind == "tresca"),
-                                                                 it.bound0 * it.sign, x[ot:ot + it.m]))
+            b = _assemble_rows(s, x, penalty)
+            step = steps.step(s, b, it_nr)
+            x, held, xv, r = self._newton_step(s, steps, step, b, x, it_nr)
             if not held:
-                # these sets leave a floating body free along a loaded rigid motion: every node slipping while
-                # the friction cannot balance the load (retry with the active nodes sticking), or too few nodes
-                # in contact (e.g. the single first node of a curved side: add the nearest open nodes)
-                info.unheld_sets += 1
-                grow = all(not (it.slip & it.active).any() for it in ifs)
-                if info.unheld_sets > 3 or (grow and not any((it.keep & ~it.active).any() for it in ifs)):
-                    r.data = mat * xv
-                    ra = r.FV().NumPy()
-                    ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
-                    raise SolverError(f"{what}, iteration {it_nr}: "
-                                      + self._unheld(ifs, rigid, (b - ra)[:n] * free, f, n))
-                walked = False
-                if not grow and rigid.shape[1] and not any(it.dim3 for it in ifs):
-                    # every active node slips and their friction does not balance the load: move the points where
-                    # the slip direction turns until it does (sticking all nodes instead threw the sets back to
-                    # the start: they cycled, e.g. a block spreading under its load on a weak interface)
-                    r.data = mat * xv
-                    ra = r.FV().NumPy()
-                    ra[reg_dofs] -= eps * xv.FV().NumPy()[reg_dofs]
-                    # only the rigid motions the active normal rows leave free (the others are balanced by the
-                    # normal pressures whatever the friction does)
-                    held_rows = [(it.Bn[:, :n][it.active & it.keep] @ rigid) for it in ifs]
-                    A_held = np.vstack(held_rows) if held_rows else np.zeros((0, rigid.shape[1]))
-                    _, sv, vt = np.linalg.svd(A_held, full_matrices=True) if A_held.size else (None, np.zeros(0),
-                                                                                              np.eye(rigid.shape[1]))
-                    rank = int(np.sum(sv > 1e-10 * max(float(sv.max(initial=0.0)), 1e-300)))
-                    free_modes = rigid @ vt[rank:].T
-                    imbalance = free_modes.T @ ((b - ra)[:n] * free)
-                    for it in ifs:
-                        if it.law.kind != "frictionless" and (it.slip & it.active).any() and free_modes.shape[1]:
-                            imbalance = _balance_slip(it, x[it.offset + it.m:it.offset + 2 * it.m], free_modes, n,
-                                                      imbalance)
-                            walked = True
-                    if walked and self.method == "ssn":
-                        # the penalty rows let a sticking node slip by lam_t / c_t, which turns its neighbours'
-                        # slip directions back (the sets cycled): the exact rows from here on
-                        penalty = False
-                    if walked:
-                        # the factorization of the unheld matrix (singular but for the shift) is no basis for the
-                        # next one: reused, the refinement left the rigid-motion part unconverged (imbalance 2e-4)
-                        factored = None
-                for it in ifs:
-                    if grow:
-                        cand = np.where(it.keep & ~it.active)[0]
-                        near = cand[np.argsort(it.op.g0[cand] / it.w[cand])[:max(2, int(it.active.sum()))]]
-                        it.active = it.active.copy()
-                        it.active[near] = True
-                    if it.law.kind != "frictionless" and not walked:
-                        it.stick, it.slip = it.active.copy(), np.zeros(it.m, dtype=bool)
-                info.iterations = it_nr
-                info.changes.append(-1)
-                info.newton_residual.append(float("nan"))
-                info.active.append(int(sum(it.active.sum() for it in ifs)))
-                info.stick.append(int(sum(it.stick.sum() for it in ifs)))
-                info.slip.append(0)
+                penalty = self._unheld_sets(s, steps, b, x, xv, r, it_nr, penalty)
                 continue
-            # new sets
-            changes = 0
-            n_act = n_stick = n_slip = 0
-            u = x[:n]
-            newton = 0.0      # 3D: the largest residual |lam_t - b z / |z|| of the slip rows / the largest bound
-            for k, it in enumerate(ifs):
-                on, ot = it.offset, it.offset + it.m
-                lam_n[k] = x[on:on + it.m].copy()
-                if it.dim3:
-                    lam_t[k] = np.column_stack([x[ot:ot + it.m], x[ot + it.m:ot + 2 * it.m]])
-                    ch, res = _sets_3d(it, lam_n[k], lam_t[k], u, penalty or it.law.penalty)
-                    changes += ch
-                    newton = max(newton, res)
-                    n_act += int(it.active.sum())
-                    n_stick += int(it.stick.sum())
-                    n_slip += int(it.slip.sum())
-                    continue
-                lam_t[k] = x[ot:ot + it.m].copy()
-                gap = (it.op.g0 + it.Bn @ u) / it.w
-                pen_i = penalty or it.law.penalty
-                # penalty rows: the trial tractions -c g~, -c_t s~ (lam - c g~ would double them, and a Tresca
-                # node would start slipping at half its bound)
-                zn = (0.0 if pen_i else lam_n[k]) - it.c * gap
-                act = (zn > 0) & it.keep
-                stick = np.zeros(it.m, dtype=bool)
-                slip = np.zeros(it.m, dtype=bool)
-                sign = it.sign.copy()
-                if it.law.kind != "frictionless":
-                    sl = (it.Bt @ u) / it.w
-                    z = (0.0 if pen_i else lam_t[k]) - it.ct * sl
-                    bound = it.bound0 if it.law.kind == "tresca" else it.law.friction * np.maximum(zn, 0.0)
-                    stick = act & (np.abs(z) < bound)
-                    slip = act & ~stick
-                    # nodes that have switched between contact and separation twice (e.g. the tip of a wedge
-                    # on a Coulomb fault: sticking, the node goes into tension; released, it penetrates) go
-                    # through the slip state: a sticking node in tension slips instead of opening, and such a
-                    # node comes back into contact slipping
-                    prone = it.flips >= 2
-                    to_slip = prone & ((~act & it.active & it.stick & it.keep) | (act & ~it.active & stick))
-                    act = act | to_slip
-                    stick = stick & ~to_slip
-                    slip = slip | to_slip
-                    sign = np.where(slip, np.sign(z), 0.0)
-                    sign[slip & (sign == 0)] = 1.0
-                changes += int(np.sum(act != (it.active & it.keep)) + np.sum(stick != (it.stick & it.active))
-                               + np.sum(slip & (sign != it.sign)) + np.sum(slip != (it.slip & it.active)))
-                it.flips += act != (it.active & it.keep)
-                it.active, it.stick, it.slip, it.sign = act, stick, slip, sign
-                n_act += int(act.sum())
-                n_stick += int(stick.sum())
-                n_slip += int(slip.sum())
-            info.iterations = it_nr
-            info.active.append(n_act)
-            info.stick.append(n_stick)
-            info.slip.append(n_slip)
-            info.changes.append(changes)
-            info.newton_residual.append(newton)
+            changes, newton = _new_sets(s, x, lam_n, lam_t, penalty, it_nr)
             if changes == 0:
                 if penalty and self.method == "ssn":
                     penalty = False
@@ -924,13 +557,12 @@ class ContactSolver:
                     break
         else:
             if info.changes[-1] == 0:
-                raise SolverError(f"contact solve{' at ' + where if where else ''}: the slip directions have not "
-                                  f"converged after {self.maxit} iterations (residual of the slip rows "
-                                  f"{info.newton_residual[-1]:.1e} of the slip bound); refine the mesh or change "
-                                  "the augmentation")
-            raise _Cycling(f"contact solve{' at ' + where if where else ''}: the active sets still change after "
-                              f"{self.maxit} iterations ({info.changes[-1]} changes in the last one): the contact "
-                              "state cycles; refine the mesh or change the augmentation")
+                raise SolverError(f"{s.what}: the slip directions have not converged after {self.maxit} iterations "
+                                  f"(residual of the slip rows {info.newton_residual[-1]:.1e} of the slip bound); "
+                                  "refine the mesh or change the augmentation")
+            raise _Cycling(f"{s.what}: the active sets still change after {self.maxit} iterations "
+                           f"({info.changes[-1]} changes in the last one): the contact state cycles; refine the mesh "
+                           "or change the augmentation")
         u = x[:n]
         pen, minp = 0.0, 0.0
         for k, it in enumerate(ifs):
@@ -944,33 +576,173 @@ class ContactSolver:
         self.converged = True
         return u, info
 
-    def _krylov(self, n: int, N: int, ifs: list[_Interface], freemask: np.ndarray):
-        """The GMRES solver of the Newton steps of this solve (:class:`.contact_krylov.SaddleKrylov`): row
-        scales c, the augmented diagonals -w / c and the node blocks of the multipliers."""
-        from .krylov import DEFAULT_TOL, SaddleKrylov, near_null_space
+    def _krylov_modes(self):
+        """The near null space of the displacement space for the iterative steps' AMG (computed once)."""
         if self._modes is None:
             self._modes = near_null_space(self.forms)
-        modes, vertex, dim = self._modes
-        if modes.shape[0] != n:
-            raise ValueError(f"the iterative contact solver's displacement space has {modes.shape[0]} dofs, the matrix "
-                             f"{n} (the mixed formulation is solved directly)")
-        scale = np.ones(N - n)
-        aug = np.ones(N - n)
-        blocks = []
+        return self._modes
+
+    def _system(self, matrix, rhs, free: np.ndarray, n: int, ifs: list[_Interface], steps, where: str) -> NewtonSystem:
+        """The data the Newton steps of a solve share (:class:`.steps.NewtonSystem`): the load on the free dofs, the
+        shift of the floating bodies' free dofs (``steps.shift`` of their mean diagonal; the residual is always
+        that of the exact system), their rigid motions, the saddle-point pattern (kept for the next solve with the
+        same sparsity of K) and the operator the strategy ``steps`` solves with."""
+        what = f"contact solve{' at ' + where if where else ''}"
+        N = n + sum(it.blocks * it.m for it in ifs)
+        kr, kc, kv = steps.bulk_coo(matrix)
+        f = np.where(free, np.asarray(rhs, dtype=float), 0.0)   # (fixed dofs: their load is the support's)
+        if not np.all(np.isfinite(f)):
+            bad = int(np.count_nonzero(~np.isfinite(f)))
+            raise SolverError(f"{what}: the load vector has {bad} NaN or infinite entries on free dofs; check the "
+                              "loads, temperatures and material data")
+        info = ContactInfo()
         for it in ifs:
-            o = it.offset - n
-            m = it.m
-            # the rows scaled to forces by their own augmentation; the exact rows' zero diagonal replaced by
-            # -w / c with the normal augmentation c = E / h for the tangential rows too (their c_t = E / L is the
-            # active-set test's; with it the GMRES iterations of the 3D punch's slip steps grew 86, 130, 212
-            # from h = 0.2 to 0.05)
-            cs = [it.c] + [it.ct] * (it.blocks - 1)
-            for k, c in enumerate(cs):
-                scale[o + k * m:o + (k + 1) * m] = c
-                aug[o + k * m:o + (k + 1) * m] = -it.w / it.c
-            blocks.append(np.column_stack([o + k * m + np.arange(m) for k in range(it.blocks)]))
-        return SaddleKrylov(n, freemask, scale, aug, blocks, modes, vertex, dim,
-                            tol=self.linear_tol or DEFAULT_TOL, maxit=self.linear_maxit)
+            it.flips[:] = 0
+        if self.floating and self.check_solvable:
+            self.check_load(ifs, f, where)
+        reg_dofs = np.zeros(0, dtype=np.int64)
+        eps = 0.0
+        if self.floating:
+            mask = np.zeros(n, dtype=bool)
+            for body in self.floating:
+                mask |= np.any(np.abs(body.modes) > 0, axis=1)
+            reg_dofs = np.where(mask & free)[0].astype(np.int64)
+        reg_dofs = steps.shift_dofs(reg_dofs, free)
+        if len(reg_dofs):
+            eps = steps.shift * float(np.mean(np.abs(steps.diagonal(matrix, n, kr, kc, kv)[reg_dofs])))
+        rigid = np.hstack([bd.modes[:n] for bd in self.floating]) if self.floating else np.zeros((n, 0))
+        # one pattern for all solves with the same K sparsity (a time series, the secant loop): building it
+        # (CreateFromCOO) cost as much as a factorization (0.22 s at 41k dofs)
+        pattern = self._pattern
+        if pattern is not None and pattern.matches(N, kr, kc):
+            pattern.set_bulk(n, kv, reg_dofs, eps)
+        else:
+            pattern = self._pattern = SaddlePattern(n, N, kr, kc, kv, reg_dofs, eps, ifs,
+                                                    bulk=steps.pattern_bulk(matrix))
+        # the free unknowns are the same at every iteration: a fixed multiplier (open node, Tresca slip) has
+        # an identity row, so consecutive matrices differ only in the rows of the nodes whose state changed
+        freemask = np.zeros(N, dtype=bool)
+        freemask[:n] = free
+        for it in ifs:
+            freemask[it.offset:it.offset + (it.blocks * it.m if it.law.kind != "frictionless" else it.m)] = True
+        s = NewtonSystem(n, N, ifs, info, what, f, free, freemask, ngs.BitArray(freemask.tolist()), reg_dofs, eps,
+                         rigid, float(np.max(np.linalg.norm(rigid, axis=0), initial=0.0)), pattern)
+        s.mat = steps.operator(s, matrix)
+        return s
+
+    def _newton_step(self, s: NewtonSystem, steps, step, b: np.ndarray, x: np.ndarray, it_nr: int):
+        """Solve the Newton step from ``x`` by refinement with the residual of the exact system (without the shift
+        eps) with the strategy's ``step``: (the new iterate with its fixed multipliers set exactly, whether the sets
+        hold the floating bodies, the iterate and the residual as vectors of the matrix)."""
+        n, mat, reg_dofs = s.n, s.mat, s.reg_dofs
+        xv = mat.CreateColVector()
+        xv.FV().NumPy()[:] = x
+        r = mat.CreateColVector()
+        held = True
+        dx = mat.CreateColVector()
+        last_balance = math.inf
+        last_change = math.inf      # the last correction of an inexact (companion) step, relative
+        slow = False
+        for k_ref in range(20):   # refinement with the residual of the exact system (without the shift eps)
+            if not step.exact and (slow or k_ref == INEXACT_REFINEMENTS):
+                # the quasi-definite companion does not converge fast to the exact system here: factor the matrix
+                # itself
+                step = steps.refactor(exact=True)
+            ra = _residual(s, xv, r)
+            ra[:] = b - ra
+            ra[~s.freemask] = 0.0
+            if not step.apply(r, dx):        # the reused factorization did not converge: factor now
+                step = steps.refactor()
+                step.apply(r, dx)
+            if not step.exact and not np.all(np.isfinite(dx.FV().NumPy())):
+                # a companion's Cholesky without pivoting met a zero pivot (K singular beyond the known
+                # floating bodies): UMFPACK factors the matrix itself, or names the singularity
+                step = steps.refactor(exact=True)
+                step.apply(r, dx)
+            xv.data += dx
+            steps.project(step, xv, n)
+            if not len(reg_dofs) and not step.exact:
+                # no floating body: converged when the corrections of u and of the multipliers contract so that
+                # the error left (about change q / (1 - q), q the last contraction) is below 1e-12 of the
+                # solution: with the exact rows' regularization q ~ 1e-8 and two solves do; a contraction above
+                # 1/4 goes to the exact factorization (leaving a Coulomb coupling out of the companion and
+                # refining was tried: at the blocks' h = 0.01 the contraction was above 1/4, a third
+                # factorization followed)
+                change = relative_change(dx.FV().NumPy(), xv.FV().NumPy(), n, s.freemask)
+                q = change / last_change if math.isfinite(last_change) and last_change > 0 else math.inf
+                last_change = change
+                if not (q < 1.0 and change * q / (1.0 - q) <= 1e-12):
+                    slow = k_ref >= 2 and q > 0.25
+                    continue
+            if not len(reg_dofs):
+                break
+            # floating bodies: the criteria below (designed for the shift eps, which the companion's
+            # regularization contracts alike) decide, a companion step included
+            # the correction relative to the solution (the residual mixes forces and lengths), without its
+            # rigid-motion part: a free motion without load (a frictionless body sliding sideways) is
+            # left at the small value the shift gives it. The corrections contract by about the relative
+            # shift (1e-10) when the sets hold the bodies: one of 1e-6 leaves an error of ~1e-16 (a third
+            # solve, needed with the threshold 1e-10, cost 10 % of a warm solve)
+            d = dx.FV().NumPy()[:n]
+            d = d - s.rigid @ np.linalg.lstsq(s.rigid, d, rcond=None)[0]
+            if float(np.linalg.norm(d)) <= 1e-6 * max(float(np.linalg.norm(xv.FV().NumPy()[:n])), 1e-300):
+                if not s.rigid.shape[1]:
+                    break
+                # the shift leaves a residual eps u along the rigid motions (eps x translation x dofs: 0.5 N
+                # of a 2.5 kN load on a weak Coulomb interface); refine while that falls
+                balance = _rigid_balance(s, b, xv, r)
+                if balance <= 1e-10 * _balance_scale(s, b, xv) or balance > 0.5 * last_balance:
+                    break
+                last_balance = balance
+        else:
+            held = False
+        if held and s.rigid.shape[1]:   # the loaded rigid motions must be balanced by the contact forces
+            held = _rigid_balance(s, b, xv, r) <= 1e-8 * _balance_scale(s, b, xv)
+        check_finite(xv, f"{s.what}, iteration {it_nr}")
+        return _fixed_multipliers(s, np.array(xv.FV().NumPy())), held, xv, r
+
+    def _unheld_sets(self, s: NewtonSystem, steps, b: np.ndarray, x: np.ndarray, xv, r, it_nr: int,
+                     penalty: bool) -> bool:
+        """New sets when the current ones leave a floating body free along a loaded rigid motion: every node
+        slipping while the friction cannot balance the load (retry with the active nodes sticking, or walk the
+        slip directions, :func:`_balance_slip`), or too few nodes in contact (e.g. the single first node of a
+        curved side: add the nearest open nodes). Returns whether the penalty phase goes on."""
+        ifs, info, n = s.ifs, s.info, s.n
+        info.unheld_sets += 1
+        grow = all(not (it.slip & it.active).any() for it in ifs)
+        if info.unheld_sets > 3 or (grow and not any((it.keep & ~it.active).any() for it in ifs)):
+            ra = _residual(s, xv, r)
+            raise SolverError(f"{s.what}, iteration {it_nr}: "
+                              + self._unheld(ifs, s.rigid, (b - ra)[:n] * s.free, s.f, n))
+        walked = False
+        if not grow and s.rigid.shape[1] and not any(it.dim3 for it in ifs):
+            # every active node slips and their friction does not balance the load: move the points where
+            # the slip direction turns until it does (sticking all nodes instead threw the sets back to
+            # the start: they cycled, e.g. a block spreading under its load on a weak interface)
+            walked = _walk_slip(s, b, x, xv, r)
+            if walked and self.method == "ssn":
+                # the penalty rows let a sticking node slip by lam_t / c_t, which turns its neighbours'
+                # slip directions back (the sets cycled): the exact rows from here on
+                penalty = False
+            if walked:
+                # the factorization of the unheld matrix (singular but for the shift) is no basis for the
+                # next one: reused, the refinement left the rigid-motion part unconverged (imbalance 2e-4)
+                steps.forget()
+        for it in ifs:
+            if grow:
+                cand = np.where(it.keep & ~it.active)[0]
+                near = cand[np.argsort(it.op.g0[cand] / it.w[cand])[:max(2, int(it.active.sum()))]]
+                it.active = it.active.copy()
+                it.active[near] = True
+            if it.law.kind != "frictionless" and not walked:
+                it.stick, it.slip = it.active.copy(), np.zeros(it.m, dtype=bool)
+        info.iterations = it_nr
+        info.changes.append(-1)
+        info.newton_residual.append(float("nan"))
+        info.active.append(int(sum(it.active.sum() for it in ifs)))
+        info.stick.append(int(sum(it.stick.sum() for it in ifs)))
+        info.slip.append(0)
+        return penalty
 
     def _unheld(self, ifs: list[_Interface], rigid: np.ndarray, ru: np.ndarray, f: np.ndarray, n: int) -> str:
         """Why the active sets leave a floating body free along a loaded rigid motion: the body, the motion with
@@ -1113,6 +885,176 @@ class ContactSolver:
                               "support (displacement or symmetry condition) or change the load")
 
 
+def _residual(s: NewtonSystem, xv, r) -> np.ndarray:
+    """The residual's matrix part M x of the exact system (without the shift eps) into ``r``; returns its array."""
+    r.data = s.mat * xv
+    ra = r.FV().NumPy()
+    ra[s.reg_dofs] -= s.eps * xv.FV().NumPy()[s.reg_dofs]
+    return ra
+
+
+def _rigid_balance(s: NewtonSystem, b: np.ndarray, xv, r) -> float:
+    """The largest unbalanced force or moment along the floating bodies' rigid motions at the iterate ``xv``."""
+    ra = _residual(s, xv, r)
+    return float(np.max(np.abs(s.rigid.T @ ((b - ra)[:s.n] * s.free))))
+
+
+def _balance_scale(s: NewtonSystem, b: np.ndarray, xv) -> float:
+    """Forces the rigid-motion balance is measured against: the load, or the contact forces of the iterate when
+    there is none (a problem driven by its gaps alone: an overlap pressing a body)."""
+    xs = xv.FV().NumPy()
+    forces = float(np.linalg.norm(b[:s.n] * s.free))
+    for it in s.ifs:
+        forces = max(forces, float(np.linalg.norm(it.Bn[:, :s.n].T @ xs[it.offset:it.offset + it.m])))
+    return max(forces * s.mode_size, 1e-300)
+
+
+def _fixed_multipliers(s: NewtonSystem, x: np.ndarray) -> np.ndarray:
+    """``x`` with the fixed multipliers set exactly (their identity rows hold them to round-off)."""
+    for it in s.ifs:
+        on, ot = it.offset, it.offset + it.m
+        A = it.active & it.keep
+        x[on:on + it.m] = np.where(A, x[on:on + it.m], 0.0)
+        if it.law.kind == "frictionless":
+            x[ot:it.offset + it.blocks * it.m] = 0.0
+        elif it.dim3:
+            x[ot:ot + it.m] = np.where(A, x[ot:ot + it.m], 0.0)
+            x[ot + it.m:ot + 2 * it.m] = np.where(A, x[ot + it.m:ot + 2 * it.m], 0.0)
+        else:
+            x[ot:ot + it.m] = np.where(~A, 0.0, np.where(A & it.slip & (it.law.kind == "tresca"),
+                                                         it.bound0 * it.sign, x[ot:ot + it.m]))
+    return x
+
+
+def _walk_slip(s: NewtonSystem, b: np.ndarray, x: np.ndarray, xv, r) -> bool:
+    """2D, every active node slipping and a floating body unheld: :func:`_balance_slip` on each frictional
+    interface, for the rigid motions the active normal rows leave free (the others are balanced by the normal
+    pressures whatever the friction does). Whether any interface's sets were walked."""
+    n, rigid = s.n, s.rigid
+    ra = _residual(s, xv, r)
+    held_rows = [(it.Bn[:, :n][it.active & it.keep] @ rigid) for it in s.ifs]
+    A_held = np.vstack(held_rows) if held_rows else np.zeros((0, rigid.shape[1]))
+    _, sv, vt = np.linalg.svd(A_held, full_matrices=True) if A_held.size else (None, np.zeros(0),
+                                                                              np.eye(rigid.shape[1]))
+    rank = int(np.sum(sv > 1e-10 * max(float(sv.max(initial=0.0)), 1e-300)))
+    free_modes = rigid @ vt[rank:].T
+    imbalance = free_modes.T @ ((b - ra)[:n] * s.free)
+    walked = False
+    for it in s.ifs:
+        if it.law.kind != "frictionless" and (it.slip & it.active).any() and free_modes.shape[1]:
+            imbalance = _balance_slip(it, x[it.offset + it.m:it.offset + 2 * it.m], free_modes, n, imbalance)
+            walked = True
+    return walked
+
+
+def _assemble_rows(s: NewtonSystem, x: np.ndarray, penalty: bool) -> np.ndarray:
+    """Set the multiplier rows of the current sets in the pattern's values (and the matrix), the start values of
+    the fixed multipliers in ``x``; returns the right-hand side b (N)."""
+    n = s.n
+    b = np.zeros(s.N)
+    b[:n] = s.f
+    vals = s.pattern.values
+    for it, seg in zip(s.ifs, s.pattern.segments):
+        on, ot = it.offset, it.offset + it.m
+        A = it.active & it.keep
+        b[on:on + it.m] = np.where(A, it.op.g0, 0.0)     # -Bn u = g0 (g = 0) or lam_n = 0
+        x[on:on + it.m] = np.where(A, x[on:on + it.m], 0.0)
+        pen_i = penalty or it.law.penalty
+        vals[seg["rows_n"]] = seg["rows_n_values"] * A[seg["rows_n_node"]]
+        # -Bn u - (weight / c) lam_n = g0 in the penalty phase (lam_n = -c g~)
+        # (the identity rows of fixed multipliers scaled like the penalty rows: -weight / c)
+        vals[seg["diag_n"]] = np.where(A & (not pen_i), 0.0, -it.w / it.c)
+        if it.law.kind == "frictionless":
+            x[ot:it.offset + it.blocks * it.m] = 0.0
+        elif it.dim3:
+            _rows_3d(it, seg, vals, b, x, A, pen_i)
+        else:
+            _rows_2d(it, seg, vals, b, x, A, pen_i)
+    s.pattern.update()
+    return b
+
+
+def _rows_2d(it: _Interface, seg: dict, vals: np.ndarray, b: np.ndarray, x: np.ndarray, A: np.ndarray,
+             pen: bool) -> None:
+    """The tangential rows of a 2D frictional interface for the current sets: stick rows -Bt u (- weight / ct
+    lam_t) = 0; Coulomb slip rows lam_t - F sign lam_n = 0; Tresca slip rows lam_t = g_c sign; open nodes
+    lam_t = 0."""
+    ot = it.offset + it.m
+    stick = A & it.stick
+    slip = A & it.slip
+    vals[seg["rows_t"]] = seg["rows_t_values"] * stick[seg["rows_t_node"]]
+    vals[seg["diag_t"]] = np.where(stick & (not pen), 0.0, -it.w / it.ct)
+    coulomb_slip = slip if it.law.kind == "coulomb" else np.zeros(it.m, dtype=bool)
+    vals[seg["couple"]] = np.where(coulomb_slip, it.w / it.ct * it.law.friction * it.sign, 0.0)
+    fixed_t = np.where(slip & (it.law.kind == "tresca"), it.bound0 * it.sign, 0.0)
+    b[ot:ot + it.m] = -it.w / it.ct * fixed_t
+    x[ot:ot + it.m] = np.where(stick | coulomb_slip, x[ot:ot + it.m], fixed_t)
+
+
+def _new_sets(s: NewtonSystem, x: np.ndarray, lam_n: list, lam_t: list, penalty: bool, it_nr: int) -> tuple[int, float]:
+    """The multipliers of the iterate ``x`` into ``lam_n``, ``lam_t`` and the new sets of every interface, recorded
+    in the history: (the number of set changes, the largest relative residual of the 3D slip rows)."""
+    changes = 0
+    n_act = n_stick = n_slip = 0
+    u = x[:s.n]
+    newton = 0.0      # 3D: the largest residual |lam_t - b z / |z|| of the slip rows / the largest bound
+    for k, it in enumerate(s.ifs):
+        on, ot = it.offset, it.offset + it.m
+        lam_n[k] = x[on:on + it.m].copy()
+        if it.dim3:
+            lam_t[k] = np.column_stack([x[ot:ot + it.m], x[ot + it.m:ot + 2 * it.m]])
+            ch, res = _sets_3d(it, lam_n[k], lam_t[k], u, penalty or it.law.penalty)
+            newton = max(newton, res)
+        else:
+            lam_t[k] = x[ot:ot + it.m].copy()
+            ch = _sets_2d(it, lam_n[k], lam_t[k], u, penalty or it.law.penalty)
+        changes += ch
+        n_act += int(it.active.sum())
+        n_stick += int(it.stick.sum())
+        n_slip += int(it.slip.sum())
+    info = s.info
+    info.iterations = it_nr
+    info.active.append(n_act)
+    info.stick.append(n_stick)
+    info.slip.append(n_slip)
+    info.changes.append(changes)
+    info.newton_residual.append(newton)
+    return changes, newton
+
+
+def _sets_2d(it: _Interface, lam_n: np.ndarray, lam_t: np.ndarray, u: np.ndarray, pen: bool) -> int:
+    """The new sets and slip signs of a 2D interface from the iterate (lam_n, lam_t, u): the number of set changes.
+    ``pen``: penalty rows, whose sets use the trial tractions -c g~, -c_t s~ (lam - c g~ would double them, and a
+    Tresca node would start slipping at half its bound)."""
+    gap = (it.op.g0 + it.Bn @ u) / it.w
+    zn = (0.0 if pen else lam_n) - it.c * gap
+    act = (zn > 0) & it.keep
+    stick = np.zeros(it.m, dtype=bool)
+    slip = np.zeros(it.m, dtype=bool)
+    sign = it.sign.copy()
+    if it.law.kind != "frictionless":
+        sl = (it.Bt @ u) / it.w
+        z = (0.0 if pen else lam_t) - it.ct * sl
+        bound = it.bound0 if it.law.kind == "tresca" else slip_bound(it.law.friction, zn)
+        stick = act & (np.abs(z) < bound)
+        slip = act & ~stick
+        # nodes that have switched between contact and separation twice (e.g. the tip of a wedge on a Coulomb
+        # fault: sticking, the node goes into tension; released, it penetrates) go through the slip state: a
+        # sticking node in tension slips instead of opening, and such a node comes back into contact slipping
+        prone = it.flips >= 2
+        to_slip = prone & ((~act & it.active & it.stick & it.keep) | (act & ~it.active & stick))
+        act = act | to_slip
+        stick = stick & ~to_slip
+        slip = slip | to_slip
+        sign = np.where(slip, np.sign(z), 0.0)
+        sign[slip & (sign == 0)] = 1.0
+    changes = int(np.sum(act != (it.active & it.keep)) + np.sum(stick != (it.stick & it.active))
+                  + np.sum(slip & (sign != it.sign)) + np.sum(slip != (it.slip & it.active)))
+    it.flips += act != (it.active & it.keep)
+    it.active, it.stick, it.slip, it.sign = act, stick, slip, sign
+    return changes
+
+
 def _rows_3d(it: _Interface, seg: dict, vals: np.ndarray, b: np.ndarray, x: np.ndarray, A: np.ndarray,
              pen: bool) -> None:
     """The tangential rows of a 3D frictional interface for the current sets (module docstring): per node the
@@ -1193,539 +1135,6 @@ def _sets_3d(it: _Interface, lam_n: np.ndarray, lam_t: np.ndarray, u: np.ndarray
     it.flips += act != (it.active & it.keep)
     it.active, it.stick, it.slip = act, stick, slip
     return changes, res
-
-
-class _Pattern:
-    """The saddle-point matrix of a solve with one sparsity pattern for all iterations: K (with the shift eps
-    on the floating bodies' free dofs), the columns -Bn^T, -Bt^T, the constraint rows -Bn, -Bt of every node,
-    the multipliers' diagonal and the Coulomb coupling (lam_t, lam_n); in 3D also -Bt2^T, the rows of t1 and
-    t2 on the union of the node's Bt and Bt2 entries, the 2 x 2 multiplier blocks and the coupling of t2 to
-    lam_n; an iteration only changes values (the
-    rows of the multipliers it fixes are left out of the factorization by the free-dof mask). Building the
-    matrix once saves NGSolve's CreateFromCOO at every iteration (0.75 s of 2.2 s per iteration at 140k dofs).
-    The entries are distinct by construction (the blocks are disjoint), so the storage order is a permutation
-    of the COO order, read back once from the values 1, 2, ..., nnz."""
-
-    def __init__(self, n: int, N: int, kr, kc, kv, reg_dofs, eps: float, ifs: list, bulk=None):
-        self.kr, self.kc, self.N = kr.copy(), kc.copy(), N
-        kv_in = kv
-        kv = self._shifted(n, kr, kc, kv, reg_dofs, eps)
-        rows, cols, vals = [kr], [kc], [kv]
-        count = len(kr)
-        self.segments = []
-
-        def add(r, c, v) -> slice:
-            nonlocal count
-            rows.append(np.asarray(r, dtype=np.int64))
-            cols.append(np.asarray(c, dtype=np.int64))
-            vals.append(np.asarray(v, dtype=float))
-            sl = slice(count, count + len(rows[-1]))
-            count += len(rows[-1])
-            return sl
-
-        for it in ifs:
-            on, ot = it.offset, it.offset + it.m
-            seg = {}
-            j = np.arange(it.m)
-            cn = it.Bn.tocoo()
-            frictional = it.law.kind != "frictionless"
-            tr, tc, tv = it.transposed
-            if not frictional:      # only the normal columns
-                keep = tc < ot
-                tr, tc, tv = tr[keep], tc[keep], tv[keep]
-            seg["cols"] = add(tr, tc, tv)
-            seg["rows_n"] = add(on + cn.row, cn.col, -cn.data)
-            seg["rows_n_values"] = -cn.data
-            seg["rows_n_node"] = cn.row
-            seg["diag_n"] = add(on + j, on + j, np.zeros(it.m))
-            if frictional and it.dim3:
-                # the rows of t1 and t2 combine -Bt u and -Bt2 u of the node: the union of their patterns
-                c1, c2 = it.Bt.tocoo(), it.Bt2.tocoo()
-                U = sp.csr_matrix((np.ones(len(c1.row) + len(c2.row)),
-                                   (np.concatenate([c1.row, c2.row]), np.concatenate([c1.col, c2.col]))),
-                                  shape=it.Bt.shape).tocoo()
-                a1 = -np.asarray(it.Bt[U.row, U.col]).ravel()
-                a2 = -np.asarray(it.Bt2[U.row, U.col]).ravel()
-                nz = (a1 != 0) | (a2 != 0)         # the operators store the zero components of t1, t2
-                ot2 = ot + it.m
-                seg["rows_t"] = add(ot + U.row[nz], U.col[nz], np.zeros(int(nz.sum())))
-                seg["rows_t2"] = add(ot2 + U.row[nz], U.col[nz], np.zeros(int(nz.sum())))
-                seg["rows_t_node"] = U.row[nz]
-                seg["rows_t_a"], seg["rows_t_b"] = a1[nz], a2[nz]
-                seg["diag_t"] = add(ot + j, ot + j, np.zeros(it.m))
-                seg["off_t"] = add(ot + j, ot2 + j, np.zeros(it.m))
-                seg["off_t2"] = add(ot2 + j, ot + j, np.zeros(it.m))
-                seg["diag_t2"] = add(ot2 + j, ot2 + j, np.zeros(it.m))
-                seg["couple"] = add(ot + j, on + j, np.zeros(it.m))
-                seg["couple2"] = add(ot2 + j, on + j, np.zeros(it.m))
-            elif frictional:
-                ct = it.Bt.tocoo()
-                seg["rows_t"] = add(ot + ct.row, ct.col, -ct.data)
-                seg["rows_t_values"] = -ct.data
-                seg["rows_t_node"] = ct.row
-                seg["diag_t"] = add(ot + j, ot + j, np.zeros(it.m))
-                seg["couple"] = add(ot + j, on + j, np.zeros(it.m))
-            # the columns -Bn^T (, -Bt^T) mirror the rows -Bn (, -Bt) entry by entry (both from the same tocoo());
-            # a 3D frictional interface has no such mirror (its tangential rows combine t1 and t2)
-            if not frictional:
-                seg["mirror"] = _span(seg["rows_n"])
-            elif not it.dim3:
-                seg["mirror"] = np.concatenate([_span(seg["rows_n"]), _span(seg["rows_t"])])
-            else:
-                seg["mirror"] = None
-            self.segments.append(seg)
-        R, C = np.concatenate(rows), np.concatenate(cols)
-        self.values = np.concatenate(vals)
-        nk = len(kr)
-        if bulk is not None and bulk.nze == nk and np.array_equal(np.asarray(bulk.AsVector().FV().NumPy()), kv_in):
-            # K's COO is its storage order: the sum of K embedded and the multiplier entries as a sparse matrix
-            # (0.05 s at 140k dofs; CreateFromCOO of the whole took 1.2 s)
-            numbered = bulk.CreateMatrix()
-            numbered.AsVector().FV().NumPy()[:] = np.arange(1.0, nk + 1.0)
-            emb = ngs.la.Embedding(N, ngs.IntRange(0, n))
-            extra = ngs.la.SparseMatrixd.CreateFromCOO(R[nk:], C[nk:], np.arange(nk + 1.0, len(R) + 1.0), N, N)
-            mat = (emb @ numbered @ emb.T + extra).CreateSparseMatrix()
-        else:
-            mat = ngs.la.SparseMatrixd.CreateFromCOO(R, C, np.arange(1.0, len(R) + 1.0), N, N)
-        stored = mat.AsVector().FV().NumPy()
-        if mat.nze != len(R):
-            raise AssertionError("contact saddle-point pattern: repeated entries")
-        self.order = np.rint(stored).astype(np.int64) - 1
-        self.matrix = mat
-        self.rows = R
-        self.cols = C
-        self._columns = None
-        self._csr = None
-
-    @staticmethod
-    def _shifted(n: int, kr, kc, kv, reg_dofs, eps: float) -> np.ndarray:
-        kv = np.array(kv, dtype=float)
-        if len(reg_dofs):
-            diag = np.where(kr == kc)[0]
-            shift = np.zeros(n)
-            shift[reg_dofs] = eps
-            kv[diag] += shift[kr[diag]]
-        return kv
-
-    def matches(self, N: int, kr, kc) -> bool:
-        """Whether a bulk matrix has this pattern's sparsity (the next solve of a time series or secant loop)."""
-        return N == self.N and len(kr) == len(self.kr) and np.array_equal(kr, self.kr) and np.array_equal(kc, self.kc)
-
-    def set_bulk(self, n: int, kv, reg_dofs, eps: float) -> None:
-        """New values of K (the multiplier entries are set by every iteration)."""
-        self.values[:len(self.kr)] = self._shifted(n, self.kr, self.kc, kv, reg_dofs, eps)
-
-    def changed_rows(self, reference: np.ndarray) -> np.ndarray:
-        """The matrix rows whose values differ from ``reference`` (COO values)."""
-        return np.unique(self.rows[np.nonzero(self.values != reference)[0]])
-
-    def csr(self) -> sp.csr_matrix:
-        """The current matrix as a scipy CSR matrix (the iterative solver's; its storage order computed once)."""
-        if self._csr is None:
-            A = sp.csr_matrix((np.arange(1.0, len(self.rows) + 1.0), (self.rows, self.cols)), shape=(self.N, self.N))
-            self._csr_order = np.rint(A.data).astype(np.int64) - 1
-            self._csr = A
-        self._csr.data = self.values[self._csr_order]
-        return self._csr
-
-    def update(self, values: np.ndarray | None = None) -> None:
-        """Copy the current COO values (or ``values``) into the matrix."""
-        self.matrix.AsVector().FV().NumPy()[:] = (self.values if values is None else values)[self.order]
-
-    def symmetric(self, ifs: list) -> np.ndarray | None:
-        """The COO values of the symmetric quasi-definite companion of the current matrix, or None when it has
-        none (a Coulomb slip row couples lam_t to lam_n; a 3D frictional interface's tangential rows are not
-        the transposes of its columns). The companion has (1) each multiplier column -B^T equal to its row:
-        zero for a fixed multiplier (open node, Tresca slip), whose row fixes it alone, so the solution of the
-        refinement below is that of the matrix once the fixed values are in the iterate; (2) the zero diagonal of
-        the exact rows (-B u = g) replaced by -w / (c QUASI_DEFINITE). A symmetric quasi-definite matrix
-        [[K, -B^T], [-B, -D]] (K positive definite, D > 0) has an LDL^T factorization for every symmetric ordering
-        (Vanderbei, SIAM J. Optim. 5 (1995)), so NGSolve's sparse Cholesky (LDL^T, no pivoting) factors it; the
-        solve is then the exact system's to about 1 / QUASI_DEFINITE, and one refinement step with the exact
-        residual takes it to round-off. The bulk K must be symmetric (the caller checks it)."""
-        v = self.values.copy()
-        for it, seg in zip(ifs, self.segments):
-            if seg["mirror"] is None or ("couple" in seg and np.any(v[seg["couple"]] != 0.0)):
-                return None
-            v[seg["cols"]] = v[seg["mirror"]]
-            for key, c in (("diag_n", it.c), ("diag_t", it.ct)):
-                if key in seg:
-                    d = v[seg[key]]
-                    v[seg[key]] = np.where(d == 0.0, -it.w / (c * QUASI_DEFINITE), d)
-        return v
-
-    def _coupled(self, values: np.ndarray) -> np.ndarray:
-        """Bool over the unknowns: the multiplier rows that do not fix their multiplier alone in ``values`` (a -B
-        entry or a Coulomb coupling not zero)."""
-        out = np.zeros(self.N, dtype=bool)
-        for seg in self.segments:
-            for key in ("mirror", "couple"):
-                if seg.get(key) is not None:
-                    sel = seg[key] if key == "mirror" else _span(seg[key])
-                    np.logical_or.at(out, self.rows[sel], values[sel] != 0.0)
-        return out
-
-    def column(self, j: int) -> tuple[np.ndarray, np.ndarray]:
-        """The entries of the matrix's column of multiplier ``j`` in the equilibrium rows: (row indices, values)."""
-        if self._columns is None:
-            sel = np.concatenate([_span(seg["cols"]) for seg in self.segments] or [np.zeros(0, dtype=np.int64)])
-            order = np.argsort(self.cols[sel], kind="stable")
-            self._columns = (sel[order], self.cols[sel][order])
-        sel, col = self._columns
-        lo, hi = np.searchsorted(col, j), np.searchsorted(col, j, side="right")
-        return self.rows[sel[lo:hi]], self.values[sel[lo:hi]]
-
-    def zero_columns(self, sym: np.ndarray) -> np.ndarray:
-        """Bool over the unknowns: the multiplier rows whose column the companion ``sym`` left out."""
-        rows = np.zeros(self.N, dtype=bool)
-        for seg in self.segments:
-            if seg["mirror"] is not None:
-                rows[self.rows[seg["mirror"]]] = True
-        return rows & ~self._coupled(sym)
-
-    def entering(self, rows: np.ndarray, zeroed: np.ndarray) -> np.ndarray:
-        """Of the changed ``rows``, those whose multiplier is no longer fixed while the factored companion left
-        its column out (a node newly in contact or sticking): a Woodbury update must add their columns too."""
-        rows = np.asarray(rows, dtype=np.int64)
-        return rows[zeroed[rows] & self._coupled(self.values)[rows]]
-
-
-def _free_motions(rigid: np.ndarray, M: sp.csr_matrix, n: int) -> np.ndarray | None:
-    """Iterative steps: an orthonormal basis (n x k) of the floating bodies' rigid motions that no row of the
-    current matrix holds (a frictionless body's sliding, held by nothing), or None. The direct solves fix these
-    motions through the shift eps: r^T (K + eps I) u = r^T f = 0 for such a motion r, so their solution has no
-    part along it; GMRES leaves it undetermined (it hardly changes the residual) and the AMG's coarse levels,
-    shifted by eps too, put into it whatever the residual's round-off says (4e-3 of |u| on the frictionless 3D
-    punch, and 111 GMRES iterations): the preconditioner and the iterate are kept orthogonal to them."""
-    if not rigid.shape[1]:
-        return None
-    held = M[n:, :n] @ rigid
-    scale = max(float(np.max(np.abs(held), initial=0.0)), 1e-300)
-    if held.shape[0]:
-        _, sv, vt = np.linalg.svd(held, full_matrices=True)
-    else:
-        sv, vt = np.zeros(0), np.eye(rigid.shape[1])
-    rank = int(np.sum(sv > 1e-10 * scale))
-    free = rigid @ vt[rank:].T
-    if not free.shape[1]:
-        return None
-    return np.linalg.qr(free)[0]
-
-
-def _relative_change(dx: np.ndarray, x: np.ndarray, n: int, freemask: np.ndarray) -> float:
-    """The larger of the relative corrections of u and of the free multipliers."""
-    du = float(np.linalg.norm(dx[:n])) / max(float(np.linalg.norm(x[:n])), 1e-300)
-    lam = freemask[n:]
-    dl = float(np.linalg.norm(dx[n:][lam])) / max(float(np.linalg.norm(x[n:][lam])), 1e-300)
-    return max(du, dl)
-
-
-def _span(sl: slice) -> np.ndarray:
-    return np.arange(sl.start, sl.stop)
-
-
-class _KrylovStep:
-    """A step solved by GMRES (:class:`.contact_krylov.SaddleKrylov`) with the preconditioner of the current
-    matrix; the tolerance is relative to the Newton step's right-hand side ``b`` (or the first residual when
-    larger: a problem driven by prescribed displacements)."""
-
-    usable = True
-    exact = True
-
-    def __init__(self, krylov, pattern, b: np.ndarray, info, what: str, rigid: np.ndarray, n: int):
-        self.krylov, self.what, self.info = krylov, what, info
-        M = pattern.csr()
-        self.free_motions = _free_motions(rigid, M, n)
-        krylov.set_matrix(M, self.free_motions)
-        info.amg_setups = krylov.stats.amg_setups
-        self.ref = krylov.reference(b)
-        self.first = True
-
-    def apply(self, r, dx) -> bool:
-        ra = np.array(r.FV().NumPy())
-        if self.first:
-            self.ref = max(self.ref, self.krylov.reference(ra))
-            self.first = False
-        dx.FV().NumPy()[:] = self.krylov.solve(ra, self.ref, self.what)
-        self.info.gmres_iterations.append(self.krylov.stats.iterations[-1])
-        return True
-
-
-class _DenseBulk:
-    """A dense symmetric bulk matrix (the condensed problem's Schur complement S, shifted on the floating bodies'
-    dofs, or on all dofs when none is declared) factored once per solve (Cholesky; LU when round-off makes the
-    shifted S indefinite), with the solves S^-1 r_j^T of the multiplier rows r_j cached by their values (an exact
-    row -B_j keeps its values, so a node's column is computed once per solve)."""
-
-    def __init__(self, S: np.ndarray, what: str):
-        import scipy.linalg as sl
-        self.n = S.shape[0]
-        self._sl = sl
-        try:
-            self._fac, self._chol = sl.cho_factor(S, lower=True, check_finite=False), True
-        except np.linalg.LinAlgError:
-            self._fac, self._chol = sl.lu_factor(S, check_finite=False), False
-        if not np.all(np.isfinite(self._fac[0])):
-            raise SolverError(f"{what}: the condensed stiffness is not finite; check the material data")
-        self.cache: dict = {}
-        self._store: np.ndarray | None = None
-        self._blocks: dict | None = None
-
-    def solve(self, B: np.ndarray) -> np.ndarray:
-        if self._chol:
-            return self._sl.cho_solve(self._fac, B, check_finite=False)
-        return self._sl.lu_solve(self._fac, B, check_finite=False)
-
-    def blocks(self, pattern, n: int, freemask: np.ndarray) -> dict:
-        """The sparse blocks C = M[:n, free multipliers], R = M[free multipliers, :n], D and C^T of the pattern
-        as matrices whose ``data`` is read from ``pattern.values`` at the stored positions (computed once per
-        solve: the pattern and the free multipliers do not change within it)."""
-        if self._blocks is not None:
-            return self._blocks
-        M = pattern.csr()
-        T = sp.csr_matrix((np.arange(1.0, M.nnz + 1.0), M.indices, M.indptr), shape=M.shape)   # positions + 1
-        order = pattern._csr_order
-        idx = np.nonzero(freemask[n:])[0]
-        out = {"idx": idx}
-        for name, block in (("C", T[:n, n:][:, idx]), ("R", T[n:, :n][idx]), ("D", T[n:, n:][idx][:, idx]),
-                            ("CT", T[:n, n:][:, idx].T.tocsr())):
-            block = block.tocsr() if name != "C" else block.tocsc()
-            block.sort_indices()
-            out[name + "_pos"] = order[np.rint(block.data).astype(np.int64) - 1]
-            block.data = np.zeros(len(block.data))
-            out[name] = block
-        R = out["R"]
-        out["R_row"] = np.repeat(np.arange(R.shape[0]), np.diff(R.indptr))
-        self._blocks = out
-        return out
-
-    def row_solves(self, R: sp.csr_matrix, keys: list) -> np.ndarray:
-        """S^-1 R^T (n x rows) for the sparse rows ``R``, cached under ``keys`` (one per row) as the columns of
-        one growing array."""
-        missing = [k for k, key in enumerate(keys) if key not in self.cache]
-        if missing:
-            Y = self.solve(R[missing].toarray().T)
-            used = len(self.cache)
-            if self._store is None or used + len(missing) > self._store.shape[1]:
-                grown = np.empty((self.n, max(2 * (used + len(missing)), 64)))
-                if self._store is not None:
-                    grown[:, :used] = self._store[:, :used]
-                self._store = grown
-            self._store[:, used:used + len(missing)] = Y
-            for k, j in enumerate(missing):
-                self.cache[keys[j]] = used + k
-        if not keys:
-            return np.zeros((self.n, 0))
-        return self._store[:, [self.cache[key] for key in keys]]
-
-
-class _DenseOperator(ngs.BaseMatrix):
-    """The saddle-point matrix of a dense bulk: the pattern's sparse multiplier entries plus S in the top left
-    block (for the residuals of the refinement loop)."""
-
-    def __init__(self, sparse, S: np.ndarray):
-        super().__init__()
-        self.sparse, self.S, self.n = sparse, S, S.shape[0]
-
-    def IsComplex(self):
-        return False
-
-    def Height(self):
-        return self.sparse.height
-
-    def Width(self):
-        return self.sparse.width
-
-    def CreateColVector(self):
-        return self.sparse.CreateColVector()
-
-    def CreateRowVector(self):
-        return self.sparse.CreateRowVector()
-
-    def Mult(self, x, y):
-        y.data = self.sparse * x
-        y.FV().NumPy()[:self.n] += self.S @ x.FV().NumPy()[:self.n]
-
-
-class _DenseStep:
-    """A Newton step of a dense bulk (:class:`_DenseBulk`): M = [[S, C], [R, D]] solved by eliminating u,
-
-        (D - R S^-1 C) lam = r_m - R S^-1 r_u,    u = S^-1 r_u - S^-1 C lam,
-
-    where R S^-1 C = Y^T C has rows only for the multipliers coupled to u (the exact and penalty rows P, Y = S^-1
-    R_P^T from the cache), and the other free multipliers (Q: open nodes, slip rows) are eliminated through their
-    sparse block D_QQ first, leaving a dense system of the size of P. The columns C_P are the rows R_P transposed
-    for the exact rows of a symmetric problem, so S^-1 C_P comes from the same cache; S^-1 C_Q lam_Q is solved only
-    when nonzero. No factorization of the saddle-point matrix, so nothing to reuse or refine: the step is exact for
-    the shifted matrix."""
-
-    usable = True
-    exact = True
-    free_motions = None
-
-    def __init__(self, bulk: _DenseBulk, pattern, n: int, freemask: np.ndarray):
-        import scipy.linalg as sl
-        import scipy.sparse.linalg as spla
-        self.bulk, self.n = bulk, n
-        blocks = bulk.blocks(pattern, n, freemask)
-        data = pattern.values
-        idx = blocks["idx"]
-        self.idx = idx
-        Cm, Rm, Dm = (blocks[k].copy() for k in ("C", "R", "D"))     # the structures shared by the solve's steps
-        Cm.data = data[blocks["C_pos"]]
-        Rm.data = data[blocks["R_pos"]]
-        Dm.data = data[blocks["D_pos"]]
-        coupled = np.bincount(blocks["R_row"], weights=(Rm.data != 0.0), minlength=len(idx)) > 0
-        P, Q = np.nonzero(coupled)[0], np.nonzero(~coupled)[0]
-        self.P, self.Q, self.Rm = P, Q, Rm
-        RP = Rm[P]
-        CP = blocks["CT"][P]
-        CP.data = data[blocks["CT_pos"]][_rows_entries(blocks["CT"], P)]
-        keys_r = [_row_key(idx[p], RP, k) for k, p in enumerate(P)]
-        keys_c = [_row_key(idx[p], CP, k) for k, p in enumerate(P)]
-        Y = bulk.row_solves(RP, keys_r)                                         # S^-1 R_P^T
-        self.Z = Y if keys_c == keys_r else bulk.row_solves(CP, keys_c)         # S^-1 C_P
-        self.C_Q = Cm[:, Q] if len(Q) else None
-        YC = (Cm.T @ Y).T                                   # Y^T C = R_P S^-1 C (|P| x free multipliers)
-        G_P = Dm[P].toarray() - YC
-        H, G_PQ = G_P[:, P], G_P[:, Q]
-        self.lu_QQ, self.G_QP, self.G_PQ = None, None, G_PQ
-        if len(Q):
-            DQ = Dm[Q]
-            self.lu_QQ = spla.splu(DQ[:, Q].tocsc())
-            G_QP = DQ[:, P].tocsc()
-            G_QP.eliminate_zeros()
-            if G_QP.nnz and len(P):
-                self.G_QP = G_QP
-                H = H - G_PQ @ self.lu_QQ.solve(G_QP.toarray())
-        self.H_lu = sl.lu_factor(H, check_finite=False) if len(P) else None
-
-    def apply(self, r, dx) -> bool:
-        import scipy.linalg as sl
-        n, P, Q = self.n, self.P, self.Q
-        ra = r.FV().NumPy()
-        z = self.bulk.solve(ra[:n])
-        t = ra[n:][self.idx] - self.Rm @ z
-        lam = np.zeros(len(self.idx))
-        wQ = self.lu_QQ.solve(t[Q]) if len(Q) else np.zeros(0)
-        if len(P):
-            lam[P] = sl.lu_solve(self.H_lu, t[P] - self.G_PQ @ wQ if len(Q) else t[P], check_finite=False)
-        if len(Q):
-            lam[Q] = self.lu_QQ.solve(t[Q] - self.G_QP @ lam[P]) if self.G_QP is not None else wQ
-        out = dx.FV().NumPy()
-        out[:] = 0.0
-        u = z - self.Z @ lam[P]
-        cq = self.C_Q @ lam[Q] if len(Q) and np.any(lam[Q] != 0.0) else None
-        if cq is not None and np.any(cq != 0.0):
-            u -= self.bulk.solve(cq)
-        out[:n] = u
-        out[n:][self.idx] = lam
-        return True
-
-
-def _rows_entries(A: sp.csr_matrix, rows: np.ndarray) -> np.ndarray:
-    """The positions in ``A.data`` of the entries of ``rows`` (in order), i.e. of A[rows].data."""
-    starts, ends = A.indptr[rows], A.indptr[np.asarray(rows) + 1]
-    if not len(starts):
-        return np.zeros(0, dtype=np.int64)
-    return np.concatenate([np.arange(a, b) for a, b in zip(starts, ends)]).astype(np.int64)
-
-
-def _row_key(j: int, A: sp.csr_matrix, k: int) -> tuple:
-    """A cache key of row ``k`` of ``A`` (the multiplier ``j``'s row or column): its index and its entries."""
-    lo, hi = A.indptr[k], A.indptr[k + 1]
-    return int(j), A.indices[lo:hi].tobytes(), A.data[lo:hi].tobytes()
-
-
-class _Fresh:
-    """A step with the factorization of the current matrix (``exact``) or of its quasi-definite companion."""
-
-    usable = True
-
-    def __init__(self, inv, exact: bool = True):
-        self.inv = inv
-        self.exact = exact
-
-    def apply(self, r, dx) -> bool:
-        dx.data = self.inv * r
-        return True
-
-
-class _Reuse:
-    """A step with the factorization of an earlier matrix M0 of the same solve, which differs from the current
-    matrix M in the rows ``rows`` (the multiplier rows of the nodes whose contact state changed since):
-    M = M0 + E (N - O) with E the unit columns of those rows, N and O their new and old values. With
-    y = M0^-1 b and Z = M0^-1 E (one solve per changed row, cached until the next factorization), and
-    O y = E^T b, O Z = I, the Sherman-Morrison-Woodbury formula gives
-
-        x = y - Z t,    (N Z) t = N y - E^T b,
-
-    a dense system of the size of ``rows``. A solve costs about a tenth of a factorization at 100k dofs in 2D,
-    so this pays for a few changed rows.
-
-    When M0 is a quasi-definite companion (:meth:`_Pattern.symmetric`), the nodes that entered the contact or
-    started sticking since also have their columns C_J (the -B^T entries in the equilibrium rows, left out of M0)
-    added: M = M0 + U V^T with U = [E, C_J], V^T = [[N - O], [E_J^T]]. With Z = M0^-1 U (Z_C: one more solve per
-    such node) and O Z = [I, 0] (C_J has no entries in the multiplier rows), Woodbury gives
-
-        x = y - Z t,    (I + V^T Z) t = [N y - E^T b; y_J],
-
-    which is the formula above when J is empty. (GMRES right preconditioned by M0^-1 converges in as many steps in
-    exact arithmetic, but the unknowns mix metres and pascals and its Krylov vectors lost the rank structure
-    to round-off: it did not converge at all.)"""
-
-    usable = True
-
-    def __init__(self, mat, inv, rows: np.ndarray, cache: dict, info, exact: bool = True, columns=None):
-        self.mat, self.inv, self.rows, self.info = mat, inv, rows, info
-        self.exact = exact
-        self._v = mat.CreateColVector()
-        self._w = mat.CreateColVector()
-        columns = columns or {}
-        missing = [int(j) for j in rows if int(j) not in cache]
-        for j in missing:
-            self._v.FV().NumPy()[:] = 0.0
-            self._v.FV().NumPy()[j] = 1.0
-            self._w.data = inv * self._v
-            cache[j] = np.array(self._w.FV().NumPy())
-        missing_c = [j for j in columns if ("col", j) not in cache]
-        for j in missing_c:
-            idx, val = columns[j]
-            self._v.FV().NumPy()[:] = 0.0
-            self._v.FV().NumPy()[idx] = val
-            self._w.data = inv * self._v
-            cache[("col", j)] = np.array(self._w.FV().NumPy())
-        info.woodbury_columns += len(missing) + len(missing_c)
-        self.J = np.array(sorted(columns), dtype=np.int64)
-        self.Z = np.column_stack([cache[int(j)] for j in rows] + [cache[("col", int(j))] for j in self.J])
-        NZ = np.column_stack([self._rows_of_M(self.Z[:, k]) for k in range(self.Z.shape[1])])
-        # I + V^T Z with V^T = [[N - O], [E_J^T]] (module docstring of the class): O Z = [I, 0]
-        k = len(rows)
-        top = NZ - np.hstack([np.eye(k), np.zeros((k, len(self.J)))])
-        self.W = np.eye(self.Z.shape[1]) + np.vstack([top, self.Z[self.J]])
-
-    def _rows_of_M(self, v: np.ndarray) -> np.ndarray:
-        self._v.FV().NumPy()[:] = v
-        self._w.data = self.mat * self._v
-        return np.array(self._w.FV().NumPy()[self.rows])
-
-    def apply(self, r, dx) -> bool:
-        b = np.array(r.FV().NumPy())
-        self._v.FV().NumPy()[:] = b
-        self._w.data = self.inv * self._v
-        y = np.array(self._w.FV().NumPy())
-        try:
-            t = np.linalg.solve(self.W, np.concatenate([self._rows_of_M(y) - b[self.rows], y[self.J]]))
-        except np.linalg.LinAlgError:
-            self.usable = False
-            return False
-        x = y - self.Z @ t
-        if not np.all(np.isfinite(x)):
-            self.usable = False
-            return False
-        dx.FV().NumPy()[:] = x
-        self.info.reused_solves += 1
-        return True
 
 
 def nodal_modulus(props) -> float:

@@ -1,0 +1,53 @@
+"""The contact laws of an interface and the choice lists of the contact solvers (the scene's keys validate
+against these).
+
+Units: slip bounds and pressures Pa, augmentation Pa/m, friction coefficient dimensionless."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+LAWS = ("frictionless", "tresca", "coulomb")
+"""Contact laws: Signorini without friction, Tresca (given slip bound g_c), Coulomb (slip bound F_c p)."""
+METHODS = ("ssn", "penalty", "uzawa")
+"""Contact methods: the semi-smooth Newton (active set) iteration, its penalty rows kept to the end, Uzawa's
+algorithm (the seed's reference method for friction)."""
+LINEAR_SOLVERS = ("auto", "direct", "iterative", "condensed")
+"""The Newton steps' linear algebra: "auto" (condensed in 2D with PARDISO, else direct), sparse direct
+factorizations, GMRES (Krylov), the problem condensed onto the contact surface."""
+
+
+def slip_bound(friction: float, lam_n: np.ndarray) -> np.ndarray:
+    """The Coulomb slip bound F_c max(lam_n, 0) (Pa) of the normal pressures ``lam_n`` (Pa): no friction where
+    the node is open (lam_n <= 0)."""
+    return friction * np.maximum(lam_n, 0.0)
+
+
+@dataclass
+class ContactLaw:
+    """The law of one interface: ``kind`` in :data:`LAWS`; ``slip_bound`` g_c per node (Pa, Tresca);
+    ``friction`` F_c (Coulomb); ``augmentation`` c (Pa/m, None: E_max / nodal size); ``penalty``: this
+    interface keeps the penalty rows (lam_n = c x penetration, lam_t = c_t x stick slip) to the end instead of
+    switching to exact constraints (the whole solve is penalty with ContactSolver(method="penalty"))."""
+
+    kind: str = "frictionless"
+    slip_bound: np.ndarray | float | None = None
+    friction: float = 0.0
+    augmentation: float | None = None
+    penalty: bool = False
+
+    def __post_init__(self):
+        if self.kind not in LAWS:
+            raise ValueError(f"unknown contact law {self.kind!r}; choose one of {', '.join(LAWS)}")
+        if self.kind == "tresca" and self.slip_bound is None:
+            raise ValueError("Tresca friction needs a slip bound g_c (Pa)")
+        if self.kind == "coulomb" and not (self.friction > 0 and np.isfinite(self.friction)):
+            raise ValueError(f"Coulomb friction needs a positive coefficient, got {self.friction}")
+        if self.kind == "tresca":
+            g = np.asarray(self.slip_bound, dtype=float)
+            if not np.all(np.isfinite(g)) or np.any(g < 0):
+                raise ValueError(f"the Tresca slip bound g_c must be finite and >= 0 (Pa), got {self.slip_bound}")
+        if self.augmentation is not None and not (self.augmentation > 0 and np.isfinite(self.augmentation)):
+            raise ValueError(f"the augmentation c must be positive (Pa/m), got {self.augmentation}")
