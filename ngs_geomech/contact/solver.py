@@ -43,44 +43,44 @@ iterations on the block tests, tests/test_contact_friction_3d.py). The slip rows
 a 3D solve with more than a few slipping nodes factors at every iteration (no Woodbury reuse). The multipliers
 of a 3D interface are (lam_n (m,), lam_t (m, 2)).
 
-Linear algebra: one saddle-point matrix per solve with a fixed sparsity pattern (:class:`_Pattern`; in 3D a
-third multiplier block per interface, the rows of t1 and t2 on the union of the patterns of Bt and Bt2, and
-the 2 x 2 multiplier blocks); a fixed multiplier (open node, 2D Tresca slip) keeps its row as an identity row
-scaled like the penalty rows, so the
-matrices of consecutive iterations differ only in the rows of the nodes whose state changed. A matrix is
+Linear algebra (one strategy of :mod:`.steps` per solve: sparse direct, dense condensed or Krylov steps): one
+saddle-point matrix per solve with a fixed sparsity pattern (:class:`.saddle.SaddlePattern`; in 3D a third
+multiplier block per interface, the rows of t1 and t2 on the union of the patterns of Bt and Bt2, and the 2 x 2
+multiplier blocks); a fixed multiplier (open node, 2D Tresca slip) keeps its row as an identity row scaled like
+the penalty rows, so the matrices of consecutive iterations differ only in the rows of the nodes whose state changed. A matrix is
 factored (UMFPACK) when more than ``reuse_rows`` (12) rows changed since the last factorization without a
 cached solve; otherwise the old factorization is reused through the Sherman-Morrison-Woodbury formula
-(:class:`_Reuse`: one extra solve per changed row). The active sets of the Hertz test (P2, 41k dofs) shrink
+(:class:`.steps.WoodburyStep`: one extra solve per changed row). The active sets of the Hertz test (P2, 41k dofs) shrink
 geometrically, 186, 143, 115, 99, 90, 85, 83, 82, 81 nodes: 6 factorizations and 18 extra solves instead of
 11 factorizations.
 
 Which factorization: a matrix whose bulk K is symmetric and whose multiplier rows are the transposes of their
 columns or fix their multiplier alone (frictionless, Tresca, Coulomb while no node slips; 2D, or 3D frictionless)
-is factored through its symmetric quasi-definite companion (:meth:`_Pattern.symmetric`: the columns of fixed
+is factored through its symmetric quasi-definite companion (:meth:`.saddle.SaddlePattern.symmetric`: the columns of fixed
 multipliers left out, the exact rows' zero diagonal -w / (c x QUASI_DEFINITE)) by NGSolve's sparse Cholesky
 (LDL^T without pivoting, which every symmetric quasi-definite matrix admits), and the solve is refined with the
 exact residual (the companion's solve is the matrix's to ~1e-8; one more step to round-off); other matrices by
 UMFPACK. Measured at 140k dofs (P2 Hertz, one thread): 1.17 - 1.26 s per factorization and 0.08 - 0.09 s per
 solve, against 1.9 s and 0.18 s with UMFPACK. A Woodbury update of a companion's factorization also adds the
 columns of the nodes that entered the contact or started sticking since (the companion left them out:
-:class:`_Reuse`), one more solve per such node. The saddle-point pattern is the sum of K embedded and the
+:class:`.steps.WoodburyStep`), one more solve per such node. The saddle-point pattern is the sum of K embedded and the
 multiplier entries (CreateSparseMatrix, 0.08 s at 140k dofs; CreateFromCOO of the whole took 1.2 - 1.4 s).
 
 Iterative Newton steps (``linear="iterative"``, the scene's ``solver.linear``; issue 10): each Newton-step matrix
-is solved by GMRES with the augmented-Lagrangian AMG preconditioner of :mod:`.contact_krylov` instead of the
+is solved by GMRES with the augmented-Lagrangian AMG preconditioner of :mod:`.krylov` instead of the
 factorizations above (no Woodbury reuse, no companion; the floating bodies' refinement criteria as above; the
-rigid motions that nothing holds are kept out of the iterates, :func:`_free_motions`). The iterations per Newton
+rigid motions that nothing holds are kept out of the iterates, :func:`.steps.free_motions`). The iterations per Newton
 step grow slowly under refinement (3D Coulomb punch: P1 41 -> 90 from 663 to 121k dofs, P2 54 -> 99 from 3.8k to
-130k), and the 130k-dof P2 solve takes 68 s against 399 s directly (the tables of :mod:`.contact_krylov` and
+130k), and the 130k-dof P2 solve takes 68 s against 399 s directly (the tables of :mod:`.krylov` and
 ``studies/scaling``). The slip rows of 3D friction then converge to 100 x the GMRES tolerance instead of
 NEWTON_TOL.
 
 Condensed solves (``linear="condensed"``, the default "auto" in 2D when PARDISO is installed): the problem is
 condensed onto the dofs of the contact nodes by one PARDISO factorization of K with their Schur complement S
-(:mod:`.contact_condensed`), and this solver then runs on the dense S (a numpy bulk): the same iteration, the
+(:mod:`.condensed`), and this solver then runs on the dense S (a numpy bulk): the same iteration, the
 pattern holding only the multiplier entries, each Newton step eliminating u against one Cholesky factorization of
-S (:class:`_DenseStep`: (D - R S^-1 C) lam = r_m - R S^-1 r_u over the rows coupled to u, the others through their
-own block). S is shifted by DENSE_SHIFT = 1e-7 of its mean diagonal on the floating bodies' dofs (on all dofs
+S (:class:`.steps.DenseStep`: (D - R S^-1 C) lam = r_m - R S^-1 r_u over the rows coupled to u, the others through their
+own block). S is shifted by steps.DENSE_SHIFT = 1e-7 of its mean diagonal on the floating bodies' dofs (on all dofs
 when none is declared: a time step's body on a foundation), not 1e-10: the elimination through S^-1 loses about
 the shift's inverse in relative accuracy (with 1e-10 the refinement of a floating Coulomb block stalled at a
 relative step error of 5e-7), and the refinement with the exact residual removes the shift as before.
@@ -145,11 +145,11 @@ class ContactInfo:
     woodbury_columns: int = 0
     newton_residual: list = field(default_factory=list)
     gmres_iterations: list = field(default_factory=list)
-    """linear="iterative": the GMRES iterations of every Newton-step solve (:mod:`.contact_krylov`)."""
+    """linear="iterative": the GMRES iterations of every Newton-step solve (:mod:`.krylov`)."""
     amg_setups: int = 0
     """linear="iterative": the AMG hierarchies built (one per solve; later Newton steps refresh its operators)."""
     condensed_dofs: int = 0
-    """linear="condensed": the surface dofs of the condensed problem (:mod:`.contact_condensed`)."""
+    """linear="condensed": the surface dofs of the condensed problem (:mod:`.condensed`)."""
     candidate_passes: int = 0
     """linear="condensed": the candidate sets tried (1 when the first held every node in contact)."""
     condensed_fallback: bool = False
@@ -280,11 +280,11 @@ class ContactSolver:
         at the shift's minimum-norm value). ``reuse_rows``: the most changed rows needing new solves for which
         an old factorization is reused (Woodbury) instead of factoring anew; -1: always factor.
         ``quasi_definite``: factor the symmetric quasi-definite companion of a symmetric saddle-point matrix by
-        sparse Cholesky (:meth:`_Pattern.symmetric`) instead of the matrix by UMFPACK (False: always UMFPACK).
+        sparse Cholesky (:meth:`.saddle.SaddlePattern.symmetric`) instead of the matrix by UMFPACK (False: always UMFPACK).
         ``linear``: "direct" (the factorizations above), "condensed" (the problem condensed onto the contact
-        surface by one PARDISO factorization of K, :mod:`.contact_condensed`; 2D), "auto" (condensed in 2D when
+        surface by one PARDISO factorization of K, :mod:`.condensed`; 2D), "auto" (condensed in 2D when
         PARDISO is installed, else direct) or "iterative": every Newton step by GMRES with the
-        augmented-Lagrangian AMG preconditioner of :mod:`.contact_krylov` (needs ``forms``, the
+        augmented-Lagrangian AMG preconditioner of :mod:`.krylov` (needs ``forms``, the
         :class:`ElasticForms` of the matrix, for the displacement space and the rigid motions of the AMG;
         ``linear_tol`` its relative tolerance, ``linear_maxit`` its iteration limit per Newton step).
         ``check_solvable``: False skips the check of the floating bodies' load (the condensed solver's inner
@@ -306,8 +306,8 @@ class ContactSolver:
         self.forms = forms
         self.linear_tol = linear_tol
         self.linear_maxit = linear_maxit
-        self._modes = None                 # contact_krylov.near_null_space(forms), for the iterative solver's AMG
-        self._condensed = None             # contact_condensed.CondensedContact (linear="condensed")
+        self._modes = None                 # krylov.near_null_space(forms), for the iterative solver's AMG
+        self._condensed = None             # condensed.CondensedContact (linear="condensed")
         self.check_solvable = check_solvable
         self.items = interfaces
         self.modulus = float(modulus)
@@ -395,7 +395,7 @@ class ContactSolver:
         When the active-set iteration cycles on a problem with Coulomb interfaces, Coulomb friction is solved
         again as a fixed point of Tresca problems (:meth:`_coulomb_by_tresca`).
 
-        ``linear="condensed"``: the problem condensed onto the contact surface (:mod:`.contact_condensed`); what it
+        ``linear="condensed"``: the problem condensed onto the contact surface (:mod:`.condensed`); what it
         cannot take goes to the sparse direct path below (``ContactInfo.condensed_fallback``)."""
         rest = self._at_rest(rhs, free, x0)
         if rest is not None:

@@ -45,20 +45,16 @@ class NewtonSystem:
     mat: object = None
 
 
-class SparseDirectSteps:
-    """Newton steps of a sparse bulk by factorizations: the symmetric quasi-definite companion of the matrix by
-    sparse Cholesky when it has one (:meth:`.SaddlePattern.symmetric`; the refinement with the exact residual makes
-    the solve exact), else (or when asked ``exact``) the matrix by UMFPACK; an older factorization is reused
-    through Woodbury (:class:`WoodburyStep`) while at most ``reuse_rows`` changed rows need new solves."""
+class NewtonSteps:
+    """The interface of the Newton-step strategies: how a solve reads the bulk K (``bulk_coo``, ``diagonal``,
+    ``pattern_bulk``), which dofs get the relative ``shift``, the operator of the saddle-point matrix
+    (``operator``, once per solve), the step solver of each iteration (``step``), a new factorization when an
+    inexact step does not converge (``refactor``), forgetting a factorization (``forget``), the projection of the
+    iterate (``project``) and the floor of the 3D slip rows' tolerance (``tol_floor``). This base reads a sparse
+    (NGSolve) bulk; its steps are exact, so it never refactors."""
 
     shift = SPARSE_SHIFT
     tol_floor = 0.0
-
-    def __init__(self, reuse_rows: int, quasi_definite: bool):
-        self.reuse_rows = reuse_rows
-        self.quasi_definite = quasi_definite
-        self.factored = None    # (the inverse, the COO values it was computed from, cached solves, zero columns)
-        self.it_nr = 0
 
     @staticmethod
     def bulk_coo(matrix):
@@ -78,6 +74,36 @@ class SparseDirectSteps:
     @staticmethod
     def pattern_bulk(matrix):
         return matrix
+
+    def operator(self, s: NewtonSystem, matrix):
+        raise NotImplementedError
+
+    def step(self, s: NewtonSystem, b: np.ndarray, it_nr: int):
+        raise NotImplementedError
+
+    def refactor(self, exact: bool = False):
+        raise AssertionError(f"{type(self).__name__}: its steps are exact and always apply")
+
+    def forget(self) -> None:
+        """Drop a kept factorization (the next step starts anew)."""
+
+    @staticmethod
+    def project(step, xv, n: int) -> None:
+        """Nothing to remove from the iterate (the shift fixes the free rigid motions)."""
+
+
+class SparseDirectSteps(NewtonSteps):
+    """Newton steps of a sparse bulk by factorizations: the symmetric quasi-definite companion of the matrix by
+    sparse Cholesky when it has one (:meth:`.SaddlePattern.symmetric`; the refinement with the exact residual makes
+    the solve exact), else (or when asked ``exact``) the matrix by UMFPACK; an older factorization is reused
+    through Woodbury (:class:`WoodburyStep`) while at most ``reuse_rows`` changed rows need new solves."""
+
+    def __init__(self, reuse_rows: int, quasi_definite: bool):
+        self.reuse_rows = reuse_rows
+        self.quasi_definite = quasi_definite
+        self.symmetric_bulk = False
+        self.factored = None    # (the inverse, the COO values it was computed from, cached solves, zero columns)
+        self.it_nr = 0
 
     def operator(self, s: NewtonSystem, matrix):
         self.s = s
@@ -124,20 +150,13 @@ class SparseDirectSteps:
         """Drop the factorization (the next step factors anew)."""
         self.factored = None
 
-    @staticmethod
-    def project(step, xv, n: int) -> None:
-        """Nothing to remove from the iterate (the shift fixes the free rigid motions)."""
 
-
-class DenseSchurSteps(SparseDirectSteps):
+class DenseSchurSteps(NewtonSteps):
     """Newton steps of a dense bulk S (the condensed problem of :mod:`.condensed`): u eliminated against one
     Cholesky factorization of the shifted S per solve (:class:`DenseStep`), exact for the shifted matrix. The shift
     goes on every free dof when no floating body is declared (a rigid motion held only by the contact rows)."""
 
     shift = DENSE_SHIFT
-
-    def __init__(self):
-        super().__init__(reuse_rows=-1, quasi_definite=False)
 
     @staticmethod
     def bulk_coo(matrix):
@@ -156,30 +175,26 @@ class DenseSchurSteps(SparseDirectSteps):
         return None
 
     def operator(self, s: NewtonSystem, matrix):
-        self.s = s
         shifted = np.array(matrix, dtype=float)
         shifted[s.reg_dofs, s.reg_dofs] += s.eps
         self.bulk = DenseBulk(shifted, s.what)
         return DenseOperator(s.pattern.matrix, shifted)
 
     def step(self, s: NewtonSystem, b: np.ndarray, it_nr: int):
-        self.it_nr = it_nr
         return DenseStep(self.bulk, s.pattern, s.n, s.freemask)
 
 
-class KrylovSteps(SparseDirectSteps):
+class KrylovSteps(NewtonSteps):
     """Newton steps by GMRES with the augmented-Lagrangian AMG preconditioner (:class:`.krylov.SaddleKrylov`):
     no factorization, no reuse; the rigid motions no row holds are kept out of the iterates (:func:`free_motions`).
     ``modes``: a callable giving the near null space of the displacement space (cached by the caller)."""
 
     def __init__(self, modes, tol: float | None, maxit: int):
-        super().__init__(reuse_rows=-1, quasi_definite=False)
         self.modes, self.tol, self.maxit = modes, tol, maxit
 
     def operator(self, s: NewtonSystem, matrix):
         """The saddle-point matrix, and the GMRES solver of this solve's steps: row scales c, the augmented
         diagonals -w / c and the node blocks of the multipliers."""
-        self.s = s
         modes, vertex, dim = self.modes()
         n, N = s.n, s.N
         if modes.shape[0] != n:
@@ -208,7 +223,6 @@ class KrylovSteps(SparseDirectSteps):
         return s.pattern.matrix
 
     def step(self, s: NewtonSystem, b: np.ndarray, it_nr: int):
-        self.it_nr = it_nr
         return KrylovStep(self.krylov, s.pattern, b, s.info, f"{s.what}, iteration {it_nr}", s.rigid, s.n)
 
     @staticmethod
@@ -223,7 +237,7 @@ class KrylovSteps(SparseDirectSteps):
 def newton_steps(matrix, linear: str, *, reuse_rows: int, quasi_definite: bool, modes, tol: float | None,
                  maxit: int):
     """The strategy for the Newton steps of one solve: the dense elimination for a dense bulk (numpy: the condensed
-    problem), GMRES for ``linear="iterative"``, else the sparse factorizations."""
+    problem), GMRES for ``linear="iterative"``, else the sparse factorizations. The one type test of a solve."""
     if isinstance(matrix, np.ndarray):
         return DenseSchurSteps()
     if linear == "iterative":
@@ -262,7 +276,7 @@ def relative_change(dx: np.ndarray, x: np.ndarray, n: int, freemask: np.ndarray)
 
 
 class KrylovStep:
-    """A step solved by GMRES (:class:`.contact_krylov.SaddleKrylov`) with the preconditioner of the current
+    """A step solved by GMRES (:class:`.krylov.SaddleKrylov`) with the preconditioner of the current
     matrix; the tolerance is relative to the Newton step's right-hand side ``b`` (or the first residual when
     larger: a problem driven by prescribed displacements)."""
 
