@@ -47,8 +47,9 @@ Linear algebra (one strategy of :mod:`.steps` per solve: sparse direct, dense co
 saddle-point matrix per solve with a fixed sparsity pattern (:class:`.saddle.SaddlePattern`; in 3D a third
 multiplier block per interface, the rows of t1 and t2 on the union of the patterns of Bt and Bt2, and the 2 x 2
 multiplier blocks); a fixed multiplier (open node, 2D Tresca slip) keeps its row as an identity row scaled like
-the penalty rows, so the matrices of consecutive iterations differ only in the rows of the nodes whose state changed. A matrix is
-factored (UMFPACK) when more than ``reuse_rows`` (12) rows changed since the last factorization without a
+the penalty rows, so the matrices of consecutive iterations differ only in the rows of the nodes whose state
+changed. A matrix is factored (UMFPACK) when more than ``reuse_rows`` (12) rows changed since the last
+factorization without a
 cached solve; otherwise the old factorization is reused through the Sherman-Morrison-Woodbury formula
 (:class:`.steps.WoodburyStep`: one extra solve per changed row). The active sets of the Hertz test (P2, 41k dofs) shrink
 geometrically, 186, 143, 115, 99, 90, 85, 83, 82, 81 nodes: 6 factorizations and 18 extra solves instead of
@@ -56,8 +57,8 @@ geometrically, 186, 143, 115, 99, 90, 85, 83, 82, 81 nodes: 6 factorizations and
 
 Which factorization: a matrix whose bulk K is symmetric and whose multiplier rows are the transposes of their
 columns or fix their multiplier alone (frictionless, Tresca, Coulomb while no node slips; 2D, or 3D frictionless)
-is factored through its symmetric quasi-definite companion (:meth:`.saddle.SaddlePattern.symmetric`: the columns of fixed
-multipliers left out, the exact rows' zero diagonal -w / (c x QUASI_DEFINITE)) by NGSolve's sparse Cholesky
+is factored through its symmetric quasi-definite companion (:meth:`.saddle.SaddlePattern.symmetric`: the columns
+of fixed multipliers left out, the exact rows' zero diagonal -w / (c x QUASI_DEFINITE)) by NGSolve's sparse Cholesky
 (LDL^T without pivoting, which every symmetric quasi-definite matrix admits), and the solve is refined with the
 exact residual (the companion's solve is the matrix's to ~1e-8; one more step to round-off); other matrices by
 UMFPACK. Measured at 140k dofs (P2 Hertz, one thread): 1.17 - 1.26 s per factorization and 0.08 - 0.09 s per
@@ -280,7 +281,8 @@ class ContactSolver:
         at the shift's minimum-norm value). ``reuse_rows``: the most changed rows needing new solves for which
         an old factorization is reused (Woodbury) instead of factoring anew; -1: always factor.
         ``quasi_definite``: factor the symmetric quasi-definite companion of a symmetric saddle-point matrix by
-        sparse Cholesky (:meth:`.saddle.SaddlePattern.symmetric`) instead of the matrix by UMFPACK (False: always UMFPACK).
+        sparse Cholesky (:meth:`.saddle.SaddlePattern.symmetric`) instead of the matrix by UMFPACK (False: always
+        UMFPACK).
         ``linear``: "direct" (the factorizations above), "condensed" (the problem condensed onto the contact
         surface by one PARDISO factorization of K, :mod:`.condensed`; 2D), "auto" (condensed in 2D when
         PARDISO is installed, else direct) or "iterative": every Newton step by GMRES with the
