@@ -91,6 +91,7 @@ Units: u m, multipliers Pa (nodal values of the contact pressure and tangential 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -100,11 +101,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
+from ..linalg import pardiso
 from ..linalg.direct import check_finite
 from .condensed import CondensedContact, applicable
 from .forms import ContactOperator
 from .krylov import near_null_space
-from .laws import ContactLaw, slip_bound
+from .laws import ContactLaw, ContactOptions, slip_bound
 from .linear_algebra import drop_prescribed_nodes
 from .saddle import SaddlePattern
 from .steps import NewtonSystem, newton_steps, relative_change
@@ -270,56 +272,49 @@ class ContactSolver:
     elastic data. ``matrix`` and ``rhs`` are the assembled bulk operator (X x X) and load (X), ``free`` the
     free dofs of X (numpy bool), ``x0`` a vector of X holding the prescribed (Dirichlet) values."""
 
-    def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float,
-                 maxit: int = 50, method: str = "ssn", floating=(), reuse_rows: int = 12,
-                 quasi_definite: bool = True, linear: str = "auto", forms=None, linear_tol: float | None = None,
-                 linear_maxit: int = 3000, check_solvable: bool = True):
-        """``floating``: the semi-coercive bodies (:meth:`ElasticForms.floating_bodies`): their load is
-        checked for solvability before any factorization, and their free dofs get a tiny diagonal shift in the
-        factorization (the residual is always that of the exact system, so the converged solution is exact;
-        a motion no contact holds, e.g. the sliding of a frictionless body under a balanced load, is fixed
-        at the shift's minimum-norm value). ``reuse_rows``: the most changed rows needing new solves for which
-        an old factorization is reused (Woodbury) instead of factoring anew; -1: always factor.
-        ``quasi_definite``: factor the symmetric quasi-definite companion of a symmetric saddle-point matrix by
-        sparse Cholesky (:meth:`.saddle.SaddlePattern.symmetric`) instead of the matrix by UMFPACK (False: always
-        UMFPACK).
-        ``linear``: "direct" (the factorizations above), "condensed" (the problem condensed onto the contact
-        surface by one PARDISO factorization of K, :mod:`.condensed`; 2D), "auto" (condensed in 2D when
-        PARDISO is installed, else direct) or "iterative": every Newton step by GMRES with the
-        augmented-Lagrangian AMG preconditioner of :mod:`.krylov` (needs ``forms``, the
-        :class:`ElasticForms` of the matrix, for the displacement space and the rigid motions of the AMG;
-        ``linear_tol`` its relative tolerance, ``linear_maxit`` its iteration limit per Newton step).
-        ``check_solvable``: False skips the check of the floating bodies' load (the condensed solver's inner
+    def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float, floating=(),
+                 forms=None, options: ContactOptions | None = None, **settings):
+        """``modulus``: the scale (Pa) of the default augmentations (:func:`nodal_modulus`). ``floating``: the
+        semi-coercive bodies (:meth:`ElasticForms.floating_bodies`): their load is checked for solvability before
+        any factorization, and their free dofs get a tiny diagonal shift in the factorization (the residual is
+        always that of the exact system, so the converged solution is exact; a motion no contact holds, e.g. the
+        sliding of a frictionless body under a balanced load, is fixed at the shift's minimum-norm value).
+        ``forms``: the :class:`ElasticForms` of the matrix (``linear="iterative"``: the displacement space and the
+        rigid motions of the AMG). ``options``: :class:`.laws.ContactOptions`; keywords of its field names
+        (``maxit``, ``method``, ``linear``, ...) replace its values. ``linear``: "direct" (the factorizations
+        above), "condensed" (the problem condensed onto the contact surface by one PARDISO factorization of K,
+        :mod:`.condensed`; 2D), "auto" (condensed in 2D when PARDISO is installed, else direct) or "iterative":
+        every Newton step by GMRES with the augmented-Lagrangian AMG preconditioner of :mod:`.krylov`.
+        ``check_solvable`` False skips the check of the floating bodies' load (the condensed solver's inner
         problem, whose caller checked it on all nodes)."""
-        if linear not in ("auto", "direct", "iterative", "condensed"):
-            raise ValueError(f"the contact solver's linear solver must be 'auto', 'direct', 'iterative' or "
-                             f"'condensed', got {linear!r}")
-        if linear == "condensed":
-            from ..linalg import pardiso
-            if not pardiso.available():
-                raise ValueError("the condensed contact solver needs oneMKL PARDISO: install the 'mkl' package")
+        opts = dataclasses.replace(options or ContactOptions(), **settings)
+        if opts.method not in ("ssn", "penalty"):
+            raise ValueError(f"unknown contact method {opts.method!r} for ContactSolver: 'ssn' or 'penalty' (Uzawa: "
+                             "UzawaSolver)")
+        linear = opts.linear
+        if linear == "condensed" and not pardiso.available():
+            raise ValueError("the condensed contact solver needs oneMKL PARDISO: install the 'mkl' package")
         if linear == "iterative" and forms is None:
             raise ValueError("the iterative contact solver needs the elastic forms (forms=): the displacement space "
                              "and its rigid motions")
         if linear == "auto":
             dim = 3 if any(op.Bt2 is not None for op, _ in interfaces) else 2
             linear = "condensed" if applicable(dim) else "direct"
+        self.options = opts
         self.linear = linear
         self.forms = forms
-        self.linear_tol = linear_tol
-        self.linear_maxit = linear_maxit
+        self.linear_tol = opts.linear_tol
+        self.linear_maxit = opts.linear_maxit
         self._modes = None                 # krylov.near_null_space(forms), for the iterative solver's AMG
         self._condensed = None             # condensed.CondensedContact (linear="condensed")
-        self.check_solvable = check_solvable
+        self.check_solvable = opts.check_solvable
         self.items = interfaces
         self.modulus = float(modulus)
-        self.maxit = maxit
+        self.maxit = opts.maxit
         self.floating = list(floating)
-        if method not in ("ssn", "penalty"):
-            raise ValueError(f"unknown contact method {method!r}")
-        self.method = method
-        self.reuse_rows = reuse_rows
-        self.quasi_definite = quasi_definite
+        self.method = opts.method
+        self.reuse_rows = opts.reuse_rows
+        self.quasi_definite = opts.quasi_definite
         self.infos: list[ContactInfo] = []
         self._state: list[_Interface] | None = None
         self._pattern: SaddlePattern | None = None
@@ -341,8 +336,7 @@ class ContactSolver:
         """A solver with this one's settings for other interfaces and floating bodies, on the sparse or dense
         steps (the condensed problem's: its dense bulk selects the dense steps), without the solvability check
         of the load (the caller checked it on all nodes: the candidate nodes alone could wrongly refuse it)."""
-        return ContactSolver(items, modulus=self.modulus, maxit=self.maxit, method=self.method, floating=floating,
-                             reuse_rows=self.reuse_rows, quasi_definite=self.quasi_definite, linear="direct",
+        return ContactSolver(items, modulus=self.modulus, floating=floating, options=self.options, linear="direct",
                              check_solvable=False)
 
     def cold_start(self) -> None:
