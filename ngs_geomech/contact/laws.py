@@ -1,5 +1,5 @@
-"""The contact laws of an interface and the choice lists of the contact solvers (the scene's keys validate
-against these).
+"""The contact laws of an interface (:class:`ContactLaw`, the Coulomb bound :func:`slip_bound`) and the options of
+the contact solvers (:class:`ContactOptions`), validated against the choice lists of :mod:`.choices`.
 
 Units: slip bounds and pressures Pa, augmentation Pa/m, friction coefficient dimensionless."""
 
@@ -9,14 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-LAWS = ("frictionless", "tresca", "coulomb")
-"""Contact laws: Signorini without friction, Tresca (given slip bound g_c), Coulomb (slip bound F_c p)."""
-METHODS = ("ssn", "penalty", "uzawa")
-"""Contact methods: the semi-smooth Newton (active set) iteration, its penalty rows kept to the end, Uzawa's
-algorithm (the seed's reference method for friction)."""
-LINEAR_SOLVERS = ("auto", "direct", "iterative", "condensed")
-"""The Newton steps' linear algebra: "auto" (condensed in 2D with PARDISO, else direct), sparse direct
-factorizations, GMRES (Krylov), the problem condensed onto the contact surface."""
+from .choices import LAWS, LINEAR_SOLVERS, METHODS
 
 
 def slip_bound(friction: float, lam_n: np.ndarray) -> np.ndarray:

@@ -30,7 +30,7 @@ from ..scene.model import ContactMechanics, Scene
 from .forms import ContactOperator, contact_operator_2d
 from .forms3d import contact_operator_3d
 from .krylov import AUTO_DOFS
-from .laws import ContactLaw, ContactOptions
+from .laws import ContactLaw, ContactOptions, slip_bound
 
 STATUS_OPEN, STATUS_STICK, STATUS_SLIP, STATUS_PRESCRIBED = 0, 1, 2, 3
 """Nodal contact states of the output; 'prescribed': every displacement its constraint involves is given
@@ -235,7 +235,7 @@ def interface_results(spec: ContactSpec, u: np.ndarray, lam_n: np.ndarray, lam_t
     if law.kind == "tresca":
         bound = np.broadcast_to(np.asarray(law.slip_bound, dtype=float), lam_n.shape).copy()
     elif law.kind == "coulomb":
-        bound = law.friction * np.maximum(lam_n, 0.0)
+        bound = slip_bound(law.friction, lam_n)
     else:
         bound = np.zeros_like(lam_n)
     status = np.where(lam_n > 0, STATUS_STICK, STATUS_OPEN)

@@ -471,7 +471,7 @@ class ContactSolver:
             use({k: ContactLaw("frictionless", augmentation=items[k][1].augmentation, penalty=items[k][1].penalty)
                  for k in coulomb})
             u, info = self._solve(matrix, rhs, free, x0, where)
-            bounds = {k: items[k][1].friction * np.maximum(self.multipliers[k][0], 0.0) for k in coulomb}
+            bounds = {k: slip_bound(items[k][1].friction, self.multipliers[k][0]) for k in coulomb}
             for npass in range(1, COULOMB_FIXED_POINT_MAXIT + 1):
                 use({k: ContactLaw("tresca", slip_bound=bounds[k], augmentation=items[k][1].augmentation,
                                    penalty=items[k][1].penalty) for k in coulomb})
@@ -479,7 +479,7 @@ class ContactSolver:
                 total.coulomb_fixed_point_passes = npass
                 total.iterations += info.iterations
                 total.factorizations += info.factorizations
-                new = {k: items[k][1].friction * np.maximum(self.multipliers[k][0], 0.0) for k in coulomb}
+                new = {k: slip_bound(items[k][1].friction, self.multipliers[k][0]) for k in coulomb}
                 scale = max(max(float(np.max(b, initial=0.0)) for b in new.values()), 1e-300)
                 change = max(float(np.max(np.abs(new[k] - bounds[k]), initial=0.0)) for k in coulomb) / scale
                 bounds = new
@@ -1103,7 +1103,7 @@ def _sets_3d(it: _Interface, lam_n: np.ndarray, lam_t: np.ndarray, u: np.ndarray
         sl = np.column_stack([it.Bt @ u, it.Bt2 @ u]) / it.w[:, None]
         z = (0.0 if pen else lam_t) - it.ct[:, None] * sl
         nz = np.linalg.norm(z, axis=1)
-        bound = it.bound0 if it.law.kind == "tresca" else it.law.friction * np.maximum(zn, 0.0)
+        bound = it.bound0 if it.law.kind == "tresca" else slip_bound(it.law.friction, zn)
         stick = act & (nz < bound)
         slip = act & ~stick
         prone = it.flips >= 2          # as in 2D: twice switched nodes go through the slip state
@@ -1117,7 +1117,7 @@ def _sets_3d(it: _Interface, lam_n: np.ndarray, lam_t: np.ndarray, u: np.ndarray
         e[~pos, 0] = 1.0
         # the bound of the slip rows: g_c, or F_c lam_n (as the 2D rows; = F_c zn at an iterate of the exact
         # phase, where the nodes in contact have g~ = 0, and of the penalty rows, where zn = -c g~ = lam_n)
-        brow = it.bound0 if it.law.kind == "tresca" else it.law.friction * np.maximum(lam_n, 0.0)
+        brow = it.bound0 if it.law.kind == "tresca" else slip_bound(it.law.friction, lam_n)
         it.dir = np.where(slip[:, None], e, 0.0)
         it.kappa = np.where(slip, np.divide(brow, np.maximum(nz, brow), out=np.zeros(m),
                                             where=np.maximum(nz, brow) > 0), 0.0)

@@ -74,7 +74,8 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 from .forms import ContactOperator
-from .solver import ContactLaw, ContactSolver
+from .laws import ContactLaw, slip_bound
+from .solver import ContactSolver
 
 RHO_FACTOR = 2.0
 """Default step: rho = RHO_FACTOR x modulus / (extent of the contact side) (Pa/m); see the module docstring
@@ -130,7 +131,7 @@ class _Side:
             b = self.g.copy() if self.law.kind == "tresca" else np.full(self.op.size, np.inf)
             return np.where(self.keep, b, 0.0)
         on = self.keep & (lam_n > 0)
-        b = self.g if self.law.kind == "tresca" else self.law.friction * np.maximum(lam_n, 0.0)
+        b = self.g if self.law.kind == "tresca" else slip_bound(self.law.friction, lam_n)
         return np.where(on, b, 0.0)
 
 
