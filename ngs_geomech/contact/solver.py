@@ -103,6 +103,7 @@ import scipy.sparse as sp
 from ..errors import SolverError
 from ..linalg import pardiso
 from ..linalg.direct import check_finite
+from .base import ContactSolverBase
 from .condensed import CondensedContact, applicable
 from .forms import ContactOperator
 from .krylov import near_null_space
@@ -267,7 +268,7 @@ def _balance_slip(it, lam_t: np.ndarray, rigid: np.ndarray, n: int, imbalance: n
     return r
 
 
-class ContactSolver:
+class ContactSolver(ContactSolverBase):
     """Solves K u = f + B^T lam with the complementarity conditions of the interfaces for the current
     elastic data. ``matrix`` and ``rhs`` are the assembled bulk operator (X x X) and load (X), ``free`` the
     free dofs of X (numpy bool), ``x0`` a vector of X holding the prescribed (Dirichlet) values."""
@@ -331,6 +332,10 @@ class ContactSolver:
                 off += out[-1].blocks * op.size
             self._state = out
         return self._state
+
+    @classmethod
+    def from_options(cls, items, options: ContactOptions, *, modulus: float, floating=(), forms=None) -> ContactSolver:
+        return cls(items, modulus=modulus, floating=floating, forms=forms, options=options)
 
     def inner_solver(self, items: list[tuple[ContactOperator, ContactLaw]], floating: list) -> ContactSolver:
         """A solver with this one's settings for other interfaces and floating bodies, on the sparse or dense
@@ -879,6 +884,16 @@ class ContactSolver:
                               + "; ".join(parts) + ". The load pulls the body off its supports, or a tangential "
                               "load exceeds what friction can carry (frictionless contact carries none); add a "
                               "support (displacement or symmetry condition) or change the load")
+
+
+class PenaltyContactSolver(ContactSolver):
+    """The penalty method: the iteration of :class:`ContactSolver` with the penalty rows (lam_n = c x penetration,
+    lam_t = c_t x stick slip) kept to the end on every interface (``method="penalty"``)."""
+
+    def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float, floating=(),
+                 forms=None, options: ContactOptions | None = None, **settings):
+        super().__init__(interfaces, modulus=modulus, floating=floating, forms=forms, options=options,
+                         **{**settings, "method": "penalty"})
 
 
 def _residual(s: NewtonSystem, xv, r) -> np.ndarray:

@@ -73,8 +73,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
+from .base import ContactSolverBase
 from .forms import ContactOperator
-from .laws import ContactLaw, slip_bound
+from .laws import ContactLaw, ContactOptions, slip_bound
 from .solver import ContactSolver
 
 RHO_FACTOR = 2.0
@@ -186,7 +187,7 @@ def _project_balanced(y: np.ndarray, b: np.ndarray, w: np.ndarray, a: np.ndarray
     return lam(nu)
 
 
-class UzawaSolver:
+class UzawaSolver(ContactSolverBase):
     """Uzawa's algorithm (2.66) for Tresca and Coulomb friction (module docstring), with the interface of
     :class:`ContactSolver`: ``solve(matrix, rhs, free, x0, where) -> (u, info)`` and the multipliers per
     interface in ``self.multipliers`` [(lam_n, lam_t)] (Pa).
@@ -223,6 +224,13 @@ class UzawaSolver:
         self.infos: list[UzawaInfo] = []
         self.multipliers: list[tuple[np.ndarray, np.ndarray]] = []
         self._last: np.ndarray | None = None      # lam_t of the previous solve: the start of the next one
+
+    @classmethod
+    def from_options(cls, items, options: ContactOptions, *, modulus: float, floating=(), forms=None) -> UzawaSolver:
+        """Uzawa's solver with the options' ``uzawa_step``, ``uzawa_max_steps`` and ``uzawa_settings`` (``forms`` is
+        not needed: the subproblems are solved directly)."""
+        return cls(items, modulus=modulus, floating=floating, maxit=options.uzawa_max_steps, rho=options.uzawa_step,
+                   settings=options.uzawa_settings)
 
     def _sliding_motion(self, sides: list[_Side], n: int, where: str):
         """The rigid motion (X vector) of the floating bodies the normal contact does not see (Bn r = 0 on
