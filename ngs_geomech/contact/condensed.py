@@ -218,7 +218,14 @@ class CondensedContact:
         # singular, a bad candidate set) sends the problem to the sparse path instead of returning a wrong u
         if _residual(matrix, u, f, free, ifs, inner.multipliers, n, float(np.linalg.norm(b))) > RESIDUAL_TOL:
             return None
-        # the outer solver's state: the sets of the solution, its multipliers, the history
+        return self._adopt(inner, ifs, cols, u, info, factorizations, passes, tic)
+
+    def _adopt(self, inner, ifs, cols: np.ndarray, u: np.ndarray, info, factorizations: int, passes: int,
+               tic: float):
+        """The outer solver's state from the condensed solution: the sets of the solution, its multipliers, the
+        history (the inner solver's record stays as it was); returns (u, info)."""
+        outer = self.outer
+        n = len(u)
         for it, it_in in zip(ifs, inner.interfaces(len(cols))):
             for key in ("active", "stick", "slip", "sign", "dir", "kappa"):
                 setattr(it, key, np.array(getattr(it_in, key)))
@@ -228,7 +235,7 @@ class CondensedContact:
         for it in ifs:
             gap = (it.op.g0 + it.Bn[:, :n] @ u) / it.w
             pen = max(pen, float(np.max(-gap[it.keep], initial=0.0)))
-        info = dataclasses.replace(info)            # the inner solver's record stays as it was
+        info = dataclasses.replace(info)
         info.max_penetration = pen
         info.factorizations += factorizations
         info.condensed_dofs = len(cols)

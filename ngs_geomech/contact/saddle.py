@@ -40,69 +40,11 @@ class SaddlePattern:
             return sl
 
         for it in ifs:
-            on, ot = it.offset, it.offset + it.m
-            seg = {}
-            j = np.arange(it.m)
-            cn = it.Bn.tocoo()
-            frictional = it.law.kind != "frictionless"
-            tr, tc, tv = it.transposed
-            if not frictional:      # only the normal columns
-                keep = tc < ot
-                tr, tc, tv = tr[keep], tc[keep], tv[keep]
-            seg["cols"] = add(tr, tc, tv)
-            seg["rows_n"] = add(on + cn.row, cn.col, -cn.data)
-            seg["rows_n_values"] = -cn.data
-            seg["rows_n_node"] = cn.row
-            seg["diag_n"] = add(on + j, on + j, np.zeros(it.m))
-            if frictional and it.dim3:
-                # the rows of t1 and t2 combine -Bt u and -Bt2 u of the node: the union of their patterns
-                c1, c2 = it.Bt.tocoo(), it.Bt2.tocoo()
-                U = sp.csr_matrix((np.ones(len(c1.row) + len(c2.row)),
-                                   (np.concatenate([c1.row, c2.row]), np.concatenate([c1.col, c2.col]))),
-                                  shape=it.Bt.shape).tocoo()
-                a1 = -np.asarray(it.Bt[U.row, U.col]).ravel()
-                a2 = -np.asarray(it.Bt2[U.row, U.col]).ravel()
-                nz = (a1 != 0) | (a2 != 0)         # the operators store the zero components of t1, t2
-                ot2 = ot + it.m
-                seg["rows_t"] = add(ot + U.row[nz], U.col[nz], np.zeros(int(nz.sum())))
-                seg["rows_t2"] = add(ot2 + U.row[nz], U.col[nz], np.zeros(int(nz.sum())))
-                seg["rows_t_node"] = U.row[nz]
-                seg["rows_t_a"], seg["rows_t_b"] = a1[nz], a2[nz]
-                seg["diag_t"] = add(ot + j, ot + j, np.zeros(it.m))
-                seg["off_t"] = add(ot + j, ot2 + j, np.zeros(it.m))
-                seg["off_t2"] = add(ot2 + j, ot + j, np.zeros(it.m))
-                seg["diag_t2"] = add(ot2 + j, ot2 + j, np.zeros(it.m))
-                seg["couple"] = add(ot + j, on + j, np.zeros(it.m))
-                seg["couple2"] = add(ot2 + j, on + j, np.zeros(it.m))
-            elif frictional:
-                ct = it.Bt.tocoo()
-                seg["rows_t"] = add(ot + ct.row, ct.col, -ct.data)
-                seg["rows_t_values"] = -ct.data
-                seg["rows_t_node"] = ct.row
-                seg["diag_t"] = add(ot + j, ot + j, np.zeros(it.m))
-                seg["couple"] = add(ot + j, on + j, np.zeros(it.m))
-            # the columns -Bn^T (, -Bt^T) mirror the rows -Bn (, -Bt) entry by entry (both from the same tocoo());
-            # a 3D frictional interface has no such mirror (its tangential rows combine t1 and t2)
-            if not frictional:
-                seg["mirror"] = span(seg["rows_n"])
-            elif not it.dim3:
-                seg["mirror"] = np.concatenate([span(seg["rows_n"]), span(seg["rows_t"])])
-            else:
-                seg["mirror"] = None
-            self.segments.append(seg)
+            self.segments.append(_segment(it, add))
         R, C = np.concatenate(rows), np.concatenate(cols)
         self.values = np.concatenate(vals)
         nk = len(kr)
-        if bulk is not None and bulk.nze == nk and np.array_equal(np.asarray(bulk.AsVector().FV().NumPy()), kv_in):
-            # K's COO is its storage order: the sum of K embedded and the multiplier entries as a sparse matrix
-            # (0.05 s at 140k dofs; CreateFromCOO of the whole took 1.2 s)
-            numbered = bulk.CreateMatrix()
-            numbered.AsVector().FV().NumPy()[:] = np.arange(1.0, nk + 1.0)
-            emb = ngs.la.Embedding(N, ngs.IntRange(0, n))
-            extra = ngs.la.SparseMatrixd.CreateFromCOO(R[nk:], C[nk:], np.arange(nk + 1.0, len(R) + 1.0), N, N)
-            mat = (emb @ numbered @ emb.T + extra).CreateSparseMatrix()
-        else:
-            mat = ngs.la.SparseMatrixd.CreateFromCOO(R, C, np.arange(1.0, len(R) + 1.0), N, N)
+        mat = _numbered_matrix(n, N, R, C, nk, bulk, kv_in)
         stored = mat.AsVector().FV().NumPy()
         if mat.nze != len(R):
             raise AssertionError("contact saddle-point pattern: repeated entries")
@@ -204,6 +146,78 @@ class SaddlePattern:
         its column out (a node newly in contact or sticking): a Woodbury update must add their columns too."""
         rows = np.asarray(rows, dtype=np.int64)
         return rows[zeroed[rows] & self._coupled(self.values)[rows]]
+
+
+def _segment(it, add) -> dict:
+    """The entries of one interface in the pattern, added by ``add(rows, cols, values) -> slice``: per block its
+    slice of the COO values and what :func:`.solver._assemble_rows` needs to set them (node of each row entry,
+    the constant -B values); ``mirror``: the row entries the columns -B^T mirror (None in 3D with friction)."""
+    on, ot = it.offset, it.offset + it.m
+    seg = {}
+    j = np.arange(it.m)
+    cn = it.Bn.tocoo()
+    frictional = it.law.kind != "frictionless"
+    tr, tc, tv = it.transposed
+    if not frictional:      # only the normal columns
+        keep = tc < ot
+        tr, tc, tv = tr[keep], tc[keep], tv[keep]
+    seg["cols"] = add(tr, tc, tv)
+    seg["rows_n"] = add(on + cn.row, cn.col, -cn.data)
+    seg["rows_n_values"] = -cn.data
+    seg["rows_n_node"] = cn.row
+    seg["diag_n"] = add(on + j, on + j, np.zeros(it.m))
+    if frictional and it.dim3:
+        # the rows of t1 and t2 combine -Bt u and -Bt2 u of the node: the union of their patterns
+        c1, c2 = it.Bt.tocoo(), it.Bt2.tocoo()
+        U = sp.csr_matrix((np.ones(len(c1.row) + len(c2.row)),
+                           (np.concatenate([c1.row, c2.row]), np.concatenate([c1.col, c2.col]))),
+                          shape=it.Bt.shape).tocoo()
+        a1 = -np.asarray(it.Bt[U.row, U.col]).ravel()
+        a2 = -np.asarray(it.Bt2[U.row, U.col]).ravel()
+        nz = (a1 != 0) | (a2 != 0)         # the operators store the zero components of t1, t2
+        ot2 = ot + it.m
+        seg["rows_t"] = add(ot + U.row[nz], U.col[nz], np.zeros(int(nz.sum())))
+        seg["rows_t2"] = add(ot2 + U.row[nz], U.col[nz], np.zeros(int(nz.sum())))
+        seg["rows_t_node"] = U.row[nz]
+        seg["rows_t_a"], seg["rows_t_b"] = a1[nz], a2[nz]
+        seg["diag_t"] = add(ot + j, ot + j, np.zeros(it.m))
+        seg["off_t"] = add(ot + j, ot2 + j, np.zeros(it.m))
+        seg["off_t2"] = add(ot2 + j, ot + j, np.zeros(it.m))
+        seg["diag_t2"] = add(ot2 + j, ot2 + j, np.zeros(it.m))
+        seg["couple"] = add(ot + j, on + j, np.zeros(it.m))
+        seg["couple2"] = add(ot2 + j, on + j, np.zeros(it.m))
+    elif frictional:
+        ct = it.Bt.tocoo()
+        seg["rows_t"] = add(ot + ct.row, ct.col, -ct.data)
+        seg["rows_t_values"] = -ct.data
+        seg["rows_t_node"] = ct.row
+        seg["diag_t"] = add(ot + j, ot + j, np.zeros(it.m))
+        seg["couple"] = add(ot + j, on + j, np.zeros(it.m))
+    # the columns -Bn^T (, -Bt^T) mirror the rows -Bn (, -Bt) entry by entry (both from the same tocoo());
+    # a 3D frictional interface has no such mirror (its tangential rows combine t1 and t2)
+    if not frictional:
+        seg["mirror"] = span(seg["rows_n"])
+    elif not it.dim3:
+        seg["mirror"] = np.concatenate([span(seg["rows_n"]), span(seg["rows_t"])])
+    else:
+        seg["mirror"] = None
+    return seg
+
+
+def _numbered_matrix(n: int, N: int, R: np.ndarray, C: np.ndarray, nk: int, bulk, kv_in) -> ngs.la.SparseMatrixd:
+    """The saddle-point matrix (N x N) of the COO entries (R, C), its values the entries' numbers 1, 2, ... (the
+    first ``nk`` those of K); built as K embedded plus the multiplier entries when K's COO is its storage order."""
+    if bulk is not None and bulk.nze == nk and np.array_equal(np.asarray(bulk.AsVector().FV().NumPy()), kv_in):
+        # K's COO is its storage order: the sum of K embedded and the multiplier entries as a sparse matrix
+        # (0.05 s at 140k dofs; CreateFromCOO of the whole took 1.2 s)
+        numbered = bulk.CreateMatrix()
+        numbered.AsVector().FV().NumPy()[:] = np.arange(1.0, nk + 1.0)
+        emb = ngs.la.Embedding(N, ngs.IntRange(0, n))
+        extra = ngs.la.SparseMatrixd.CreateFromCOO(R[nk:], C[nk:], np.arange(nk + 1.0, len(R) + 1.0), N, N)
+        mat = (emb @ numbered @ emb.T + extra).CreateSparseMatrix()
+    else:
+        mat = ngs.la.SparseMatrixd.CreateFromCOO(R, C, np.arange(1.0, len(R) + 1.0), N, N)
+    return mat
 
 
 def span(sl: slice) -> np.ndarray:

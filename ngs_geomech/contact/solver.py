@@ -797,38 +797,7 @@ class ContactSolver(ContactSolverBase):
         from scipy.optimize import linprog
         R = np.hstack([b.modes for b in self.floating])
         labels = [(b, nm) for b in self.floating for nm in b.names]
-        cols_eq, bounds, ub_rows, ub_poly = [], [], [], []
-        nvar = 0
-        for it in ifs:
-            kidx = np.where(it.keep)[0]
-            cols_eq.append((it.Bn[kidx] @ R).T)
-            bounds += [(0, None)] * len(kidx)
-            jn = np.arange(nvar, nvar + len(kidx))
-            nvar += len(kidx)
-            if it.dim3 and it.law.kind != "frictionless":
-                # |lam_t| <= b replaced by the circumscribed regular polygon d_k . lam_t <= b (k < POLYGON):
-                # an outer approximation, so a load it cannot balance no admissible traction balances
-                cols_eq += [(it.Bt[kidx] @ R).T, (it.Bt2[kidx] @ R).T]
-                bounds += [(None, None)] * (2 * len(kidx))
-                j1 = np.arange(nvar, nvar + len(kidx))
-                j2 = j1 + len(kidx)
-                nvar += 2 * len(kidx)
-                ang = 2 * np.pi * np.arange(POLYGON) / POLYGON
-                for ca, sa in zip(np.cos(ang), np.sin(ang)):
-                    if it.law.kind == "tresca":
-                        ub_poly.append((j1, j2, ca, sa, None, 0.0, it.bound0[kidx]))
-                    else:
-                        ub_poly.append((j1, j2, ca, sa, jn, it.law.friction, np.zeros(len(kidx))))
-            elif it.law.kind == "tresca":
-                cols_eq.append((it.Bt[kidx] @ R).T)
-                bounds += [(-float(g), float(g)) for g in it.bound0[kidx]]
-                nvar += len(kidx)
-            elif it.law.kind == "coulomb":
-                cols_eq.append((it.Bt[kidx] @ R).T)
-                bounds += [(None, None)] * len(kidx)
-                jt = np.arange(nvar, nvar + len(kidx))
-                nvar += len(kidx)
-                ub_rows += [(a, b_, it.law.friction) for a, b_ in zip(jt, jn)]
+        cols_eq, bounds, ub_rows, ub_poly, nvar = _load_lp(ifs, R)
         Aeq = np.hstack(cols_eq) if cols_eq else np.zeros((R.shape[1], 0))
         beq = -(R.T @ f)
         # scaled unknowns lam = sigma mu so that the LP's coefficients are O(1): the entries of Aeq are
@@ -838,30 +807,8 @@ class ContactSolver(ContactSolverBase):
         b_s = max(float(np.max(np.abs(beq))), 1e-300)
         sigma = b_s / a_s
         bounds = [(None if lo is None else lo / sigma, None if hi is None else hi / sigma) for lo, hi in bounds]
-        Aub = None
-        bub = None
         k = R.shape[1]
-        if ub_rows or ub_poly:
-            rr, cc, vv, bb = [], [], [], []
-            for q, (jt_, jn_, F) in enumerate(ub_rows):      # lam_t - F lam_n <= 0, -lam_t - F lam_n <= 0
-                rr += [2 * q, 2 * q, 2 * q + 1, 2 * q + 1]
-                cc += [jt_, jn_, jt_, jn_]
-                vv += [1.0, -F, -1.0, -F]
-            nrow = 2 * len(ub_rows)
-            bb.append(np.zeros(nrow))
-            for j1, j2, ca, sa, jn_, F, rhs in ub_poly:       # cos lam_t1 + sin lam_t2 (- F lam_n) <= g_c / sigma
-                rows = nrow + np.arange(len(j1))
-                rr += [rows, rows] + ([rows] if jn_ is not None else [])
-                cc += [j1, j2] + ([jn_] if jn_ is not None else [])
-                vv += [np.full(len(j1), ca), np.full(len(j1), sa)] + ([np.full(len(j1), -F)] if jn_ is not None
-                                                                      else [])
-                bb.append(rhs / sigma)
-                nrow += len(j1)
-            rr = np.concatenate([np.atleast_1d(np.asarray(a)) for a in rr])
-            cc = np.concatenate([np.atleast_1d(np.asarray(a)) for a in cc])
-            vv = np.concatenate([np.atleast_1d(np.asarray(a, dtype=float)) for a in vv])
-            Aub = sp.csr_matrix((vv, (rr, cc)), shape=(nrow, nvar + 2 * k))
-            bub = np.concatenate(bb)
+        Aub, bub = _friction_inequalities(ub_rows, ub_poly, nvar, k, sigma)
         # the smallest unbalanced load: minimise sum |residual| with slacks s+ - s- on the equations
         A2 = np.hstack([Aeq / a_s, np.eye(k), -np.eye(k)])
         c = np.concatenate([np.zeros(nvar), np.ones(2 * k)])
@@ -894,6 +841,74 @@ class PenaltyContactSolver(ContactSolver):
                  forms=None, options: ContactOptions | None = None, **settings):
         super().__init__(interfaces, modulus=modulus, floating=floating, forms=forms, options=options,
                          **{**settings, "method": "penalty"})
+
+
+def _load_lp(ifs: list[_Interface], R: np.ndarray) -> tuple[list, list, list, list, int]:
+    """The unknowns of :meth:`ContactSolver.check_load`'s LP per interface (lam_n >= 0 of the kept nodes, then
+    lam_t: bounded by g_c (2D Tresca), free with |lam_t| <= F_c lam_n rows (2D Coulomb) or polygon rows (3D
+    friction)): the equation columns R^T B^T, the bounds, the Coulomb rows (lam_t, lam_n, F_c), the polygon rows
+    (t1, t2, cos, sin, lam_n or None, F_c, right-hand side) and the number of unknowns."""
+    cols_eq, bounds, ub_rows, ub_poly = [], [], [], []
+    nvar = 0
+    for it in ifs:
+        kidx = np.where(it.keep)[0]
+        cols_eq.append((it.Bn[kidx] @ R).T)
+        bounds += [(0, None)] * len(kidx)
+        jn = np.arange(nvar, nvar + len(kidx))
+        nvar += len(kidx)
+        if it.dim3 and it.law.kind != "frictionless":
+            # |lam_t| <= b replaced by the circumscribed regular polygon d_k . lam_t <= b (k < POLYGON):
+            # an outer approximation, so a load it cannot balance no admissible traction balances
+            cols_eq += [(it.Bt[kidx] @ R).T, (it.Bt2[kidx] @ R).T]
+            bounds += [(None, None)] * (2 * len(kidx))
+            j1 = np.arange(nvar, nvar + len(kidx))
+            j2 = j1 + len(kidx)
+            nvar += 2 * len(kidx)
+            ang = 2 * np.pi * np.arange(POLYGON) / POLYGON
+            for ca, sa in zip(np.cos(ang), np.sin(ang)):
+                if it.law.kind == "tresca":
+                    ub_poly.append((j1, j2, ca, sa, None, 0.0, it.bound0[kidx]))
+                else:
+                    ub_poly.append((j1, j2, ca, sa, jn, it.law.friction, np.zeros(len(kidx))))
+        elif it.law.kind == "tresca":
+            cols_eq.append((it.Bt[kidx] @ R).T)
+            bounds += [(-float(g), float(g)) for g in it.bound0[kidx]]
+            nvar += len(kidx)
+        elif it.law.kind == "coulomb":
+            cols_eq.append((it.Bt[kidx] @ R).T)
+            bounds += [(None, None)] * len(kidx)
+            jt = np.arange(nvar, nvar + len(kidx))
+            nvar += len(kidx)
+            ub_rows += [(a, b_, it.law.friction) for a, b_ in zip(jt, jn)]
+    return cols_eq, bounds, ub_rows, ub_poly, nvar
+
+
+def _friction_inequalities(ub_rows: list, ub_poly: list, nvar: int, k: int, sigma: float):
+    """The inequality rows of the friction bounds of :meth:`ContactSolver.check_load`'s LP (in the unknowns scaled
+    by ``sigma``; ``k`` slack pairs follow the ``nvar`` unknowns): (A_ub, b_ub), or (None, None) without friction."""
+    if not (ub_rows or ub_poly):
+        return None, None
+    rr, cc, vv, bb = [], [], [], []
+    for q, (jt_, jn_, F) in enumerate(ub_rows):      # lam_t - F lam_n <= 0, -lam_t - F lam_n <= 0
+        rr += [2 * q, 2 * q, 2 * q + 1, 2 * q + 1]
+        cc += [jt_, jn_, jt_, jn_]
+        vv += [1.0, -F, -1.0, -F]
+    nrow = 2 * len(ub_rows)
+    bb.append(np.zeros(nrow))
+    for j1, j2, ca, sa, jn_, F, rhs in ub_poly:       # cos lam_t1 + sin lam_t2 (- F lam_n) <= g_c / sigma
+        rows = nrow + np.arange(len(j1))
+        rr += [rows, rows] + ([rows] if jn_ is not None else [])
+        cc += [j1, j2] + ([jn_] if jn_ is not None else [])
+        vv += [np.full(len(j1), ca), np.full(len(j1), sa)] + ([np.full(len(j1), -F)] if jn_ is not None
+                                                              else [])
+        bb.append(rhs / sigma)
+        nrow += len(j1)
+    rr = np.concatenate([np.atleast_1d(np.asarray(a)) for a in rr])
+    cc = np.concatenate([np.atleast_1d(np.asarray(a)) for a in cc])
+    vv = np.concatenate([np.atleast_1d(np.asarray(a, dtype=float)) for a in vv])
+    Aub = sp.csr_matrix((vv, (rr, cc)), shape=(nrow, nvar + 2 * k))
+    bub = np.concatenate(bb)
+    return Aub, bub
 
 
 def _residual(s: NewtonSystem, xv, r) -> np.ndarray:

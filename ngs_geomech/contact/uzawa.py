@@ -268,6 +268,35 @@ class UzawaSolver(ContactSolverBase):
             self._last = np.array(state["last"], dtype=float)
         self.inner.restore(ndof, {k.split("/", 1)[1]: v for k, v in state.items() if k.startswith("inner/")})
 
+    def _safeguard(self, sides: list[_Side], info: UzawaInfo, change: float, best: float,
+                   since_best: int) -> tuple[float, int]:
+        """Halve rho after STALL steps without a new smallest change of lam_t; returns (best, since_best)."""
+        if change < best:
+            return change, 0
+        since_best += 1
+        if since_best >= self.STALL:
+            for side in sides:
+                side.rho *= 0.5
+            info.rho = [side.rho for side in sides]
+            info.rho_halvings += 1
+            return change, 0
+        return best, since_best
+
+    def _finish(self, sides: list[_Side], u: np.ndarray, lam: np.ndarray, lam_n: np.ndarray, lam_t: list,
+                info: UzawaInfo, tic: float) -> None:
+        """The history's penetration, pressure and time, the multipliers of the solve and the next start."""
+        pen = 0.0
+        for s in sides:
+            gap = (s.op.g0 + s.Bn @ u) / s.w
+            pen = max(pen, float(np.max(-gap[s.keep], initial=0.0)))
+        info.max_penetration = pen
+        info.min_pressure = min(0.0, float(np.min(lam_n, initial=0.0)))
+        info.wall_s = time.perf_counter() - tic
+        self.multipliers = [(ln.copy(), np.where(s.frictional, lt, 0.0))
+                            for s, (ln, _), lt in zip(sides, self.inner.multipliers, lam_t)]
+        self._last = lam.copy()
+        self.infos.append(info)
+
     def solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str = "") -> tuple[np.ndarray, UzawaInfo]:
         """The displacement vector (X) and the history; raises SolverError when the change of lam_t does not
         fall below ``tol`` in ``maxit`` steps or a floating body's tangential load exceeds the friction."""
@@ -341,30 +370,11 @@ class UzawaSolver(ContactSolverBase):
             # safeguard: a step above the stability limit makes the change oscillate without decreasing (two
             # elastic bodies on the default rho: still 0.49 after 1000 steps); halve rho after STALL steps
             # without a new smallest change
-            if change < best:
-                best, since_best = change, 0
-            else:
-                since_best += 1
-                if since_best >= self.STALL:
-                    for side in sides:
-                        side.rho *= 0.5
-                    info.rho = [side.rho for side in sides]
-                    info.rho_halvings += 1
-                    best, since_best = change, 0
+            best, since_best = self._safeguard(sides, info, change, best, since_best)
         else:
             raise SolverError(f"{at}: the friction multipliers on {names} still change by {change:.2e} (relative) "
                               f"after {self.maxit} Uzawa steps (tol {self.tol:.1e}, rho "
                               f"{', '.join(f'{s.rho:.3g}' for s in sides)} Pa/m): lower {self.settings[0]} (too "
                               f"large a step diverges) or raise {self.settings[1]}")
-        pen = 0.0
-        for s in sides:
-            gap = (s.op.g0 + s.Bn @ u) / s.w
-            pen = max(pen, float(np.max(-gap[s.keep], initial=0.0)))
-        info.max_penetration = pen
-        info.min_pressure = min(0.0, float(np.min(lam_n, initial=0.0)))
-        info.wall_s = time.perf_counter() - tic
-        self.multipliers = [(ln.copy(), np.where(s.frictional, lt, 0.0))
-                            for s, (ln, _), lt in zip(sides, self.inner.multipliers, split(lam))]
-        self._last = lam.copy()
-        self.infos.append(info)
+        self._finish(sides, u, lam, lam_n, split(lam), info, tic)
         return u, info
