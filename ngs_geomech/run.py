@@ -45,11 +45,10 @@ from .adapt.marking import StopRule
 from .checkpoint import CHECKPOINT_WALL_S, Plan, RunState, Snapshot, check_scene, plan_steps
 from .checkpoint import where as checkpoint_where
 from .contact.elastic import ElasticContactSolver
-from .contact.krylov import AUTO_DOFS as CONTACT_AUTO_DOFS
+from .contact.factory import build_contact_solver
 from .contact.output import ContactOutput
-from .contact.problem import check_supported, contact_specs, contact_warnings
-from .contact.solver import ContactSolver, nodal_modulus
-from .contact.uzawa import UzawaSolver
+from .contact.problem import check_supported, contact_options, contact_specs, contact_warnings
+from .contact.solver import nodal_modulus
 from .coupling.problem import KELVIN, DeformationHeating, relative_change
 from .dynamics.problem import DynamicsRun
 from .errors import OutputError, Problem, ResumeError, SceneError, SolverError
@@ -67,7 +66,6 @@ from .io.outdir import disk_full
 from .io.progress import Progress
 from .io.summary import finite, probe_statistics, versions
 from .io.vtk import VtkSeries
-from .linalg.iterative import choose_solver
 from .mechanics.forms import ElasticForms, stress_measures
 from .mechanics.nested import NestedStart
 from .mechanics.problem import elastic_setup, mechanics_warnings, watch_small_strain
@@ -744,25 +742,9 @@ class _Mechanics:
         if self.contacts:
             floating = self.forms.floating_bodies()
             check_supported(self.contacts, floating, scene.scene.name)
-            items, modulus = [(c.op, c.law) for c in self.contacts], nodal_modulus(self.setup.props)
-            if any(c.settings.method == "uzawa" for c in self.contacts):     # validated: then all are
-                keys = [f"interfaces.{c.name}" if c.kind == "interface" else f"boundary_conditions.{c.name}.foundation"
-                        for c in self.contacts]
-                csolver = UzawaSolver(items, modulus=modulus, floating=floating, maxit=ms.uzawa_max_steps,
-                                      rho=[c.settings.uzawa_step for c in self.contacts],
-                                      settings=(" / ".join(f"{k}.uzawa_step" for k in keys),
-                                                "mechanics.uzawa_max_steps"))
-            else:                                # 'penalty' interfaces keep their penalty rows (ContactLaw)
-                sv = scene.solver
-                # the Newton steps by GMRES (contact_krylov): 'auto' above contact_krylov.AUTO_DOFS; the mixed
-                # formulation (X is not V) keeps the direct solves
-                linear = choose_solver(sv.linear, self.forms.X.ndof, mesh.dim, spd=self.forms.X is self.forms.V,
-                                       auto_dofs=CONTACT_AUTO_DOFS)
-                if linear == "direct" and self.forms.X is self.forms.V:
-                    linear = "auto"        # a direct solve: condensed onto the contact surface where it applies
-                csolver = ContactSolver(items, modulus=modulus, floating=floating, linear=linear,
-                                        forms=self.forms, linear_tol=sv.tolerance,
-                                        linear_maxit=sv.max_iterations)
+            csolver = build_contact_solver([(c.op, c.law) for c in self.contacts],
+                                           contact_options(scene, self.contacts, self.forms),
+                                           modulus=nodal_modulus(self.setup.props), floating=floating, forms=self.forms)
             relax = ms.secant_relaxation if ms.secant_relaxation is not None and ms.secant_relaxation <= 1 else None
             self.solver = ElasticContactSolver(self.forms, csolver, tol=ms.tolerance, maxit=ms.max_iterations,
                                                relaxation=relax)

@@ -45,7 +45,7 @@ def test_punch_3d_iterative_equals_direct(order, law):
     direct = punch_3d(h, order, law=law)
     iterative = punch_3d(h, order, law=law, linear="iterative")
     # frictionless: the punch's unloaded sliding (x, y, rotation about z) is fixed by the direct solver's shift
-    # (1e-10 of the stiffness) and removed from the GMRES iterates (contact._free_motions); u agrees to ~1e-7
+    # (1e-10 of the stiffness) and removed from the GMRES iterates (contact.steps.free_motions); u agrees to ~1e-7
     _compare_solvers(direct, iterative, f"3D punch P{order} {law}", 1e-7 if law != "frictionless" else 1e-6)
     if law != "frictionless":
         assert direct["stick"] > 0 and direct["slip"] > 0

@@ -12,7 +12,10 @@ import ngsolve as ngs
 import numpy as np
 import pytest
 
+import ngs_geomech.contact.saddle as saddle
 import ngs_geomech.contact.solver as sc
+import ngs_geomech.contact.steps as steps
+from ngs_geomech.contact.linear_algebra import is_symmetric
 from ngs_geomech.verification import contact_problems as cp
 
 
@@ -81,7 +84,7 @@ def test_weak_companion_falls_back_to_the_exact_factorization(one_thread, monkey
     gives the same answer."""
     ref = cp.friction_block("traction", law="tresca", ratio=0.5, order=2,
                             solver_factory=_Keep(quasi_definite=False))
-    monkeypatch.setattr(sc, "QUASI_DEFINITE", 1e-3)
+    monkeypatch.setattr(saddle, "QUASI_DEFINITE", 1e-3)
     r = cp.friction_block("traction", law="tresca", ratio=0.5, order=2, solver_factory=_Keep())
     i = r["info"]
     du = _rel(r["u"], ref["u"])
@@ -95,13 +98,13 @@ def test_symmetry_check_of_the_bulk_matrix():
     rows, cols = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
     sym = ngs.la.SparseMatrixd.CreateFromCOO(rows, cols, np.array([2.0, -1.0, -1.0, 2.0]), 2, 2)
     non = ngs.la.SparseMatrixd.CreateFromCOO(rows, cols, np.array([2.0, -1.0, -0.5, 2.0]), 2, 2)
-    assert sc._is_symmetric(sym)
-    assert not sc._is_symmetric(non)
+    assert is_symmetric(sym)
+    assert not is_symmetric(non)
 
 
 def test_non_symmetric_bulk_goes_to_umfpack(one_thread, monkeypatch):
     """With K reported non-symmetric (e.g. a tangent of a non-symmetric law) no companion is factored."""
-    monkeypatch.setattr(sc, "_is_symmetric", lambda matrix: False)
+    monkeypatch.setattr(steps, "is_symmetric", lambda matrix: False)
     keep = _Keep()
     r = cp.hertz(0.1 * cp.R_HERTZ / 50, 2, solver_factory=functools.partial(keep))
     i = keep.solver.infos[-1]
@@ -113,14 +116,14 @@ def test_companion_with_a_zero_pivot_falls_back(one_thread, monkeypatch):
     """A companion whose Cholesky solve is not finite (a zero pivot: K singular beyond the known floating bodies)
     is replaced by the UMFPACK factorization of the matrix: the answer is unchanged, nothing non-finite escapes."""
     ref = cp.friction_block("traction", law="tresca", ratio=0.5, order=2, solver_factory=_Keep(quasi_definite=False))
-    real = sc._Fresh.apply
+    real = steps.FactoredStep.apply
 
     def poisoned(self, r, dx):
         ok = real(self, r, dx)
         if not self.exact:
             dx.FV().NumPy()[0] = np.nan
         return ok
-    monkeypatch.setattr(sc._Fresh, "apply", poisoned)
+    monkeypatch.setattr(steps.FactoredStep, "apply", poisoned)
     r = cp.friction_block("traction", law="tresca", ratio=0.5, order=2, solver_factory=_Keep())
     i = r["info"]
     print(f"\nzero pivot: {i.cholesky_factorizations} Cholesky, {i.factorizations} factorizations")
@@ -131,7 +134,7 @@ def test_companion_with_a_zero_pivot_falls_back(one_thread, monkeypatch):
 def test_warm_solve_with_entering_nodes_reuses_the_companion(one_thread):
     """A warm Hertz solve at 1.5 x the load: the zone grows, so nodes enter the contact. The companion's
     factorization of the first iteration is reused with the entering nodes' rows and columns (Woodbury,
-    :class:`_Reuse`) instead of factoring anew; the answer equals the all-UMFPACK warm solve."""
+    :class:`.steps.WoodburyStep`) instead of factoring anew; the answer equals the all-UMFPACK warm solve."""
     out = {}
     for name, kw in (("qd", {}), ("umf", {"quasi_definite": False})):
         keep = _Keep(**kw)
@@ -154,7 +157,7 @@ def test_failed_exact_start_is_solved_from_the_penalty_start(one_thread, monkeyp
     """A cold 2D solve starts with the exact constraints; when that fails (here: its first factorization is made to
     fail), the solve starts again with the penalty phase and gives the same answer."""
     ref = cp.hertz(0.1 * cp.R_HERTZ / 50, 2, solver_factory=_Keep(), return_state=True)
-    real = sc.inverse
+    real = steps.inverse
     calls = []
 
     def failing_once(mat, freedofs, symmetric, what="", hint=""):
@@ -162,7 +165,7 @@ def test_failed_exact_start_is_solved_from_the_penalty_start(one_thread, monkeyp
         if len(calls) == 1:
             raise sc.SolverError(f"{what}: the factorization failed (made to fail by the test)")
         return real(mat, freedofs, symmetric, what, hint)
-    monkeypatch.setattr(sc, "inverse", failing_once)
+    monkeypatch.setattr(steps, "inverse", failing_once)
     keep = _Keep()
     r = cp.hertz(0.1 * cp.R_HERTZ / 50, 2, solver_factory=keep, return_state=True)
     i = keep.solver.infos[-1]

@@ -71,6 +71,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
+from ..contact.laws import slip_bound
 from ..heat.forms import HeatForms
 from ..mechanics.forms import ElasticForms
 
@@ -650,7 +651,7 @@ def contact_status(kind: str, lam_n: np.ndarray, lam_t: np.ndarray, bound=None) 
         return np.where(lam_n > 0, STATUS_SLIP, STATUS_OPEN)
     b = np.broadcast_to(np.asarray(bound, dtype=float), lam_n.shape)
     if kind == "coulomb":
-        b = b * np.maximum(lam_n, 0.0)
+        b = slip_bound(b, lam_n)
     sliding = (lam_n > 0) & (q >= b * (1 - 1e-9))
     return np.where(sliding, STATUS_SLIP, np.where(lam_n > 0, STATUS_STICK, STATUS_OPEN))
 

@@ -1,4 +1,6 @@
 """Signorini contact with Tresca and Coulomb friction, (2.24)-(2.27), (2.66): the mortar operators
-(:mod:`.forms`, :mod:`.forms3d`), the contact solvers (:mod:`.solver`, :mod:`.condensed`, :mod:`.krylov`,
-:mod:`.uzawa`), elasticity with contact (:mod:`.elastic`), the scene's contact setup (:mod:`.problem`) and its
+(:mod:`.forms`, :mod:`.forms3d`), the laws, options and choice lists (:mod:`.laws`, :mod:`.choices`), the contact
+solvers behind one interface (:mod:`.base`; :mod:`.solver` with its Newton-step strategies :mod:`.steps` on the
+saddle-point pattern :mod:`.saddle`, :mod:`.condensed`, :mod:`.krylov`, :mod:`.uzawa`) built in one place
+(:mod:`.factory`), elasticity with contact (:mod:`.elastic`), the scene's contact setup (:mod:`.problem`) and its
 output (:mod:`.output`)."""

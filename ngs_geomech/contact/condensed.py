@@ -60,6 +60,8 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 from ..linalg import pardiso
+from ..mechanics.forms import FloatingBody
+from .linear_algebra import drop_prescribed_nodes, is_symmetric
 
 CANDIDATE_GAP = 5e-4
 """Candidate nodes: initial nodal gap within this fraction of the interface's extent above its smallest gap."""
@@ -106,7 +108,7 @@ class CondensedContact:
                 if u is not None:
                     gd = (op.g0 + it.Bn @ u) / it.w
                     cand |= keep & (gd <= window)
-                if self.outer._converged:
+                if self.outer.converged:
                     cand |= keep & it.active
             out.append(cand)
         return out
@@ -150,18 +152,17 @@ class CondensedContact:
     def solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str):
         """(u, info) of the whole problem, or None when the condensed path cannot take it (the caller then
         solves it with the sparse path)."""
-        from .solver import _drop_prescribed_nodes, _is_symmetric
         outer = self.outer
         tic = time.perf_counter()
         n = len(x0)
-        ifs = outer._interfaces(n)
+        ifs = outer.interfaces(n)
         free = np.asarray(free, dtype=bool)
-        _drop_prescribed_nodes(ifs, free, n)
+        drop_prescribed_nodes(ifs, free, n)
         f = np.where(free, np.asarray(rhs, dtype=float), 0.0)
-        if not np.all(np.isfinite(f)) or not _is_symmetric(matrix):
+        if not np.all(np.isfinite(f)) or not is_symmetric(matrix):
             return None          # the sparse path names the bad load; an unsymmetric K is not for Cholesky
         if outer.floating:
-            outer._check_solvable(ifs, f, where)
+            outer.check_load(ifs, f, where)
         kr, kc, kv = (np.asarray(a) for a in matrix.COO())
         kr, kc, kv = kr.astype(np.int64), kc.astype(np.int64), np.asarray(kv, dtype=float)
         loc = np.full(n, -1, dtype=np.int64)
@@ -190,9 +191,9 @@ class CondensedContact:
             factorizations += fresh
             y_s, work = fac.reduce(b)
             inner = self._inner_solver(ifs, cands, cols, n, x0, free)
-            if outer._converged:
+            if outer.converged:
                 inner.warm_start(len(cols), [(it.active & c, it.stick & c, it.slip & c) for it, c in zip(ifs, cands)])
-                for it_in, it in zip(inner._interfaces(len(cols)), ifs):
+                for it_in, it in zip(inner.interfaces(len(cols)), ifs):
                     it_in.sign, it_in.dir, it_in.kappa = it.sign.copy(), it.dir.copy(), it.kappa.copy()
             else:
                 inner.cold_start()
@@ -217,17 +218,24 @@ class CondensedContact:
         # singular, a bad candidate set) sends the problem to the sparse path instead of returning a wrong u
         if _residual(matrix, u, f, free, ifs, inner.multipliers, n, float(np.linalg.norm(b))) > RESIDUAL_TOL:
             return None
-        # the outer solver's state: the sets of the solution, its multipliers, the history
-        for it, it_in in zip(ifs, inner._interfaces(len(cols))):
+        return self._adopt(inner, ifs, cols, u, info, factorizations, passes, tic)
+
+    def _adopt(self, inner, ifs, cols: np.ndarray, u: np.ndarray, info, factorizations: int, passes: int,
+               tic: float):
+        """The outer solver's state from the condensed solution: the sets of the solution, its multipliers, the
+        history (the inner solver's record stays as it was); returns (u, info)."""
+        outer = self.outer
+        n = len(u)
+        for it, it_in in zip(ifs, inner.interfaces(len(cols))):
             for key in ("active", "stick", "slip", "sign", "dir", "kappa"):
                 setattr(it, key, np.array(getattr(it_in, key)))
         outer.multipliers = [(np.array(a), np.array(t)) for a, t in inner.multipliers]
-        outer._converged = True
+        outer.converged = True
         pen = 0.0
         for it in ifs:
             gap = (it.op.g0 + it.Bn[:, :n] @ u) / it.w
             pen = max(pen, float(np.max(-gap[it.keep], initial=0.0)))
-        info = dataclasses.replace(info)            # the inner solver's record stays as it was
+        info = dataclasses.replace(info)
         info.max_penetration = pen
         info.factorizations += factorizations
         info.condensed_dofs = len(cols)
@@ -261,8 +269,6 @@ class CondensedContact:
         """The dense contact solver of the condensed problem for this candidate set (kept for the next solves):
         the interfaces' operators restricted to the candidate rows and the Schur dofs (the prescribed
         displacements moved into the gaps), the floating bodies' motions restricted to the Schur dofs."""
-        from ..mechanics.forms import FloatingBody
-        from .solver import ContactSolver
         key = (cols.tobytes(), tuple(c.tobytes() for c in cands))
         outer = self.outer
         fixed = np.nonzero(~free)[0]
@@ -283,9 +289,7 @@ class CondensedContact:
         floating = [FloatingBody(b.regions, b.names, b.modes[:n][cols]) for b in outer.floating]
         # its dense bulk selects the dense steps; the solvability of the load was checked on all nodes (the outer
         # solver), the candidate nodes alone could wrongly refuse it
-        inner = ContactSolver(items, modulus=outer.modulus, maxit=outer.maxit, method=outer.method,
-                              floating=floating, reuse_rows=outer.reuse_rows, quasi_definite=outer.quasi_definite,
-                              linear="direct", check_solvable=False)
+        inner = outer.inner_solver(items, floating)
         self._inner, self._inner_key = inner, key
         return inner
 

@@ -35,7 +35,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.mortar import _Segment
+from ..fem.mortar import Segment
 
 
 @dataclass
@@ -68,7 +68,7 @@ class ContactOperator:
         return len(self.nodes)
 
 
-def _ray_hit(seg: _Segment, p: np.ndarray, n: np.ndarray) -> tuple[float, float] | None:
+def _ray_hit(seg: Segment, p: np.ndarray, n: np.ndarray) -> tuple[float, float] | None:
     """(gap g, reference coordinate t) where the ray p + g n meets ``seg``, or None (parallel / misses)."""
     q0, q1 = seg.p0, seg.p1
     d = q1 - q0
@@ -138,8 +138,8 @@ def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, 
     ns = S.ndof
     if V.ndof != 2 * ns:
         raise ValueError("contact_operator_2d needs a 2D VectorH1 space")
-    sides = [_Segment(mesh, S, el.nr) for el in mesh.Boundaries(side).Elements()]
-    opps = [] if opposite is None else [_Segment(mesh, S, el.nr) for el in mesh.Boundaries(opposite).Elements()]
+    sides = [Segment(mesh, S, el.nr) for el in mesh.Boundaries(side).Elements()]
+    opps = [] if opposite is None else [Segment(mesh, S, el.nr) for el in mesh.Boundaries(opposite).Elements()]
     if not sides or (opposite is not None and not opps):
         raise ValueError(f"contact interface {name!r}: side {side!r} or {opposite!r} has no boundary elements")
     if opposite is None:

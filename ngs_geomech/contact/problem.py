@@ -24,11 +24,13 @@ import numpy as np
 
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel
+from ..linalg.iterative import choose_solver
 from ..scene import expressions
 from ..scene.model import ContactMechanics, Scene
 from .forms import ContactOperator, contact_operator_2d
 from .forms3d import contact_operator_3d
-from .solver import ContactLaw
+from .krylov import AUTO_DOFS
+from .laws import ContactLaw, ContactOptions, slip_bound
 
 STATUS_OPEN, STATUS_STICK, STATUS_SLIP, STATUS_PRESCRIBED = 0, 1, 2, 3
 """Nodal contact states of the output; 'prescribed': every displacement its constraint involves is given
@@ -62,6 +64,32 @@ def contact_law(c: ContactMechanics, coords: np.ndarray) -> ContactLaw:
     kind = "frictionless" if c.law == "coulomb" and c.friction == 0 else c.law     # F_c = 0: no friction
     return ContactLaw(kind, slip_bound=g, friction=c.friction or 0.0, augmentation=c.augmentation,
                       penalty=c.method == "penalty")
+
+
+def contact_options(scene: Scene, specs: list[ContactSpec], forms, *, dynamic: bool = False) -> ContactOptions:
+    """The solver options of a scene's contacts (the one reading of its contact keys; the solver itself comes from
+    :func:`.factory.build_contact_solver`). Static mechanics: ``method`` 'uzawa' on the contacts (validated: then
+    on all) selects Uzawa's solver with their ``uzawa_step`` and ``mechanics.uzawa_max_steps``; otherwise the
+    semi-smooth Newton solver, whose 'penalty' contacts keep their penalty rows (:attr:`ContactLaw.penalty`), and
+    whose Newton steps follow ``solver.linear`` (GMRES above :data:`.krylov.AUTO_DOFS` with 'auto'; a direct solve
+    is condensed onto the contact surface where that applies; the mixed formulation, X not V, stays direct).
+    Dynamic and viscous mechanics (``dynamic``; Uzawa is refused there): the penalty method when every contact
+    asks for it, else the semi-smooth Newton one, on the default linear algebra."""
+    if dynamic:
+        penalty = bool(specs) and all(c.law.penalty for c in specs)
+        return ContactOptions(method="penalty" if penalty else "ssn")
+    if any(c.settings.method == "uzawa" for c in specs):
+        keys = [f"interfaces.{c.name}" if c.kind == "interface" else f"boundary_conditions.{c.name}.foundation"
+                for c in specs]
+        return ContactOptions(method="uzawa", uzawa_step=[c.settings.uzawa_step for c in specs],
+                              uzawa_max_steps=scene.mechanics.uzawa_max_steps,
+                              uzawa_settings=(" / ".join(f"{k}.uzawa_step" for k in keys), "mechanics.uzawa_max_steps"))
+    sv = scene.solver
+    spd = forms.X is forms.V
+    linear = choose_solver(sv.linear, forms.X.ndof, forms.mesh.dim, spd=spd, auto_dofs=AUTO_DOFS)
+    if linear == "direct" and spd:
+        linear = "auto"        # a direct solve: condensed onto the contact surface where it applies
+    return ContactOptions(linear=linear, linear_tol=sv.tolerance, linear_maxit=sv.max_iterations)
 
 
 def _cells(mesh, side: str, op: ContactOperator) -> np.ndarray:
@@ -207,7 +235,7 @@ def interface_results(spec: ContactSpec, u: np.ndarray, lam_n: np.ndarray, lam_t
     if law.kind == "tresca":
         bound = np.broadcast_to(np.asarray(law.slip_bound, dtype=float), lam_n.shape).copy()
     elif law.kind == "coulomb":
-        bound = law.friction * np.maximum(lam_n, 0.0)
+        bound = slip_bound(law.friction, lam_n)
     else:
         bound = np.zeros_like(lam_n)
     status = np.where(lam_n > 0, STATUS_STICK, STATUS_OPEN)

@@ -73,8 +73,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
+from .base import ContactSolverBase
 from .forms import ContactOperator
-from .solver import ContactLaw, ContactSolver
+from .laws import ContactLaw, ContactOptions, slip_bound
+from .solver import ContactSolver
 
 RHO_FACTOR = 2.0
 """Default step: rho = RHO_FACTOR x modulus / (extent of the contact side) (Pa/m); see the module docstring
@@ -130,7 +132,7 @@ class _Side:
             b = self.g.copy() if self.law.kind == "tresca" else np.full(self.op.size, np.inf)
             return np.where(self.keep, b, 0.0)
         on = self.keep & (lam_n > 0)
-        b = self.g if self.law.kind == "tresca" else self.law.friction * np.maximum(lam_n, 0.0)
+        b = self.g if self.law.kind == "tresca" else slip_bound(self.law.friction, lam_n)
         return np.where(on, b, 0.0)
 
 
@@ -185,7 +187,7 @@ def _project_balanced(y: np.ndarray, b: np.ndarray, w: np.ndarray, a: np.ndarray
     return lam(nu)
 
 
-class UzawaSolver:
+class UzawaSolver(ContactSolverBase):
     """Uzawa's algorithm (2.66) for Tresca and Coulomb friction (module docstring), with the interface of
     :class:`ContactSolver`: ``solve(matrix, rhs, free, x0, where) -> (u, info)`` and the multipliers per
     interface in ``self.multipliers`` [(lam_n, lam_t)] (Pa).
@@ -223,6 +225,13 @@ class UzawaSolver:
         self.multipliers: list[tuple[np.ndarray, np.ndarray]] = []
         self._last: np.ndarray | None = None      # lam_t of the previous solve: the start of the next one
 
+    @classmethod
+    def from_options(cls, items, options: ContactOptions, *, modulus: float, floating=(), forms=None) -> UzawaSolver:
+        """Uzawa's solver with the options' ``uzawa_step``, ``uzawa_max_steps`` and ``uzawa_settings`` (``forms`` is
+        not needed: the subproblems are solved directly)."""
+        return cls(items, modulus=modulus, floating=floating, maxit=options.uzawa_max_steps, rho=options.uzawa_step,
+                   settings=options.uzawa_settings)
+
     def _sliding_motion(self, sides: list[_Side], n: int, where: str):
         """The rigid motion (X vector) of the floating bodies the normal contact does not see (Bn r = 0 on
         every interface), or None."""
@@ -258,6 +267,35 @@ class UzawaSolver:
         if "last" in state:
             self._last = np.array(state["last"], dtype=float)
         self.inner.restore(ndof, {k.split("/", 1)[1]: v for k, v in state.items() if k.startswith("inner/")})
+
+    def _safeguard(self, sides: list[_Side], info: UzawaInfo, change: float, best: float,
+                   since_best: int) -> tuple[float, int]:
+        """Halve rho after STALL steps without a new smallest change of lam_t; returns (best, since_best)."""
+        if change < best:
+            return change, 0
+        since_best += 1
+        if since_best >= self.STALL:
+            for side in sides:
+                side.rho *= 0.5
+            info.rho = [side.rho for side in sides]
+            info.rho_halvings += 1
+            return change, 0
+        return best, since_best
+
+    def _finish(self, sides: list[_Side], u: np.ndarray, lam: np.ndarray, lam_n: np.ndarray, lam_t: list,
+                info: UzawaInfo, tic: float) -> None:
+        """The history's penetration, pressure and time, the multipliers of the solve and the next start."""
+        pen = 0.0
+        for s in sides:
+            gap = (s.op.g0 + s.Bn @ u) / s.w
+            pen = max(pen, float(np.max(-gap[s.keep], initial=0.0)))
+        info.max_penetration = pen
+        info.min_pressure = min(0.0, float(np.min(lam_n, initial=0.0)))
+        info.wall_s = time.perf_counter() - tic
+        self.multipliers = [(ln.copy(), np.where(s.frictional, lt, 0.0))
+                            for s, (ln, _), lt in zip(sides, self.inner.multipliers, lam_t)]
+        self._last = lam.copy()
+        self.infos.append(info)
 
     def solve(self, matrix, rhs, free: np.ndarray, x0: np.ndarray, where: str = "") -> tuple[np.ndarray, UzawaInfo]:
         """The displacement vector (X) and the history; raises SolverError when the change of lam_t does not
@@ -332,30 +370,11 @@ class UzawaSolver:
             # safeguard: a step above the stability limit makes the change oscillate without decreasing (two
             # elastic bodies on the default rho: still 0.49 after 1000 steps); halve rho after STALL steps
             # without a new smallest change
-            if change < best:
-                best, since_best = change, 0
-            else:
-                since_best += 1
-                if since_best >= self.STALL:
-                    for side in sides:
-                        side.rho *= 0.5
-                    info.rho = [side.rho for side in sides]
-                    info.rho_halvings += 1
-                    best, since_best = change, 0
+            best, since_best = self._safeguard(sides, info, change, best, since_best)
         else:
             raise SolverError(f"{at}: the friction multipliers on {names} still change by {change:.2e} (relative) "
                               f"after {self.maxit} Uzawa steps (tol {self.tol:.1e}, rho "
                               f"{', '.join(f'{s.rho:.3g}' for s in sides)} Pa/m): lower {self.settings[0]} (too "
                               f"large a step diverges) or raise {self.settings[1]}")
-        pen = 0.0
-        for s in sides:
-            gap = (s.op.g0 + s.Bn @ u) / s.w
-            pen = max(pen, float(np.max(-gap[s.keep], initial=0.0)))
-        info.max_penetration = pen
-        info.min_pressure = min(0.0, float(np.min(lam_n, initial=0.0)))
-        info.wall_s = time.perf_counter() - tic
-        self.multipliers = [(ln.copy(), np.where(s.frictional, lt, 0.0))
-                            for s, (ln, _), lt in zip(sides, self.inner.multipliers, split(lam))]
-        self._last = lam.copy()
-        self.infos.append(info)
+        self._finish(sides, u, lam, lam_n, split(lam), info, tic)
         return u, info

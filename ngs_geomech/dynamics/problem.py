@@ -17,7 +17,7 @@ from __future__ import annotations
 import ngsolve as ngs
 import numpy as np
 
-from ..contact.problem import contact_specs, interface_results, supported_nodes
+from ..contact.problem import contact_options, contact_specs, interface_results, supported_nodes
 from ..errors import SolverError
 from ..fem.coefficients import expression_function
 from ..geometry.assemble import GeometryModel
@@ -60,17 +60,17 @@ class DynamicsRun:
         self.vforms = ViscoelasticForms(self.forms, viscous_properties(scene, self.setup.props),
                                         inertia=self.kind == "dynamic")
         items = [(c.op, c.law) for c in self.contacts]
-        method = "penalty" if items and all(c.law.penalty for c in self.contacts) else "ssn"
+        options = contact_options(scene, self.contacts, self.forms, dynamic=True)
         d = scene.dynamics
         if self.kind == "dynamic":
             mass = d.mass
             if mass == "auto":
                 mass = "lumped" if items and self.setup.order == 1 else "consistent"
-            self.solver = DynamicSolver(self.vforms, rho_inf=d.rho_inf, contact=items, contact_method=method,
+            self.solver = DynamicSolver(self.vforms, rho_inf=d.rho_inf, contact=items, contact_options=options,
                                         mass=mass, redistribute_contact_mass=(mass == "lumped" and bool(items)))
             self.mass = mass
         else:
-            self.solver = ViscousSolver(self.vforms, contact=items, contact_method=method)
+            self.solver = ViscousSolver(self.vforms, contact=items, contact_options=options)
             self.mass = None
         self.warnings = mechanics_warnings(scene, self.setup)
         u = self.forms.displacement()

@@ -62,8 +62,10 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..contact.factory import build_contact_solver
 from ..contact.forms import ContactOperator
-from ..contact.solver import ContactLaw, ContactSolver, nodal_modulus
+from ..contact.laws import ContactLaw, ContactOptions
+from ..contact.solver import nodal_modulus
 from ..errors import SolverError
 from ..mechanics.solver import ElasticSolver
 from .forms import ViscoelasticForms, branch_coefficients
@@ -128,7 +130,7 @@ class _Stepper:
     """What both integrators share: Dirichlet values, factorizations per dt, the contact step on increments,
     the branch recursion."""
 
-    def __init__(self, forms: ViscoelasticForms, *, contact=(), contact_method: str = "ssn",
+    def __init__(self, forms: ViscoelasticForms, *, contact=(), contact_options: ContactOptions | None = None,
                  branch_rule: str = "exponential"):
         self.f = forms
         self.n = forms.elastic.X.ndof
@@ -148,8 +150,8 @@ class _Stepper:
         self.contact_solver = None
         if self.contact_items:
             props = forms.elastic.setup.props
-            self.contact_solver = ContactSolver(self.contact_items, modulus=nodal_modulus(props),
-                                                method=contact_method, floating=())
+            self.contact_solver = build_contact_solver(self.contact_items, contact_options or ContactOptions(),
+                                                       modulus=nodal_modulus(props))
         self.active = [np.zeros(op.size, dtype=bool) for op, _ in self.contact_items]
         self.multipliers = [(np.zeros(op.size), np.zeros(op.size)) for op, _ in self.contact_items]
         self.steps: list[StepInfo] = []
@@ -236,14 +238,14 @@ class DynamicSolver(_Stepper):
     ``redistribute_contact_mass``: zero mass on the contact sides' nodes (lumped mass only)."""
 
     def __init__(self, forms: ViscoelasticForms, *, scheme: str = "generalized_alpha", rho_inf: float = 1.0,
-                 contact: list[tuple[ContactOperator, ContactLaw]] = (), contact_method: str = "ssn",
+                 contact: list[tuple[ContactOperator, ContactLaw]] = (), contact_options: ContactOptions | None = None,
                  branch_rule: str = "exponential", mass: str = "consistent", redistribute_contact_mass: bool = False):
         if scheme not in SCHEMES:
             raise ValueError(f"unknown scheme {scheme!r}; choose one of {', '.join(SCHEMES)}")
         if scheme == "newmark" and rho_inf != 1.0:
             raise ValueError("scheme 'newmark' is the average-acceleration rule (rho_inf = 1); use "
                              "'generalized_alpha' for numerical damping")
-        super().__init__(forms, contact=contact, contact_method=contact_method, branch_rule=branch_rule)
+        super().__init__(forms, contact=contact, contact_options=contact_options, branch_rule=branch_rule)
         self.rho_inf = float(rho_inf)
         self.am, self.af, self.beta, self.gamma = generalized_alpha_parameters(self.rho_inf)
         self.M = self._mass(mass, redistribute_contact_mass)

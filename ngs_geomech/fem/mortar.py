@@ -26,7 +26,7 @@ import ngsolve as ngs
 import numpy as np
 
 
-class _Segment:
+class Segment:
     """One boundary segment: its id, dofs, finite element and a map from the reference coordinate."""
 
     def __init__(self, mesh, space, nr: int):
@@ -78,8 +78,8 @@ def mortar_coupling_2d(mesh, V, L, master: str, minion: str, *, axisymmetric: bo
     mu_1 + mu_0 is constant on the end element); merged dofs get no row.
     """
     merge = merge or {}
-    masters = [_Segment(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
-    minions = [_Segment(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+    masters = [Segment(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
+    minions = [Segment(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
     lfe = {el.nr: (L.GetFE(ngs.ElementId(ngs.BND, el.nr)), list(L.GetDofNrs(ngs.ElementId(ngs.BND, el.nr))))
            for el in mesh.Boundaries(master).Elements()}
     if not masters or not minions:

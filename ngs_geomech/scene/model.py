@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..contact.choices import LAWS as CONTACT_LAWS
+from ..contact.choices import METHODS as CONTACT_METHODS
 from .schema import (
     RELATIVE_TOLERANCE,
     at_most,
@@ -128,10 +130,6 @@ class Block:
                              {}, doc="boundary name -> selector(s) of this block's own sides: "
                                      + ", ".join(SELECTORS))
     maxh: float | None = field(optional(positive(number)), None, doc="maximal element size in this block, m")
-
-
-CONTACT_LAWS = ("frictionless", "tresca", "coulomb")
-CONTACT_METHODS = ("ssn", "penalty", "uzawa")
 
 
 @dataclass(frozen=True, kw_only=True)
