@@ -279,7 +279,7 @@ class HeatSolver:
             self._pre = Preconditioned(f.lhs, f.V, f.setup.order, vector=False, choice=self.preconditioner)
         f.lhs.AssembleLinearization(state)
         du[:] = 0.0
-        solver = ngs.krylovspace.GMResSolver(f.lhs.mat, self._pre.mat, tol=self._pcg.tol,
+        solver = ngs.krylovspace.GMRESSolver(f.lhs.mat, self._pre.mat, tol=self._pcg.tol,
                                              maxiter=self._pcg.maxit, restart=200)
         solver.Solve(rhs=res, sol=du)
         self.cg_iterations.append(solver.iterations)

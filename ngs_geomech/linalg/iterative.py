@@ -1,6 +1,9 @@
 """Preconditioned conjugate gradients for the SPD systems of heat conduction and elasticity, watched: a relative
 tolerance, the iteration count reported, and a SolverError naming the solve on divergence, stagnation, an
-indefinite matrix or preconditioner, or the iteration limit.
+indefinite matrix or preconditioner, or the iteration limit. The CG iteration is NGSolve's
+(``ngsolve.krylovspace.CGSolver``: NGSolve vectors and operators, serial and distributed); :class:`PCG` adds the
+watch. The project's other Krylov solves are NGSolve's GMRES on NGSolve vectors (the Stefan Newton steps, the k(T)
+heat Newton steps on distributed meshes) and scipy's GMRES on numpy vectors (the contact Newton steps).
 
 Preconditioners (NGSolve's, registered on the bilinear form before it is assembled, so they see the element
 matrices):
@@ -29,9 +32,9 @@ matrices):
 ``choose_solver`` resolves ``solver="auto"``: direct below :data:`AUTO_DOFS` (per dimension), iterative above.
 Only systems with an SPD matrix and no Lagrange multipliers take the CG path here; the contact Newton steps (saddle
 points with the contact multipliers) take GMRES with the augmented-Lagrangian AMG preconditioner of
-:mod:`.contact_krylov` when ``choose_solver`` says iterative; the other saddle-point systems (oblique symmetry
-multipliers, mixed pressures, the mortar coupling of heat across contact interfaces) and the unsymmetric Newton
-matrices (k(T) heat, the primal-dual elastic tangent) stay direct in serial runs.
+:mod:`ngs_geomech.contact.krylov` when ``choose_solver`` says iterative; the other saddle-point systems (oblique
+symmetry multipliers, mixed pressures, the mortar coupling of heat across contact interfaces) and the unsymmetric
+Newton matrices (k(T) heat, the primal-dual elastic tangent) stay direct in serial runs.
 """
 
 from __future__ import annotations
@@ -272,9 +275,41 @@ class Preconditioned:
         return self._mat
 
 
+class _Checked(ngs.BaseMatrix):
+    """``op`` (an NGSolve operator) applied unchanged, with ``check(call, <x, op x>)`` after each application
+    (``call`` counts from 0): how :class:`PCG` sees the signs CG needs positive, the matrix on the search
+    directions and the preconditioner on the residuals, which NGSolve's CG does not report."""
+
+    def __init__(self, op, check):
+        super().__init__()
+        self.op = op
+        self.check = check
+        self.calls = 0
+
+    def IsComplex(self) -> bool:
+        return False
+
+    def Height(self) -> int:
+        return self.op.height
+
+    def Width(self) -> int:
+        return self.op.width
+
+    def CreateRowVector(self):
+        return self.op.CreateRowVector()
+
+    def CreateColVector(self):
+        return self.op.CreateColVector()
+
+    def Mult(self, x, y) -> None:
+        y.data = self.op * x
+        self.check(self.calls, float(ngs.InnerProduct(x, y)))
+        self.calls += 1
+
+
 class PCG:
-    """Preconditioned conjugate gradients on ``mat`` with ``pre`` (both NGSolve operators; pre zero on the
-    fixed dofs), watched.
+    """Preconditioned conjugate gradients (NGSolve's ``krylovspace.CGSolver``) on ``mat`` with ``pre`` (both
+    NGSolve operators, serial or distributed; pre zero on the fixed dofs), watched.
 
     The solve updates x (its Dirichlet values are kept: the preconditioner does not touch fixed dofs). Convergence:
     sqrt(<r, C r>) <= tol * ref, where ref is the largest of the same norm of the right-hand side, of mat x and of
@@ -292,62 +327,59 @@ class PCG:
         self.stall = stall
 
     def solve(self, mat, pre, rhs, x, what: str, hint: str = "") -> CGInfo:
-        r, z, p, ap = (rhs.CreateVector() for _ in range(4))
         hint = f" {hint}" if hint else ""
+        z, ax = rhs.CreateVector(), rhs.CreateVector()
 
         def pnorm(vec) -> float:
             z.data = pre * vec
             return math.sqrt(max(float(ngs.InnerProduct(vec, z)), 0.0))
 
-        ap.data = mat * x
-        ref = max(pnorm(rhs), pnorm(ap))
-        r.data = rhs - ap
-        z.data = pre * r
-        rz = float(ngs.InnerProduct(r, z))
-        if not math.isfinite(rz):
-            raise SolverError(f"{what}: the preconditioned residual is not finite before the first CG iteration "
-                              f"(singular preconditioner: a body without supports?).{hint}")
-        if rz < 0:
-            raise SolverError(f"{what}: the preconditioner is not positive definite (<r, C r> = {rz:.3e}).{hint}")
-        err0 = math.sqrt(rz)
-        ref = max(ref, err0)
-        history = [err0 / ref if ref > 0 else 0.0]
-        if ref == 0.0 or err0 <= self.tol * ref:
-            return CGInfo(0, history[0], history)
-        p.data = z
-        best, best_it = err0, 0
-        for it in range(1, self.maxit + 1):
-            ap.data = mat * p
-            pap = float(ngs.InnerProduct(p, ap))
-            if not pap > 0:
-                raise SolverError(f"{what}: CG found <p, A p> = {pap:.3e} <= 0 in iteration {it}: the matrix is not "
-                                  f"positive definite (a rigid motion without supports, a negative or zero "
+        ax.data = mat * x
+        ref0 = max(pnorm(rhs), pnorm(ax))
+
+        def check_matrix(call: int, pap: float) -> None:
+            if call > 0 and not pap > 0:      # call 0: mat x of the first residual
+                raise SolverError(f"{what}: CG found <p, A p> = {pap:.3e} <= 0 in iteration {call}: the matrix is "
+                                  f"not positive definite (a rigid motion without supports, a negative or zero "
                                   f"coefficient).{hint}")
-            alpha = rz / pap
-            x.data += alpha * p
-            r.data -= alpha * ap
-            z.data = pre * r
-            rz_new = float(ngs.InnerProduct(r, z))
-            if not math.isfinite(rz_new):
-                raise SolverError(f"{what}: CG diverged (the residual is not finite in iteration {it}).{hint}")
-            if rz_new < 0:
-                raise SolverError(f"{what}: the preconditioner is not positive definite (<r, C r> = {rz_new:.3e} "
-                                  f"in iteration {it}).{hint}")
-            err = math.sqrt(rz_new)
-            history.append(err / ref)
+
+        def check_pre(call: int, rz: float) -> None:
+            if not math.isfinite(rz):
+                raise SolverError(f"{what}: the preconditioned residual is not finite before the first CG iteration "
+                                  f"(singular preconditioner: a body without supports?).{hint}" if call == 0 else
+                                  f"{what}: CG diverged (the residual is not finite in iteration {call}).{hint}")
+            if rz < 0:
+                where = f" in iteration {call}" if call else ""
+                raise SolverError(f"{what}: the preconditioner is not positive definite (<r, C r> = {rz:.3e}"
+                                  f"{where}).{hint}")
+
+        best = [math.inf, 0]                # the best residual and its iteration (stagnation)
+
+        def watch(it: int, err: float) -> None:
+            it -= 1                          # NGSolve counts the first residual as an iteration
+            ref = max(ref0, cg.residuals[0])
             if err <= self.tol * ref:
-                return CGInfo(it, err / ref, history)
+                return
             if err > DIVERGENCE_FACTOR * ref:
                 raise SolverError(f"{what}: CG diverged: relative residual {err / ref:.3e} after {it} iterations."
                                   f"{hint}")
-            if err < 0.9 * best:
-                best, best_it = err, it
-            elif it - best_it >= self.stall:
-                raise SolverError(f"{what}: CG stagnated at relative residual {best / ref:.3e} (tolerance "
+            if it == 1:
+                best[:] = [cg.residuals[0], 0]
+            if err < 0.9 * best[0]:
+                best[:] = [err, it]
+            elif it - best[1] >= self.stall:
+                raise SolverError(f"{what}: CG stagnated at relative residual {best[0] / ref:.3e} (tolerance "
                                   f"{self.tol:.1e}; no progress in {self.stall} iterations after iteration "
-                                  f"{best_it}).{hint}")
-            p.data *= rz_new / rz
-            p.data += z
-            rz = rz_new
-        raise SolverError(f"{what}: CG did not converge in {self.maxit} iterations (relative residual "
-                          f"{history[-1]:.3e}, tolerance {self.tol:.1e}).{hint}")
+                                  f"{best[1]}).{hint}")
+
+        # the stopping test max(tol * first residual, atol) = tol * ref
+        cg = ngs.krylovspace.CGSolver(_Checked(mat, check_matrix), _Checked(pre, check_pre), tol=self.tol,
+                                      atol=self.tol * ref0, maxiter=self.maxit + 1, callback=watch)
+        cg.Solve(rhs=rhs, sol=x, initialize=False)
+        ref = max(ref0, cg.residuals[0])
+        history = [r / ref if ref > 0 else 0.0 for r in cg.residuals]
+        iterations = len(history) - 1
+        if not cg.residuals[-1] <= self.tol * ref:
+            raise SolverError(f"{what}: CG did not converge in {iterations} iterations (relative residual "
+                              f"{history[-1]:.3e}, tolerance {self.tol:.1e}).{hint}")
+        return CGInfo(iterations, history[-1], history)
