@@ -257,7 +257,7 @@ def test_nested_iteration_newton_at_lam_half():
 
 @pytest.mark.parametrize("change, text", [
     ({"nonlinear_solver": "secant"}, "nonlinear_solver = 'newton'"),
-    ({"nested_levels": 9}, "between 0 and 6"),
+    ({"nested_levels": 9}, "must be in [0, 6]"),
 ])
 def test_nested_iteration_bad_settings_are_named(change, text):
     from ngs_geomech.errors import SceneError
