@@ -7,8 +7,10 @@ the run's ``build`` callable) with the local size restricted to h_front = h_base
 longest edge of the scene's own mesh in the phase-change regions) at the vertices of the elements the
 liquid-fraction 1/2 iso-line crosses and ``layers`` rings around them
 (:func:`ngs_geomech.adapt.estimators.phase_front`). Resolution is added ahead of the front and given back behind it
-by remeshing from the geometry with the flags recomputed (not by coarsening; bisection of marked elements breaks
-the lumped P1 M-matrix property, see :mod:`ngs_geomech.adapt.stefan`).
+by remeshing from the geometry with the flags recomputed (not by coarsening): bisection of the strip's marked
+triangles produced obtuse angles, the lumped P1 stiffness lost its M-matrix property (nodes undershot the coldest
+boundary temperature, -0.548 against -0.5) and the Stefan Newton iteration cycled; netgen's Delaunay meshes of a
+restricted size keep it.
 
 When: ``remesh_every = k > 0``: after every k steps, at the front of the step's end. ``remesh_every = 0``
 (default): after a step whose front reached elements 1.25 times coarser than the band's own (the largest element
@@ -42,7 +44,6 @@ from ..geometry.assemble import GeometryModel
 from ..geometry.mesh import make_mesh
 from ..scene.model import Scene
 from .estimators import element_sizes, element_vertices, phase_front, vertex_coords
-from .stefan import RemeshRecord
 
 log = logging.getLogger(__name__)
 
@@ -58,10 +59,26 @@ front appearing in, or running into, coarse elements; a band of ``layers`` rings
 
 
 @dataclass
+class RemeshRecord:
+    """One remeshing: time (s), unknowns before/after, the heat content before/after the transfer (J per metre
+    of depth in 2D) and its relative change, wall time (s)."""
+
+    t: float
+    ndof_before: int
+    ndof_after: int
+    heat_before: float
+    heat_after: float
+    wall_s: float
+
+    @property
+    def transfer_error(self) -> float:
+        return abs(self.heat_after - self.heat_before) / max(abs(self.heat_before), 1e-300)
+
+
+@dataclass
 class Remesh(RemeshRecord):
-    """One remeshing of a scene run: :class:`~ngs_geomech.adapt.stefan.RemeshRecord` (time, unknowns, heat content
-    before/after the transfer, wall time) plus the elements after it, whether the step was repeated, and the number
-    of meshings."""
+    """One remeshing of a scene run: :class:`RemeshRecord` (time, unknowns, heat content before/after the transfer,
+    wall time) plus the elements after it, whether the step was repeated, and the number of meshings."""
 
     elements_after: int = 0
     repeated_step: bool = False

@@ -33,8 +33,9 @@ timings compare like with like on the shared machine; runs under 0.1 s are repea
   melted volume, |s_h - s| / s at t1 (the front from the temperatures in the tables too). Knobs: h and dt
   together (dt = 0.2 h s/m), h alone (dt fixed), dt alone (h fixed), the semi-smooth Newton tolerance
   (``StefanSolver(tol=...)``, relative to the enthalpy scale), and meshes that follow the front
-  (:func:`ngs_geomech.verification.stefan_adaptive.neumann_adaptive`, levels 1-3 from a 0.05 m base, level 1 of
-  the study 1-4; dt = 0.2 h_fine; dofs = the mean over the steps). Lumped P1 only (no order knob).
+  (:func:`ngs_geomech.verification.stefan_adaptive.neumann_adaptive`, the strip as a front-following scene started
+  from the nodal values of the exact temperature, levels 1-3 from a 0.05 m base, level 1 of the study 1-4;
+  dt = 0.2 h_fine; dofs = the mean over the steps). Lumped P1 only (no order knob).
 * ``transient``: time step of transient heat conduction, the manufactured two-region solution
   (:func:`ngs_geomech.verification.manufactured.transient_convergence`, P2, which holds the solution exactly in
   space, so the error is the time error alone): L2 error at t = 1 s (K m) for backward Euler and Crank-Nicolson.
@@ -365,15 +366,15 @@ def stefan_series(p: dict) -> list[dict]:
             _add(s, value, r["dofs"], r["wall_s"], r["error"], front_T=r["front_T"], newton=r["newton"], dt=dt, h=h,
                  failed=r["failed"], mesh_s=r["mesh_s"])
         out.append(s)
-    # meshes that follow the front (adapt.stefan.FrontAdaptiveStefan, as studies/mesh_convergence: base 0.05 m,
-    # h_fine = 0.05 / 2^levels at the front with 2 levels + 2 rings, remeshed when the front is about to leave the
-    # band, the enthalpy by the lumped projection, dt = 0.2 h_fine)
+    # meshes that follow the front (the strip as a front-following scene, as studies/mesh_convergence: base
+    # 0.05 m, h_fine = 0.05 / 2^levels at the front with 2 levels + 2 rings, a step repeated on a new mesh when the
+    # front reaches coarser elements, the enthalpy by the lumped projection, dt = 0.2 h_fine)
     s = _series("stefan", "levels (h_fine = 0.05 / 2^levels m)", "front-following meshes (dt = 0.2 h_fine)",
                 cols + ("remeshes",))
     for lev in p["stefan_front_levels"]:
         hf = 0.05 / 2 ** lev
         r = sad.neumann_adaptive(STEFAN, 0.05, lev, 0.2 * hf, STEFAN_T0, STEFAN_T1, layers=2 * lev + 2,
-                                 remesh_every=0, transfer="projection", height=STEFAN_HEIGHT)
+                                 remesh_every=0, height=STEFAN_HEIGHT)
         _add(s, lev, r["ndof_mean"], r["wall_s"], r["front_rel_error"], front_T=float("nan"),
              newton=r["newton_mean"], dt=0.2 * hf, h=hf, failed=0, mesh_s=float("nan"), remeshes=r["remeshes"])
     out.append(s)

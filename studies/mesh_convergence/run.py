@@ -21,8 +21,10 @@ form is a half space's, from which the finite cylinder differs by a fixed amount
 error against the closed form is reported too), and the half width against the closed form (a node-position
 quantity that jumps between steps: the headline ratios use p0). (4) The Neumann two-phase Stefan strip
 (:mod:`ngs_geomech.verification.stefan`, t = 0.05 -> 0.5 s): uniform meshes (dt = 0.2 h) against front-following
-meshes (:mod:`ngs_geomech.adapt.stefan`: the strip remeshed from a 0.05 m base with the size 0.05 / 2^levels at the
-front whenever it is about to leave its band, the enthalpy carried over by the lumped projection; dt = 0.2
+meshes (the strip as a scene with ``[adaptivity] indicators = ['phase_front']``,
+:func:`ngs_geomech.verification.stefan_adaptive.neumann_adaptive`: remeshed from a 0.05 m base with the size
+0.05 / 2^levels at the front, a step repeated on the new mesh whenever the front reaches coarser elements, the
+enthalpy carried over by the lumped projection; started from the nodal values of the exact temperature; dt = 0.2
 h_fine); error of the front from the melted volume.
 
 Ratios: the first adaptive step whose error is at most the finest uniform mesh's: its dofs over the finest
@@ -185,7 +187,7 @@ def _stefan(p: dict) -> dict:
     for lev in p["stefan_levels"]:
         hf = STEFAN_BASE_H / 2 ** lev
         ada.append(sad.neumann_adaptive(problem, STEFAN_BASE_H, lev, 0.2 * hf, t0, t1, layers=2 * lev + 2,
-                                        remesh_every=0, transfer="projection"))
+                                        remesh_every=0))
     fin = uni[-1]
     hit = next((a for a in ada if a["front_rel_error"] <= fin["front_rel_error"]), None)
     m = {"stefan_front_error_finest_uniform": fin["front_rel_error"],
