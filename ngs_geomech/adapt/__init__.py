@@ -1,4 +1,4 @@
-"""Adaptive mesh refinement (issue 6): a posteriori estimators and indicators (:mod:`.estimators`), marking
+"""Adaptive mesh refinement: a posteriori estimators and indicators (:mod:`.estimators`), marking
 strategies and stopping rules (:mod:`.marking`), and the SOLVE -> ESTIMATE -> MARK -> REFINE loop for stationary
 problems (:mod:`.loop`).
 

@@ -1,7 +1,6 @@
 """Meshes that follow the contact zones of a time-dependent scene (``[adaptivity]`` with
 ``indicators = ['contact_zone']`` in a transient plane or axisymmetric scene with static mechanics and a contact
-interface or foundation, with or without a phase change and deformation heating; issue 6 section 2,
-time-dependent).
+interface or foundation, with or without a phase change and deformation heating).
 
 What is followed: the boundary of the active set and the stick/slip transitions of every contact
 (:func:`transition_elements`) at each mechanics solve (the output steps; every step in a coupled scene). The mesh

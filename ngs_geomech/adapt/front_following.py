@@ -1,5 +1,5 @@
 """Front-following meshes for a scene's Stefan problem (``[adaptivity]`` with ``indicators = ['phase_front']`` in a
-transient plane scene with a phase change; issue 6 section 2, time-dependent).
+transient plane scene with a phase change, time-dependent).
 
 The mesh is the scene's geometry meshed anew by :func:`ngs_geomech.geometry.mesh.make_mesh` (so the regions and
 boundaries keep their names; sources, boundary conditions, probes and the Stefan setup are rebuilt on each mesh by

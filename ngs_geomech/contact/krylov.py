@@ -1,4 +1,4 @@
-"""Iterative solves of the contact Newton steps (issue 10): the saddle-point systems of
+"""Iterative solves of the contact Newton steps: the saddle-point systems of
 :class:`ngs_geomech.contact.solver.ContactSolver` solved by GMRES with an augmented-Lagrangian block
 preconditioner and algebraic multigrid, for contact problems too large for a direct factorization (3D).
 
@@ -30,7 +30,7 @@ the penalty part of S, so a body held only by contact is no harder than a suppor
 (``h1amg``) is built from element matrices and cannot see that coupling, hence PyAMG on the assembled S.
 
 Measured (``studies/scaling``, the 3D Coulomb punch of
-:func:`ngs_geomech.verification.contact_problems.punch_3d`, one thread, 2026-11-26): GMRES iterations per Newton
+:func:`ngs_geomech.verification.contact_problems.punch_3d`, one thread): GMRES iterations per Newton
 step, max (mean of the main solves), and the contact solve's wall time against the direct solves:
 
     P1  h = 0.2 / 0.1 / 0.05 / 0.025:  663 / 3.5k / 19k / 121k dofs, GMRES 41 (24) / 43 (29) / 52 (39) / 90 (55),
@@ -71,7 +71,7 @@ RESTART = 60
 
 AUTO_DOFS = {2: 1_000_000, 3: 20_000}
 """Displacement dofs above which ``solver.linear = "auto"`` solves the contact Newton steps by GMRES (per mesh
-dimension). Measured on the 3D Coulomb punch (``studies/scaling``, one thread, 2026-11-26): direct / GMRES
+dimension). Measured on the 3D Coulomb punch (``studies/scaling``, one thread): direct / GMRES
 1.12 / 1.47 s at 3.5k P1 dofs, 8.08 / 6.29 s at 22k P2, 59.8 / 11.2 - 13.9 s at 19k P1, 399 / 67.5 s at 130k P2
 (the direct solves factor the 3D saddle point at every Newton step, 6 s at 19k P1 and 50 s at 130k P2). In 2D the
 direct solves stay cheap; the value is that of the other systems (:data:`.iterative.AUTO_DOFS`)."""

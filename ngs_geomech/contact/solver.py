@@ -67,7 +67,7 @@ columns of the nodes that entered the contact or started sticking since (the com
 :class:`.steps.WoodburyStep`), one more solve per such node. The saddle-point pattern is the sum of K embedded and the
 multiplier entries (CreateSparseMatrix, 0.08 s at 140k dofs; CreateFromCOO of the whole took 1.2 - 1.4 s).
 
-Iterative Newton steps (``linear="iterative"``, the scene's ``solver.linear``; issue 10): each Newton-step matrix
+Iterative Newton steps (``linear="iterative"``, the scene's ``solver.linear``): each Newton-step matrix
 is solved by GMRES with the augmented-Lagrangian AMG preconditioner of :mod:`.krylov` instead of the
 factorizations above (no Woodbury reuse, no companion; the floating bodies' refinement criteria as above; the
 rigid motions that nothing holds are kept out of the iterates, :func:`.steps.free_motions`). The iterations per Newton

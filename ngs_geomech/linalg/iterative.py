@@ -57,7 +57,7 @@ use; the serial default before the two-level preconditioner, kept for comparison
 
 AUTO_DOFS = {2: 1_000_000, 3: 60_000}
 """Dofs above which ``solver="auto"`` takes preconditioned CG (per mesh dimension, per system). Measured
-(``studies/scaling``, 3D P2 thermo-elastic box, 2 threads, 2026-11-25): CG (two-level AMG for elasticity, BDDC
+(``studies/scaling``, 3D P2 thermo-elastic box, 2 threads): CG (two-level AMG for elasticity, BDDC
 for heat) was faster than the direct solvers at every size, 0.12 / 0.23 / 0.38 / 1.40 s against 0.18 / 0.44 /
 0.68 / 5.85 s at 2.5k / 9.9k / 15k / 58k total dofs (UMFPACK on elasticity 1.1 GiB at 58k). The 3D value is
 conservative on purpose: it keeps the small scenes on the exact, bit-for-bit reproducible direct path, where the

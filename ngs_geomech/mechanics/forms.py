@@ -15,7 +15,7 @@ with a multiplier (the normal traction, Pa) <mu, u.n> + <lambda, v.n>.
 Models: plane strain and plane stress (x, y), axisymmetric (r = x, z = y; e_thetatheta = u_r / r, weight
 r, u_r = 0 on the axis) and 3D. Units: u in m, stresses in Pa, T in K (or degC), beta in Pa/K.
 
-Near incompressibility (issue 8): the displacement formulation's mean stress K tr e(u_h) is K times a small,
+Near incompressibility: the displacement formulation's mean stress K tr e(u_h) is K times a small,
 badly approximated number when nu -> 1/2 (P2: error ~ h / (1 - 2 nu)). Isotropic linear regions (lam = 1) can
 use a mixed displacement-pressure formulation instead (``ElasticSetup.formulation``; :func:`mixed_regions`):
 the mean stress p (Pa) is an unknown, the stress is

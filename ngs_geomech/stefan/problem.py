@@ -53,7 +53,7 @@ from .solver import StefanSolver
 
 AUTO_NODES = {2: 1_000_000, 3: 5_000}
 """Nodes above which ``solver.linear = "auto"`` solves the serial Stefan Newton steps by GMRES with h1amg instead of
-SuperLU with low-rank updates (per mesh dimension). Measured 2026-11-26, one thread, ``melting_block`` made 3D
+SuperLU with low-rank updates (per mesh dimension). Measured on one thread, ``melting_block`` made 3D
 (6 x 2 x 4 m, the lens 1.25 x 1 x 0.4 m, 20 days in 15 steps, whole runs): direct / GMRES 2.7 / 4.7 s at 2k nodes,
 67 / 17.6 s at 7k (SuperLU factors the 3D Newton matrix 14 times, 3.9 s each), > 420 s (stopped) / 38 s at 13k;
 GMRES 234 s at 46k. GMRES iterations per solve, max: 13 / 18 / 19 / 24 at 2k / 7k / 13k / 46k nodes. In 2D SuperLU

@@ -1,4 +1,4 @@
-"""Verification of the adaptive refinement (issue 6): estimator effectivity indices on manufactured problems,
+"""Verification of the adaptive refinement: estimator effectivity indices on manufactured problems,
 the re-entrant corner heat problem (uniform against adaptive, orders in dofs), and Hertz contact (uniform
 against adaptive refinement: p0 and half-width errors against dofs and wall time).
 

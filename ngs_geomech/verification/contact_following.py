@@ -1,5 +1,5 @@
 """Hertz line contact under a growing load, as a time-dependent scene: the check of meshes that follow the contact
-zone (:mod:`ngs_geomech.adapt.contact_following`, issue 6 section 2).
+zone (:mod:`ngs_geomech.adapt.contact_following`).
 
 A quarter cylinder (R = 1 m, E = 200 GPa, nu = 0.3, plane strain; the arc a 40-point spline through the circle)
 with a symmetry condition on x = 0 rests on a rigid frictionless foundation y = 0 and is held by the contact alone;

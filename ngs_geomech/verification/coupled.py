@@ -1,5 +1,5 @@
 """Problem (P_c) through scenes (:mod:`ngs_geomech.coupling.problem`): the deformation heating against a closed
-form, and the coupled contact-Stefan case of issue 5.
+form, and the coupled contact-Stefan case of problem (P_c).
 
 :func:`adiabatic_compression` : a square block 1 m x 1 m (plane strain) squeezed at a constant strain rate r in
 both directions (rollers on the left and bottom sides, u_x = -r t x on the right side, u_y = -r t y on the top)

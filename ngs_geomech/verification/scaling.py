@@ -1,4 +1,4 @@
-"""A thermo-elastic box for solver comparisons and scaling (issue 10): heat conduction, then the thermal stress,
+"""A thermo-elastic box for solver comparisons and scaling: heat conduction, then the thermal stress,
 built from a scene dict through the package's path (:func:`scene_from_dict` -> :func:`validate` ->
 :func:`make_mesh` -> :func:`heat_setup` / :class:`HeatForms` / :class:`HeatSolver` -> :func:`elastic_setup` /
 :class:`ElasticForms` / :class:`ElasticSolver`), with the linear solver chosen by name.

@@ -1,5 +1,5 @@
 """The plate-collision scenario (``geometries/plate_collision.toml``) with the global model's viscous terms
-against its quasi-static run (issue 9): the same scene with ``physics.mechanics = "viscous"`` and Kelvin-Voigt
+against its quasi-static run: the same scene with ``physics.mechanics = "viscous"`` and Kelvin-Voigt
 viscosity in the mantle wedge and the melting zone (``viscosity_time``: C^v = tau_v C), reporting the principal
 stresses, the contact forces, the displacement of the arc plate and the temperatures of both runs and their
 differences. Plain dicts; prints nothing.
