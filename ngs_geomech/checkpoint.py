@@ -31,7 +31,6 @@ from .errors import ResumeError
 from .fem.timesteps import nominal_step, schedule
 from .io.checkpoint import Checkpoint, checkpoint_meta_base, scene_differences, write_checkpoint
 from .io.summary import versions
-from .mechanics.solver import NonlinearInfo
 from .scene.units import format_time
 
 CHECKPOINT_WALL_S = 300.0     # with the default checkpoint_every: also after any step ending 5 min after the last
@@ -45,7 +44,6 @@ class Snapshot:
     time: float
     arrays: dict
     lengths: dict
-    contact_latest: list
     solve_s: float
     factorizations: int
 
@@ -127,7 +125,6 @@ class RunState:
         self.resumed: list[dict] = []
         self.saved_step: int | None = None      # the step and time of the newest checkpoint on disk
         self.saved_time: float | None = None
-        self._mech_copy: tuple[int, dict] | None = None
 
     # -- what identifies the problem ------------------------------------------------------------------
     def mesh_info(self) -> dict:
@@ -151,8 +148,7 @@ class RunState:
         if self.stefan is not None:
             n += self.stefan.solver.factorizations
         if self.mech is not None:
-            m = self.mech
-            n += m.factorizations if hasattr(m, "capture") else m.solver.factorizations
+            n += self.mech.factorizations
         return self.factorizations_before + n
 
     # -- capture and save -----------------------------------------------------------------------------
@@ -167,20 +163,9 @@ class RunState:
             arrays.update(stefan_arrays)
         if self.coupling is not None:
             arrays.update(self.coupling.capture())
-        latest: list = []
-        if self.mech is not None and hasattr(self.mech, "capture"):         # dynamic / viscous mechanics
+        if self.mech is not None:                       # static, dynamic or viscous mechanics
             mech_arrays, mech_lengths = self.mech.capture()
             arrays.update(mech_arrays)
-        elif self.mech is not None:
-            m = self.mech
-            if self._mech_copy is None or self._mech_copy[0] != len(m.times):   # mechanics solved since
-                mech_arrays = {"mechanics": np.array(m.forms.gf.vec.FV().NumPy())}
-                if m.contact_output is not None:
-                    mech_arrays.update({f"warm/{k}": v for k, v in m.solver.contact.capture().items()})
-                self._mech_copy = (len(m.times), mech_arrays)
-            arrays.update(self._mech_copy[1])
-            if m.contact_output is not None:
-                latest = m.contact_output.latest         # replaced (not changed) by each solve
         p = self.probes
         lengths = {"probes": {n: len(v) for n, v in p.times.items()},
                    "newton": len(self.history["newton_iterations"]),
@@ -189,14 +174,9 @@ class RunState:
                    "lines": {n: len(s.entries) for n, s in self.lines.items()},
                    "stefan": stefan_lengths,
                    "coupling": len(self.history["coupling"]["passes"]) if "coupling" in self.history else 0}
-        if self.mech is not None and hasattr(self.mech, "capture"):
-            lengths["dynamics"] = mech_lengths
-        elif self.mech is not None:
-            m = self.mech
-            lengths["mech_times"] = len(m.times)
-            lengths["mech_history"] = len(m.solver.history)
-            lengths["contact_history"] = len(m.contact_output.history) if m.contact_output is not None else 0
-        return Snapshot(step, float(t), arrays, lengths, latest, solve_s, self.factorizations())
+        if self.mech is not None:
+            lengths["mechanics"] = mech_lengths
+        return Snapshot(step, float(t), arrays, lengths, solve_s, self.factorizations())
 
     def save(self, snap: Snapshot, directory, plan: Plan) -> None:
         """Write the checkpoint of ``snap`` into ``directory`` (atomically)."""
@@ -216,21 +196,9 @@ class RunState:
                 "lines": {n: s.entries[:L["lines"][n]] for n, s in self.lines.items()}}
         if self.stefan is not None:
             meta["stefan"] = self.stefan.meta(L["stefan"])
-        arrays = dict(snap.arrays)
-        if self.mech is not None and hasattr(self.mech, "capture"):
-            meta["dynamics"] = self.mech.meta(L["dynamics"])
-        elif self.mech is not None:
-            m = self.mech
-            meta["mechanics"] = {
-                "times": m.times[:L["mech_times"]],
-                "history": [dataclasses.asdict(i) for i in m.solver.history[:L["mech_history"]]],
-                "contact_history": (m.contact_output.history[:L["contact_history"]]
-                                    if m.contact_output is not None else []),
-                "contact_latest": len(snap.contact_latest)}
-            for i, res in enumerate(snap.contact_latest):
-                for key, val in res.items():
-                    arrays[f"latest/{i}/{key}"] = np.asarray(val)
-        write_checkpoint(directory, json.loads(json.dumps(meta, default=_plain)), arrays)
+        if self.mech is not None:
+            meta[self.mech.checkpoint_key] = self.mech.meta(L["mechanics"])
+        write_checkpoint(directory, json.loads(json.dumps(meta, default=_plain)), snap.arrays)
         self.saved_step, self.saved_time = snap.step, snap.time
 
     # -- restore --------------------------------------------------------------------------------------
@@ -257,20 +225,8 @@ class RunState:
             self.vtk.restore(meta["vtk"])
         for n, s in self.lines.items():
             s.restore(meta["lines"].get(n, []))
-        if self.mech is not None and hasattr(self.mech, "capture"):
-            self.mech.restore(arrays, meta["dynamics"])
-        elif self.mech is not None:
-            m, mm = self.mech, meta["mechanics"]
-            m.forms.gf.vec.FV().NumPy()[:] = arrays["mechanics"]
-            m.times[:] = mm["times"]
-            m.solver.history[:] = [NonlinearInfo(**d) for d in mm["history"]]
-            if m.contact_output is not None:
-                m.contact_output.history[:] = mm["contact_history"]
-                m.contact_output.latest = [
-                    {k.split("/", 2)[2]: v for k, v in arrays.items() if k.startswith(f"latest/{i}/")}
-                    for i in range(mm["contact_latest"])]
-                m.solver.contact.restore(m.forms.X.ndof, {k.split("/", 1)[1]: v for k, v in arrays.items()
-                                                          if k.startswith("warm/")})
+        if self.mech is not None:
+            self.mech.restore(arrays, meta[self.mech.checkpoint_key])
         self.factorizations_before = int(meta["factorizations"])
         self.resumed = list(meta.get("resumed", [])) + [{"step": meta["step"], "time_s": meta["time_s"],
                                                           "at": time.strftime("%Y-%m-%dT%H:%M:%S")}]

@@ -28,6 +28,7 @@ every rank takes every output branch. No checkpoints are written.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time as _time
@@ -69,7 +70,7 @@ from .io.vtk import VtkSeries
 from .mechanics.forms import ElasticForms, stress_measures
 from .mechanics.nested import NestedStart
 from .mechanics.problem import elastic_setup, mechanics_warnings, watch_small_strain
-from .mechanics.solver import ElasticSolver
+from .mechanics.solver import ElasticSolver, NonlinearInfo
 from .probes import THERMAL, ProbeSet
 from .scene.model import Scene
 from .scene.names import plain_file_name
@@ -780,6 +781,7 @@ class _Mechanics:
             self.probe_fields["displacement_z"] = u[2]
         self.times: list[float] = []
         self.nested_solves: list[list] = []      # per solve: the coarse solves (ndof, iterations, wall s)
+        self._copy: tuple[int, dict] | None = None     # the arrays of the last capture
 
     def solve(self, t: float, where: str, record: bool = True) -> None:
         self.forms.t.Set(t)
@@ -810,6 +812,49 @@ class _Mechanics:
         self.times.append(t)
         if self.contact_output is not None:
             self.contact_output.record(t, self.solver)
+
+    # -- checkpoints: the same interface as DynamicsRun ------------------------------------------------------
+    checkpoint_key = "mechanics"
+
+    @property
+    def factorizations(self) -> int:
+        return self.solver.factorizations
+
+    def capture(self) -> tuple[dict, dict]:
+        """The state after the last solve: the displacement, the contact solver's warm start and the last contact
+        results as arrays (copied once per solve, reused while no solve happens), and the series lengths."""
+        if self._copy is None or self._copy[0] != len(self.times):      # solved since the last capture
+            arrays = {"mechanics": np.array(self.forms.gf.vec.FV().NumPy())}
+            if self.contact_output is not None:
+                arrays.update({f"warm/{k}": v for k, v in self.solver.contact.capture().items()})
+            self._copy = (len(self.times), arrays)
+        arrays = dict(self._copy[1])
+        out = self.contact_output
+        for i, res in enumerate(out.latest if out is not None else []):   # replaced (not changed) by each solve
+            arrays.update({f"latest/{i}/{k}": np.asarray(v) for k, v in res.items()})
+        lengths = {"times": len(self.times), "history": len(self.solver.history),
+                   "contact_history": len(out.history) if out is not None else 0,
+                   "contact_latest": len(out.latest) if out is not None else 0}
+        return arrays, lengths
+
+    def meta(self, lengths: dict) -> dict:
+        out = self.contact_output
+        return {"times": self.times[:lengths["times"]],
+                "history": [dataclasses.asdict(i) for i in self.solver.history[:lengths["history"]]],
+                "contact_history": out.history[:lengths["contact_history"]] if out is not None else [],
+                "contact_latest": lengths["contact_latest"]}
+
+    def restore(self, arrays: dict, meta: dict) -> None:
+        self.forms.gf.vec.FV().NumPy()[:] = arrays["mechanics"]
+        self.times[:] = meta["times"]
+        self.solver.history[:] = [NonlinearInfo(**d) for d in meta["history"]]
+        out = self.contact_output
+        if out is not None:
+            out.history[:] = meta["contact_history"]
+            out.latest = [{k.split("/", 2)[2]: v for k, v in arrays.items() if k.startswith(f"latest/{i}/")}
+                          for i in range(meta["contact_latest"])]
+            self.solver.contact.restore(self.forms.X.ndof, {k.split("/", 1)[1]: v for k, v in arrays.items()
+                                                            if k.startswith("warm/")})
 
     def summary(self) -> dict:
         h = self.solver.history

@@ -94,6 +94,8 @@ class DynamicsRun:
         self.contact_output = self if self.contacts else None
         self._started = False
 
+    checkpoint_key = "dynamics"
+
     @property
     def factorizations(self) -> int:
         return len(getattr(self.solver, "_lu", {}))
