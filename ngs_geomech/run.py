@@ -265,7 +265,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     if stefan is not None:
         phi = stefan.fields["liquid_fraction"]
         thermal_fields.update(liquid_fraction=phi, front=phi)
-    every_step = bool(getattr(mech, "every_step", False))
+    every_step = mech is not None and mech.every_step
     history = {"newton_iterations": [], "interface_heat_flow_W": {},
                "coupling": {"passes": [], "deformation_heat": [], "change_T": [], "change_u": [],
                             "conductivity_factor": []}}
@@ -509,7 +509,7 @@ def _heat_step(heat: HeatForms, solver: HeatSolver, a: float, b: float) -> None:
 def _deformation_heating(scene: Scene, mesh, mech, heat: HeatForms | None, stefan: StefanRun | None):
     """The deformation-heating source of problem (P_c) against the heat problem's test functions."""
     offset = KELVIN if scene.scene.temperature_unit == "C" else 0.0
-    extra = mech.dissipation_source() if hasattr(mech, "dissipation_source") else None   # viscous heat (2.6)
+    extra = mech.dissipation_source()          # viscous heat (2.6); None for static mechanics
     if stefan is not None:
         V = stefan.forms.V
         return DeformationHeating(mech.forms, V, V.TestFunction(), ngs.dx(intrules=vertex_rules(mesh.dim)), 1.0,
@@ -812,6 +812,13 @@ class _Mechanics:
         self.times.append(t)
         if self.contact_output is not None:
             self.contact_output.record(t, self.solver)
+
+    every_step = False
+    """Static mechanics is solved at the output times (or every step of a coupled run), not advanced in time."""
+
+    def dissipation_source(self):
+        """No viscous dissipation in static mechanics (the heat source of (2.6) is DynamicsRun's)."""
+        return None
 
     # -- checkpoints: the same interface as DynamicsRun ------------------------------------------------------
     checkpoint_key = "mechanics"
