@@ -69,7 +69,7 @@ from .io.summary import finite, probe_statistics, versions
 from .io.vtk import VtkSeries
 from .mechanics.forms import ElasticForms, stress_measures
 from .mechanics.nested import NestedStart
-from .mechanics.problem import elastic_setup, mechanics_warnings, watch_small_strain
+from .mechanics.problem import elastic_setup, mechanics_warnings, probe_fields, watch_small_strain
 from .mechanics.solver import ElasticSolver, NonlinearInfo
 from .probes import THERMAL, ProbeSet
 from .scene.model import Scene
@@ -774,11 +774,7 @@ class _Mechanics:
         self.sigma = sigma
         self.fields = {"displacement": u, "stress": sigma, **measures,
                        "strain_energy_density": self.forms.strain_energy_density(u)}
-        self.probe_fields = {"displacement_x": u[0], "displacement_y": u[1], "von_mises": measures["von_mises"],
-                             "mean_stress": measures["mean_stress"], "sigma_1": measures["sigma_1"],
-                             "sigma_3": measures["sigma_3"]}
-        if mesh.dim == 3:
-            self.probe_fields["displacement_z"] = u[2]
+        self.probe_fields = probe_fields(u, measures, mesh.dim)
         self.times: list[float] = []
         self.nested_solves: list[list] = []      # per solve: the coarse solves (ndof, iterations, wall s)
         self._copy: tuple[int, dict] | None = None     # the arrays of the last capture

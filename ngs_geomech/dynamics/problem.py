@@ -23,7 +23,7 @@ from ..fem.coefficients import expression_function
 from ..geometry.assemble import GeometryModel
 from ..mechanics.forms import ElasticForms, stress_measures
 from ..mechanics.materials import ElasticProperties
-from ..mechanics.problem import elastic_setup, mechanics_warnings, watch_small_strain
+from ..mechanics.problem import elastic_setup, mechanics_warnings, probe_fields, watch_small_strain
 from ..scene.model import Scene
 from .forms import PronyBranch, ViscoelasticForms, ViscousProperties
 from .solver import DynamicSolver, ViscousSolver, contact_switches
@@ -83,11 +83,7 @@ class DynamicsRun:
                        "viscous_dissipation": self.vforms.dissipation_density()}
         if self.kind == "dynamic":
             self.fields["kinetic_energy_density"] = self.vforms.kinetic_energy_density()
-        self.probe_fields = {"displacement_x": u[0], "displacement_y": u[1], "von_mises": measures["von_mises"],
-                             "mean_stress": measures["mean_stress"], "sigma_1": measures["sigma_1"],
-                             "sigma_3": measures["sigma_3"]}
-        if mesh.dim == 3:
-            self.probe_fields["displacement_z"] = u[2]
+        self.probe_fields = probe_fields(u, measures, mesh.dim)
         self.times: list[float] = []
         self.latest: list[dict] = []
         self.history: list[dict] = []

@@ -59,6 +59,15 @@ def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> E
     return setup
 
 
+def probe_fields(u, measures: dict, dim: int) -> dict:
+    """The mechanical quantities probes may record: displacement components (m) and stress measures (Pa)."""
+    fields = {"displacement_x": u[0], "displacement_y": u[1], "von_mises": measures["von_mises"],
+              "mean_stress": measures["mean_stress"], "sigma_1": measures["sigma_1"], "sigma_3": measures["sigma_3"]}
+    if dim == 3:
+        fields["displacement_z"] = u[2]
+    return fields
+
+
 def mechanics_warnings(scene: Scene, setup: ElasticSetup) -> list[str]:
     """Warnings a user should see before trusting the result (logged as warnings, kept in summary.json)."""
     mixed, notes = mixed_regions(setup)
