@@ -140,7 +140,8 @@ def test_solver_error_saves_the_last_good_state_and_resume_continues(tmp_path, m
     assert f"The last good state (step 22 of {STEPS}" in err and "--resume" in err and "time.dt" in err
     assert not (tmp_path / "DIR").exists()
     cp = load_checkpoint(staging_of(tmp_path) / "checkpoint")
-    assert cp.meta["step"] == 22 and len(cp.meta["probes"]["series"]["buffer_max"]) == 23   # t = 0 and 22 steps
+    series = cp.meta["output"]["probes"]["series"]
+    assert cp.meta["step"] == 22 and len(series["buffer_max"]) == 23   # t = 0 and 22 steps
     rc = cli.main(["run", "canister", "--out", str(tmp_path / "DIR"), *SETS, "--quiet", "--resume"])
     out, err = capsys.readouterr()
     assert rc == 0 and err == ""
@@ -169,7 +170,7 @@ def test_mechanics_failure_saves_the_last_good_state_and_resume_continues(tmp_pa
         run("fault_wedge", tmp_path / "DIR", overrides=sets, progress=False)
     monkeypatch.undo()
     cp = load_checkpoint(staging_of(tmp_path) / "checkpoint")
-    assert cp.meta["step"] == 3 and cp.meta["mechanics"]["times"] == [0.0, 2 * 365.25 * 86400]
+    assert cp.meta["step"] == 3 and cp.meta["parts"]["mechanics"]["times"] == [0.0, 2 * 365.25 * 86400]
     res = run("fault_wedge", tmp_path / "DIR", overrides=sets, progress=False, resume=True)
     a, b = ref.summary, res.summary
     assert_close(json.loads(json.dumps({k: a[k] for k in ("probes", "probe_series", "mechanics", "steps")})),

@@ -103,7 +103,7 @@ def test_coupled_run_resumes_after_a_failed_step(tmp_path, monkeypatch):
     (staging,) = [p for p in tmp_path.glob(".DIR.partial-*") if p.is_dir()]
     ck = load_checkpoint(staging / "checkpoint")
     assert ck.meta["step"] == 12 and "coupling/rate" in ck.arrays
-    assert len(ck.meta["history"]["coupling"]["passes"]) == 12
+    assert len(ck.meta["parts"]["coupling"]["passes"]) == 12
     res = run_scene(scene_from_dict(data), tmp_path / "DIR", progress=False, resume=True)
     a = json.loads((tmp_path / "REF" / "summary.json").read_text())
     b = json.loads((tmp_path / "DIR" / "summary.json").read_text())

@@ -18,12 +18,12 @@ from pathlib import Path
 import pytest
 
 from ngs_geomech import cli
-from ngs_geomech import run as run_module
 from ngs_geomech.errors import OutputError
 from ngs_geomech.io import vtk
 from ngs_geomech.io.atomic import OutputDir
 from ngs_geomech.io.outdir import MARKER, check_output
 from ngs_geomech.io.sample_log import SampleLog
+from ngs_geomech.run import driver as run_module
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 

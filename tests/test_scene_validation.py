@@ -107,7 +107,7 @@ def test_conductivity_and_heat_capacity_problems_of_one_material_are_both_report
 @pytest.fixture
 def no_meshing(monkeypatch):
     """Make any meshing fail loudly: validation must not need it."""
-    import ngs_geomech.run as run_mod
+    from ngs_geomech.run import driver as run_mod
 
     def forbidden(*args, **kwargs):
         raise AssertionError("a mesh was generated for an invalid scene")

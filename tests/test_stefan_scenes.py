@@ -372,7 +372,7 @@ def test_solver_error_then_resume_equals_the_uninterrupted_run(tmp_path, monkeyp
     (staging,) = [p for p in tmp_path.glob(".DIR.partial-*") if p.is_dir()]
     cp = load_checkpoint(staging / "checkpoint")
     assert cp.meta["step"] == 12 and "stefan/enthalpy" in cp.arrays
-    assert len(cp.meta["stefan"]["iterations"]) == 12
+    assert len(cp.meta["parts"]["stefan"]["iterations"]) == 12
     res = run("melting_block", tmp_path / "DIR", overrides=SETS, progress=False, resume=True)
     assert res.summary["resumed"][0]["step"] == 12
     a = json.loads((tmp_path / "REF" / "summary.json").read_text())

@@ -72,18 +72,18 @@ import numpy as np
 from ..errors import SolverError
 from ..geometry.assemble import GeometryModel
 from ..geometry.mesh import make_mesh
-from ..heat.problem import set_initial_temperature
 from ..scene.model import Scene
 from .estimators import (
-    _side_edges,
     contact_status,
     contact_zone,
     element_sizes,
     element_vertices,
     phase_front,
+    side_edges,
     vertex_coords,
 )
-from .front_following import TRANSFER_ORDER, phase_change_size
+from .front_following import phase_change_size
+from .policy import MeshPolicy
 
 log = logging.getLogger(__name__)
 
@@ -166,7 +166,7 @@ def transition_elements(mesh, contacts: list, layers: int = 0) -> np.ndarray:
 def _segments(mesh, op) -> np.ndarray:
     """The side's boundary segments as pairs of multiplier-node indices (the end vertices of each segment)."""
     index = {int(v): j for j, v in enumerate(op.nodes)}
-    out = [(index[e[0]], index[e[1]]) for e in _side_edges(mesh, op.side) if e[0] in index and e[1] in index]
+    out = [(index[e[0]], index[e[1]]) for e in side_edges(mesh, op.side) if e[0] in index and e[1] in index]
     return np.array(out, dtype=int).reshape(-1, 2)
 
 
@@ -203,39 +203,65 @@ class _Rejected(Exception):
     """A remesh whose contact solve failed (the run goes on on the old mesh)."""
 
 
-class ContactFollowing:
-    """The mechanics of a time-dependent run on meshes that follow the contact zones (module docstring).
-    ``build(mesh)`` returns the run's physics on a mesh (an object with ``mesh``, ``mech`` (static mechanics with
-    contacts), ``heat``, ``solver`` (heat, or None) and ``T``); ``phys`` is the current one, replaced at each
-    remesh; :meth:`solve` is the mechanics solve of an output step."""
+class ContactFollowing(MeshPolicy):
+    """A time-dependent run on meshes that follow the contact zones (module docstring), a
+    :class:`~.policy.MeshPolicy`. ``build(mesh)`` returns the run's model on a mesh (``mechanics``: static
+    mechanics with contacts; ``thermal``, ``coupling`` or None); ``phys`` is the current one, replaced at each
+    remesh. The mechanics is checked after each of its solves (the output steps; every step when coupled)."""
 
-    def __init__(self, scene: Scene, geo: GeometryModel, phys, build: Callable):
+    checkpoints = False
+
+    def __init__(self, scene: Scene, geo: GeometryModel, build: Callable):
+        super().__init__()
         a = scene.adaptivity
         self.scene, self.geo, self.build = scene, geo, build
         self.levels, self.layers, self.remesh_every = a.levels, a.layers, a.remesh_every
-        self.phys = phys
-        mesh = phys.mesh
+        self.front = "phase_front" in a.indicators      # validated: a scene with a phase change
+        self.phys = None
+        self.h_base = self.h_zone = 0.0
+        self.h_front = None
+        self.remeshes: list[ContactRemesh] = []
+        self.ndofs: list[int] = []                # unknowns of each mechanics solve's (final) mesh
+        self.solves = 0
+        self._on_base = True
+        self._band = 0.0                          # the coarseness right after the last remesh
+        self.rejected: list[dict] = []            # remeshes whose contact solve failed (the run kept its mesh)
+
+    def prepare(self, model, t0: float | None):
+        """The scene's own mesh; the base size h_base: the median longest edge of its elements at the contact
+        sides."""
+        self.phys = model
+        mesh = model.mesh
         near = np.zeros(mesh.ne, dtype=bool)
         ev = element_vertices(mesh)
-        for spec in phys.mech.contacts:
+        for spec in model.mechanics.contacts:
             for side in (spec.op.side, spec.op.opposite):
                 if side:
-                    verts = np.unique(np.array(_side_edges(mesh, side), dtype=int).ravel())
+                    verts = np.unique(np.array(side_edges(mesh, side), dtype=int).ravel())
                     near |= np.isin(ev, verts).any(axis=1)
         sizes = element_sizes(mesh)
         self.h_base = float(np.median(sizes[near] if near.any() else sizes))
         self.h_zone = self.h_base * 0.5 ** self.levels
-        self.front = "phase_front" in a.indicators      # validated: a scene with a phase change
-        self.h_front = None
         if self.front:
-            self.h_front = phase_change_size(mesh, phys.stefan.regions) * 0.5 ** self.levels
-        self.remeshes: list[ContactRemesh] = []
-        self.ndofs: list[int] = []                # unknowns of each mechanics solve's (final) mesh
-        self.solves = 0
-        self.factorizations_before = 0
-        self._on_base = True
-        self._band = 0.0                          # the coarseness right after the last remesh
-        self.rejected: list[dict] = []            # remeshes whose contact solve failed (the run kept its mesh)
+            self.h_front = phase_change_size(mesh, model.thermal.regions) * 0.5 ** self.levels
+        return model
+
+    def started(self, model, t0: float, where: str):
+        return self._follow(model, t0, where, None)
+
+    def advance(self, model, step):
+        model.advance(step)
+        if not model.mechanics.solved_at(step):
+            return model
+        return self._follow(model, step.b, step.where, step)
+
+    def _follow(self, model, t: float, where: str, step):
+        """The check after a mechanics solve at t; a coupled model on a new mesh takes the pressure and the step's
+        displacement rate from the solve there."""
+        new = self.check(t, where)
+        if new is not model and new.coupling is not None:
+            new.coupling.mechanics_changed(step, where)
+        return new
 
     @property
     def mesh(self):
@@ -245,9 +271,9 @@ class ContactFollowing:
     def _features(self, layers: int) -> list:
         """[(element flags, target size h)]: the contact transitions at h_zone and, with 'phase_front', the
         elements the liquid fraction 1/2 crosses at h_front, each with ``layers`` rings."""
-        out = [(transition_elements(self.mesh, contact_statuses(self.phys.mech), layers), self.h_zone)]
+        out = [(transition_elements(self.mesh, contact_statuses(self.phys.mechanics), layers), self.h_zone)]
         if self.front:
-            st = self.phys.stefan
+            st = self.phys.thermal
             st.forms.store(st.solver.e)
             out.append((phase_front(st.forms.gf_liquid_fraction, layers=layers).eta > 0, self.h_front))
         return out
@@ -267,16 +293,9 @@ class ContactFollowing:
         return out
 
     # -- the run --------------------------------------------------------------------------------------------
-    def solve(self, t: float, where: str):
-        """The mechanics solve at time t (s) on the current mesh, remeshing (and solving again) as the module
-        docstring says; returns the physics (``phys`` may be a new object). The solve is not recorded (the run's
-        output records it)."""
-        self.phys.mech.solve(t, where, record=False)
-        return self.check(t, where)
-
     def check(self, t: float, where: str):
-        """After a mechanics solve at t on the current mesh (by :meth:`solve`, or by a coupled step): remesh and
-        solve again where the module docstring says; returns the physics."""
+        """After a mechanics solve at t on the current mesh: remesh and solve again where the module docstring
+        says; returns the model."""
         self.solves += 1
         periodic = self.remesh_every > 0 and self.solves % self.remesh_every == 0
         ratio = self._coarseness()
@@ -303,7 +322,7 @@ class ContactFollowing:
                     break
             if meshings:
                 self._band = ratio
-        self.ndofs.append(self.phys.mech.forms.X.ndof)
+        self.ndofs.append(self.phys.mechanics.forms.X.ndof)
         return self.phys
 
     def _remesh(self, t: float, where: str, restrictions: list, reason: str) -> None:
@@ -313,24 +332,17 @@ class ContactFollowing:
         old = self.phys
         mesh = make_mesh(self.geo, self.scene.mesh, restrictions)
         new = self.build(mesh)
-        heat_change = l2_change = None
-        commit = None
-        t0 = self.scene.time.start
-        initial = abs(t - t0) <= 1e-12 * max(abs(t0), 1.0)
-        if old.heat is not None:
-            heat_change, l2_change = _transfer_temperature(old, new, self.scene, t0 if initial else None)
-        elif old.stefan is not None:
-            heat_change, l2_change, commit = _transfer_enthalpy(old, new, t0 if initial else None)
-        om, nm = old.mech, new.mech
+        heat_change, l2_change, commit = self._transfer_thermal(old, new, t)
+        om, nm = old.mechanics, new.mechanics
         if old.coupling is not None and new.coupling is not None:
-            new.coupling.u_prev.Set(old.coupling.u_prev)      # u^n of the step: the rate is set after the solve
+            new.coupling.heating.u_prev.Set(old.coupling.heating.u_prev)   # u^n of the step (the rate: after the solve)
         strain_before = _strain_norm(om)
         force_before = _normal_force(om)
         nm.forms.displacement().Set(om.forms.displacement())
         strain_after = _strain_norm(nm)
         lams = _transfer_multipliers(om, nm)
         force_after = _normal_force(nm, [n for n, _ in lams])
-        warm = hasattr(nm.solver.contact, "warm_start")
+        warm = nm.solver.contact.warm_starts
         if warm:
             status = [law_status(spec.law, lam_n, lam_t) for spec, (lam_n, lam_t) in zip(nm.contacts, lams)]
             nm.solver.contact.warm_start(nm.forms.X.ndof, [(st > 0, st == 1, st == 2) for st in status])
@@ -363,10 +375,10 @@ class ContactFollowing:
 
         diff = h1(u - moved, ngs.Grad(u) - ngs.Grad(moved))
         norm = h1(u, ngs.Grad(u))
-        self.factorizations_before += _factorizations(old)
+        self.factorizations_before += old.factorizations
         self._on_base = not restrictions
         self.phys = new
-        rec = ContactRemesh(t, old.mech.forms.X.ndof, nm.forms.X.ndof, mesh.ne, heat_change, l2_change,
+        rec = ContactRemesh(t, old.mechanics.forms.X.ndof, nm.forms.X.ndof, mesh.ne, heat_change, l2_change,
                             strain_before, strain_after, force_before, force_after,
                             resolve_h1_difference_rel=diff / max(norm, 1e-300),
                             wall_s=time.perf_counter() - tic, reason=reason)
@@ -375,9 +387,24 @@ class ContactFollowing:
                  "normal force %.1e%s", t, reason, rec.ndof_before, rec.ndof_after, rec.strain_change_rel,
                  rec.normal_force_change_rel, f", heat content {heat_change:.1e}" if heat_change is not None else "")
 
-    @property
-    def factorizations(self) -> int:
-        return self.factorizations_before + _factorizations(self.phys)
+    def _transfer_thermal(self, old, new, t: float) -> tuple:
+        """The thermal state of ``old`` carried to ``new`` (:meth:`HeatRun.take_state`: interpolated;
+        :meth:`StefanRun.take_state`: the enthalpy by the lumped L2 projection, its heat-content change counted in
+        the Stefan energy balance once the mesh is kept); at the start time the scene's initial state is set
+        instead (no transfer error need spoil the initial condition; a projected geotherm would unbalance the
+        initial stress that cancels its thermal stress). Returns (relative heat-content change or None,
+        relative L2 difference of T or None, a callable to run once the new mesh is kept, or None)."""
+        if old.thermal is None:
+            return None, None, None
+        t0 = self.scene.time.start
+        initial = abs(t - t0) <= 1e-12 * max(abs(t0), 1.0)
+        before, after, commit = new.take_state(old, t0 if initial else None)
+        T_old, T_new = old.thermal.T, new.thermal.T
+        w = 2 * np.pi * ngs.x if self.scene.scene.dimension == "axisymmetric" else 1.0
+        l2 = float(ngs.Integrate(w * (T_new - T_old) ** 2, new.mesh, order=2 * self.scene.mesh.order + 2)) ** 0.5
+        norm = float(ngs.Integrate(w * T_old ** 2, old.mesh)) ** 0.5
+        change = abs(after - before) / abs(before) if before != 0.0 else None
+        return change, l2 / max(norm, 1e-300), commit
 
     def summary(self) -> dict:
         n = np.array(self.ndofs, dtype=float)
@@ -397,76 +424,12 @@ class ContactFollowing:
                              "normal_force_change_rel_max": largest("normal_force_change_rel"),
                              "heat_content_change_rel_max": largest("heat_content_change_rel"),
                              "temperature_l2_change_rel_max": largest("temperature_l2_change_rel")},
-                "dofs": {"mean": float(n.mean()) if len(n) else float(self.phys.mech.forms.X.ndof),
-                         "max": int(n.max()) if len(n) else self.phys.mech.forms.X.ndof,
-                         "min": int(n.min()) if len(n) else self.phys.mech.forms.X.ndof,
-                         "final": self.phys.mech.forms.X.ndof, "per_solve": [int(v) for v in self.ndofs]},
+                "dofs": {"mean": float(n.mean()) if len(n) else float(self.phys.mechanics.forms.X.ndof),
+                         "max": int(n.max()) if len(n) else self.phys.mechanics.forms.X.ndof,
+                         "min": int(n.min()) if len(n) else self.phys.mechanics.forms.X.ndof,
+                         "final": self.phys.mechanics.forms.X.ndof, "per_solve": [int(v) for v in self.ndofs]},
                 "remesh_wall_s": float(sum(r.wall_s for r in recs)),
                 "remeshes": [r.as_dict() for r in recs]}
-
-
-def _factorizations(phys) -> int:
-    n = phys.mech.solver.factorizations
-    if phys.solver is not None:
-        n += phys.solver.factorizations
-    if phys.stefan is not None:
-        n += phys.stefan.solver.factorizations
-    return n
-
-
-def _transfer_enthalpy(old, new, t0: float | None) -> tuple[float | None, float]:
-    """The nodal enthalpy of ``old``'s Stefan problem carried to ``new``'s by the lumped L2 projection of
-    :mod:`ngs_geomech.adapt.front_following` (it keeps the heat content up to quadrature; measured on
-    contact_melting: heat content changes <= 2.3e-2 per transfer by interpolation, 4.8 % of the heat gained lost
-    over the run), the Stefan histories continued with the heat change counted in its energy balance. At the start
-    time (``t0``) the scene's initial state is set instead: the projection smears a geotherm (2 % in L2 on
-    plate_collision's 15 km elements), which unbalanced the initial stress that cancels the geotherm's thermal
-    stress.
-    Returns (relative heat content change, relative L2 difference of the temperature, a callable that continues
-    the Stefan histories on the new mesh, or None at the start time)."""
-    so, sn = old.stefan, new.stefan
-    e_old = so.solver.e
-    before = so.forms.heat_content(e_old)
-    so.forms.store(e_old)
-    commit = None
-    if t0 is None:
-        e = sn.forms.project_enthalpy(so.forms.gf_enthalpy, order=TRANSFER_ORDER)
-        sn.solver.set_initial_enthalpy(e)
-        after = sn.forms.heat_content(e)
-
-        def commit():                       # (once the new mesh is kept: adopt shares the old run's histories)
-            sn.adopt(so, after - before)
-    else:                                   # at the start time: the scene's initial state on the new mesh
-        sn.set_initial(t0)
-        after = sn.forms.heat_content(sn.solver.e)
-    T_old, T_new = so.forms.gf_temperature, sn.forms.gf_temperature
-    w = 2 * np.pi * ngs.x if new.mech.forms.setup.model == "axisymmetric" else 1.0
-    l2 = float(ngs.Integrate(w * (T_new - T_old) ** 2, new.mesh, order=4)) ** 0.5
-    norm = float(ngs.Integrate(w * T_old ** 2, old.mesh)) ** 0.5
-    return (abs(after - before) / abs(before) if before != 0.0 else None), l2 / max(norm, 1e-300), commit
-
-
-def _transfer_temperature(old, new, scene: Scene, t0: float | None) -> tuple[float | None, float]:
-    """T carried to ``new``; the heat solver's next step is backward Euler.
-    ``t0`` (s; a remesh at the start time): the scene's initial temperature set on the new mesh instead (the
-    state is the initial condition, which no transfer error need spoil). Returns (relative heat content change or
-    None without heat capacity, relative L2 difference)."""
-    T_old, T_new = old.T, new.T
-    if t0 is None:
-        T_new.Set(T_old)
-    else:
-        new.heat.t_new.Set(t0)
-        set_initial_temperature(T_new, scene, new.mesh, new.heat.t_new)
-        new.solver.set_dirichlet()
-    new.solver.backward_euler_steps = 1      # (the run's next heat step copies the state into gf_old)
-    mesh = new.mesh
-    w = 2 * np.pi * ngs.x if new.heat.setup.axisymmetric else 1.0
-    before = float(ngs.Integrate(w * old.heat.rho_c * T_old, old.mesh))
-    after = float(ngs.Integrate(w * new.heat.rho_c * T_new, mesh))
-    change = abs(after - before) / abs(before) if before != 0.0 else None
-    l2 = float(ngs.Integrate(w * (T_new - T_old) ** 2, mesh, order=2 * new.heat.setup.order + 2)) ** 0.5
-    norm = float(ngs.Integrate(w * T_old ** 2, old.mesh)) ** 0.5
-    return change, l2 / max(norm, 1e-300)
 
 
 def _transfer_multipliers(old, new) -> list:

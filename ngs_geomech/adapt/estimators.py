@@ -656,7 +656,7 @@ def contact_status(kind: str, lam_n: np.ndarray, lam_t: np.ndarray, bound=None) 
     return np.where(sliding, STATUS_SLIP, np.where(lam_n > 0, STATUS_STICK, STATUS_OPEN))
 
 
-def _side_edges(mesh, side: str) -> list[tuple[int, ...]]:
+def side_edges(mesh, side: str) -> list[tuple[int, ...]]:
     return [tuple(v.nr for v in el.vertices) for el in mesh.Boundaries(side).Elements()]
 
 
@@ -679,7 +679,7 @@ def contact_zone(contacts, *, layers: int = 0, active: bool = False, local_reach
         status = np.asarray(status).astype(int)
         index = {int(v): j for j, v in enumerate(op.nodes)}
         points, lengths = [], []
-        for seg in _side_edges(mesh, op.side):
+        for seg in side_edges(mesh, op.side):
             js = [index[v] for v in seg if v in index]
             changes = len(js) >= 2 and len({int(status[j]) for j in js}) > 1
             if changes or (active and any(status[j] > 0 for j in js)):
@@ -692,7 +692,7 @@ def contact_zone(contacts, *, layers: int = 0, active: bool = False, local_reach
             else:
                 reach = np.full(len(points), 2.0 * float(np.max(op.length)) if op.size else 0.0)
             pts = np.array(points)
-            for seg in _side_edges(mesh, op.opposite):
+            for seg in side_edges(mesh, op.opposite):
                 c = np.mean(xy[list(seg)], axis=0)
                 if np.any(np.linalg.norm(pts - c, axis=1) <= reach):
                     vmark[list(seg)] = True

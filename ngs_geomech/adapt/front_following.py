@@ -44,11 +44,9 @@ from ..geometry.assemble import GeometryModel
 from ..geometry.mesh import make_mesh
 from ..scene.model import Scene
 from .estimators import element_sizes, element_vertices, phase_front, vertex_coords
+from .policy import MeshPolicy
 
 log = logging.getLogger(__name__)
-
-TRANSFER_ORDER = 4
-"""Extra quadrature order of the lumped projection (the old P1 field is piecewise linear on the old mesh)."""
 
 BAND_FACTOR = 1.25
 """remesh_every = 0: remesh when the front crosses elements this much larger than the band's."""
@@ -106,21 +104,23 @@ def _copy(gf):
     return g
 
 
-class FrontFollowing:
-    """The Stefan part of a run on front-following meshes (module docstring). ``build(mesh)`` returns the run's
-    physics on a mesh (an object with ``mesh`` and ``stefan``, a :class:`StefanRun`); ``phys`` is the current one,
-    replaced at each remesh."""
+class FrontFollowing(MeshPolicy):
+    """A Stefan problem on front-following meshes (module docstring), a :class:`~.policy.MeshPolicy`.
+    ``build(mesh)`` returns the run's model on a mesh (its ``thermal`` part a :class:`StefanRun`); ``phys`` is
+    the current one, replaced at each remesh."""
 
-    def __init__(self, scene: Scene, geo: GeometryModel, phys, build: Callable):
+    checkpoints = False
+    adapts_first = True
+
+    def __init__(self, scene: Scene, geo: GeometryModel, build: Callable):
+        super().__init__()
         a = scene.adaptivity
         self.scene, self.geo, self.build = scene, geo, build
         self.levels, self.layers, self.remesh_every = a.levels, a.layers, a.remesh_every
-        self.phys = phys
-        self.h_base = phase_change_size(phys.mesh, phys.stefan.regions)
-        self.h_front = self.h_base * 0.5 ** self.levels
+        self.phys = None
+        self.h_base = self.h_front = 0.0
         self.remeshes: list[Remesh] = []
         self.ndofs: list[int] = []               # unknowns of each step's (final) mesh
-        self.factorizations_before = 0           # of the solvers of the meshes left behind
         self.discarded_steps = 0
         self._since = 0
         self._on_base = True
@@ -132,7 +132,7 @@ class FrontFollowing:
 
     @property
     def stefan(self):
-        return self.phys.stefan
+        return self.phys.thermal
 
     # -- meshes -------------------------------------------------------------------------------------------
     def _flags(self, liquids: list) -> np.ndarray:
@@ -178,9 +178,12 @@ class FrontFollowing:
         return float(element_sizes(f.mesh)[flags].max()) if flags.any() else 0.0
 
     # -- the run ------------------------------------------------------------------------------------------
-    def start(self, t0: float):
+    def prepare(self, model, t0: float | None):
         """The first mesh: refined ``levels`` times at the front of the initial state (the scene's own mesh when
-        the initial state has no front); the initial state is set on it from the scene. Returns the physics."""
+        the initial state has no front); the initial state is set on it from the scene. Returns the model."""
+        self.phys = model
+        self.h_base = phase_change_size(model.mesh, model.thermal.regions)
+        self.h_front = self.h_base * 0.5 ** self.levels
         self.stefan.set_initial(t0)
         for _ in range(self.levels):
             st = self.stefan
@@ -195,6 +198,11 @@ class FrontFollowing:
             self.stefan.set_initial(t0)
             self._on_base = False
         self._band_h = self._front_size()
+        return self.phys
+
+    def advance(self, model, step):
+        """One step of the Stefan part (:meth:`step`); returns the model to go on with."""
+        self.stefan.finish_step(self.step(step.a, step.b, step.where))
         return self.phys
 
     def step(self, a: float, b: float, where: str):
@@ -229,18 +237,13 @@ class FrontFollowing:
         """A new mesh at the fronts of ``liquids`` (none: the scene's own mesh), the current state carried over."""
         tic = time.perf_counter()
         old = self.stefan
-        e_old = old.solver.e
-        heat_before = old.forms.heat_content(e_old)
-        old.forms.store(e_old)
         mesh, passes, refined = self._mesh_at(liquids)
         self._on_base = not refined
-        self.factorizations_before += old.solver.factorizations
+        self.factorizations_before += old.factorizations
         phys = self.build(mesh)
-        new = phys.stefan
-        e = new.forms.project_enthalpy(old.forms.gf_enthalpy, order=TRANSFER_ORDER)
-        new.solver.set_initial_enthalpy(e)
-        heat_after = new.forms.heat_content(e)
-        new.adopt(old, heat_after - heat_before)
+        new = phys.thermal
+        heat_before, heat_after, commit = new.take_state(old, None)
+        commit()
         self.phys = phys
         if not repeated:
             self._band_h = self._front_size()
@@ -249,10 +252,6 @@ class FrontFollowing:
         self.remeshes.append(rec)
         log.info("front-following: remesh at t = %.6g s: %d -> %d dofs, heat content change %.1e", t,
                  rec.ndof_before, rec.ndof_after, rec.transfer_error)
-
-    @property
-    def factorizations(self) -> int:
-        return self.factorizations_before + self.stefan.solver.factorizations
 
     def summary(self) -> dict:
         n = np.array(self.ndofs, dtype=float)

@@ -18,6 +18,8 @@ class ContactSolverBase(abc.ABC):
     items: list
     multipliers: list
     infos: list
+    warm_starts = False
+    """Whether the solver can start from given nodal sets (``warm_start(ndof, sets)``, ``cold_start()``)."""
 
     @classmethod
     @abc.abstractmethod

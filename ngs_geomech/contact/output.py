@@ -26,6 +26,7 @@ from __future__ import annotations
 import ngsolve as ngs
 import numpy as np
 
+from ..scene.names import plain_file_name
 from .problem import ContactSpec, contact_forces, interface_results, side_dofs, supported_nodes
 
 _STATUS = ("open", "stick", "slip", "prescribed")
@@ -161,3 +162,33 @@ class ContactOutput:
 
 def _range(v: np.ndarray) -> list[float]:
     return [float(np.min(v)), float(np.max(v))]
+
+
+SERIES_FIELDS = ("pressure", "traction", "traction_t1", "traction_t2", "gap", "slip", "status", "bound")
+"""The nodal interface quantities written to each contact's line (2D) or surface (3D) series."""
+
+
+def contact_lines(specs: list[ContactSpec], latest: list[dict]) -> dict:
+    """Per contact ``contact_<name>``: (points, cells, nodal data) of the last recorded state ``latest``
+    (:meth:`ContactOutput.record`'s results, one dict per contact)."""
+    return {f"contact_{spec.name}": (np.column_stack([res[c] for c in "xyz" if c in res]), spec.cells,
+                                     {k: res[k] for k in SERIES_FIELDS if k in res})
+            for spec, res in zip(specs, latest)}
+
+
+def contact_figures(canvas, specs: list[ContactSpec], latest: list[dict]) -> None:
+    """Pressure, traction (with the slip bound), gap and slip along each contact at the last mechanics time on
+    ``canvas`` (:class:`~ngs_geomech.io.canvas.Canvas`; 2D scenes, 3D contacts are in the surface series only)."""
+    for spec, res in zip(specs, latest):
+        o = res["order"]
+        xy = np.column_stack([res["x"], res["y"]])[o]
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
+        forces = {"pressure p": res["pressure"][o] / 1e6, "traction q": res["traction"][o] / 1e6}
+        if spec.law.kind != "frictionless":
+            forces["slip bound"] = res["bound"][o] / 1e6
+        canvas.draw.interface_profiles(
+            s, [forces, {"gap": res["gap"][o] * 1e3, "slip": res["slip"][o] * 1e3}],
+            canvas.path(f"contact_{plain_file_name(spec.name)}.png"), ylabels=["traction (MPa)", "gap, slip (mm)"],
+            title=f"{canvas.title}: contact {spec.name} ({spec.law.kind}), {canvas.when}",
+            xlabel=f"arc length along {spec.op.side} from ({xy[0, 0]:.3g}, {xy[0, 1]:.3g}) (m)",
+            status=res["status"][o].astype(int))

@@ -273,6 +273,8 @@ class ContactSolver(ContactSolverBase):
     elastic data. ``matrix`` and ``rhs`` are the assembled bulk operator (X x X) and load (X), ``free`` the
     free dofs of X (numpy bool), ``x0`` a vector of X holding the prescribed (Dirichlet) values."""
 
+    warm_starts = True
+
     def __init__(self, interfaces: list[tuple[ContactOperator, ContactLaw]], *, modulus: float, floating=(),
                  forms=None, options: ContactOptions | None = None, **settings):
         """``modulus``: the scale (Pa) of the default augmentations (:func:`nodal_modulus`). ``floating``: the

@@ -155,8 +155,3 @@ def relative_change(new: np.ndarray, old: np.ndarray, mesh=None) -> float:
         return 0.0
     scale = max(hi - lo, max(abs(hi), abs(lo)) * 1e-3, 1e-300)
     return d / scale if math.isfinite(d) else math.inf
-    if new.size == 0:
-        return 0.0
-    scale = max(float(np.ptp(new)), float(np.max(np.abs(new))) * 1e-3, 1e-300)
-    d = float(np.max(np.abs(new - old)))
-    return d / scale if math.isfinite(d) else math.inf

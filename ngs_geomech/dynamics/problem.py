@@ -14,6 +14,8 @@ step. Units: m, s, Pa, J per metre of depth in plane scenes (per radian axisymme
 
 from __future__ import annotations
 
+import dataclasses
+
 import ngsolve as ngs
 import numpy as np
 
@@ -21,12 +23,14 @@ from ..contact.problem import contact_options, contact_specs, interface_results,
 from ..errors import SolverError
 from ..fem.coefficients import expression_function
 from ..geometry.assemble import GeometryModel
-from ..mechanics.forms import ElasticForms, stress_measures
+from ..mechanics.forms import ElasticForms
 from ..mechanics.materials import ElasticProperties
-from ..mechanics.problem import elastic_setup, mechanics_warnings, probe_fields, watch_small_strain
+from ..mechanics.problem import elastic_setup, mechanics_warnings, watch_small_strain
+from ..mechanics.run import MechanicsPart
+from ..parts import Step
 from ..scene.model import Scene
 from .forms import PronyBranch, ViscoelasticForms, ViscousProperties
-from .solver import DynamicSolver, ViscousSolver, contact_switches
+from .solver import DynamicSolver, EnergyRecord, StepInfo, ViscousSolver, contact_switches
 
 
 def viscous_properties(scene: Scene, props: dict[str, ElasticProperties]) -> dict[str, ViscousProperties]:
@@ -42,16 +46,14 @@ def viscous_properties(scene: Scene, props: dict[str, ElasticProperties]) -> dic
     return out
 
 
-class DynamicsRun:
-    """The dynamic or viscous mechanics of a run (module docstring), with the interface :mod:`ngs_geomech.run`
-    uses for mechanics: ``forms`` (ElasticForms), ``fields``, ``probe_fields``, ``sigma``, ``warnings``,
-    ``contacts``, ``solve(t)`` (advance to t), ``record(t)``, ``summary()`` and checkpoint ``capture``/``meta``/
-    ``restore``; ``every_step`` (the run advances it in every step)."""
+class DynamicsRun(MechanicsPart):
+    """The dynamic or viscous mechanics of a run (module docstring), a
+    :class:`~ngs_geomech.mechanics.run.MechanicsPart` advanced in every step of the run."""
 
-    every_step = True
+    key = "dynamics"
 
     def __init__(self, scene: Scene, geo: GeometryModel, mesh, temperature):
-        self.scene = scene
+        super().__init__(scene, mesh)
         self.kind = scene.physics.mechanics
         self.setup = elastic_setup(scene, geo, mesh, temperature)
         self.setup.formulation = "displacement"      # the dynamic forms are built on X = V (validated)
@@ -73,28 +75,19 @@ class DynamicsRun:
             self.solver = ViscousSolver(self.vforms, contact=items, contact_options=options)
             self.mass = None
         self.warnings = mechanics_warnings(scene, self.setup)
-        u = self.forms.displacement()
-        sigma = self.forms.stress_tensor(u)
-        measures = stress_measures(sigma)
-        self.sigma = sigma
-        vel = self.vforms.velocity
-        self.fields = {"displacement": u, "velocity": vel, "stress": sigma, **measures,
-                       "strain_energy_density": self.forms.strain_energy_density(u),
-                       "viscous_dissipation": self.vforms.dissipation_density()}
+        extra = {"viscous_dissipation": self.vforms.dissipation_density()}
         if self.kind == "dynamic":
-            self.fields["kinetic_energy_density"] = self.vforms.kinetic_energy_density()
-        self.probe_fields = probe_fields(u, measures, mesh.dim)
+            extra["kinetic_energy_density"] = self.vforms.kinetic_energy_density()
+        self.output_fields({"velocity": self.vforms.velocity}, extra)
         self.times: list[float] = []
         self.latest: list[dict] = []
         self.history: list[dict] = []
         self.contact_output = self if self.contacts else None
         self._started = False
 
-    checkpoint_key = "dynamics"
-
     @property
     def factorizations(self) -> int:
-        return len(getattr(self.solver, "_lu", {}))
+        return self.solver.factorizations
 
     def dissipation_source(self):
         """The viscous dissipation density (W/m^3) as a CoefficientFunction: a heat source of (2.6)."""
@@ -134,6 +127,12 @@ class DynamicsRun:
         if record:
             self.record(t)
 
+    def start(self, t0: float, where: str) -> None:
+        self.solve(t0, where, record=False)
+
+    def advance(self, step: Step) -> None:
+        self.solve(step.b, step.where, record=False)
+
     def record(self, t: float) -> None:
         self.times.append(float(t))
         u = np.array(self.forms.gf.vec.FV().NumPy())
@@ -158,6 +157,10 @@ class DynamicsRun:
         self.history.append(entry)
 
     def summary(self) -> dict:
+        return {"mechanics": self.report()}
+
+    def report(self) -> dict:
+        """The summary's ``mechanics`` block."""
         out = {"model": self.setup.model, "solver": self.kind, "steps": len(self.solver.steps),
                "times_s": self.times, "history": self.history}
         if self.kind == "dynamic":
@@ -169,7 +172,7 @@ class DynamicsRun:
             out.update(scheme="generalized-alpha", rho_inf=self.solver.rho_inf, mass=self.mass,
                        energy_gain_rel_max=gain / scale)
         else:
-            out["viscous_dissipation_J"] = float(getattr(self.solver, "dissipated", 0.0))
+            out["viscous_dissipation_J"] = float(self.solver.dissipated)
         if self.contacts:
             out["contact_switches"] = contact_switches(self.solver.steps)
         return out
@@ -187,19 +190,17 @@ class DynamicsRun:
         for k, act in enumerate(s.active):
             arrays[f"dyn/active{k}"] = np.array(act)
         return arrays, {"times": len(self.times), "history": len(self.history), "steps": len(s.steps),
-                        "energy": len(getattr(s, "energy_history", []))}
+                        "energy": len(s.energy_history)}
 
     def meta(self, lengths: dict) -> dict:
         s = self.solver
         return {"t": s.t, "started": self._started, "times": self.times[:lengths["times"]],
                 "history": self.history[:lengths["history"]],
-                "dissipated": float(getattr(s, "dissipated", 0.0)),
-                "energy": [vars(r) for r in getattr(s, "energy_history", [])[:lengths["energy"]]],
+                "dissipated": float(s.dissipated),
+                "energy": [dataclasses.asdict(r) for r in s.energy_history[:lengths["energy"]]],
                 "steps_active": [[a.tolist() for a in st.active] for st in s.steps[:lengths["steps"]]]}
 
     def restore(self, arrays: dict, meta: dict) -> None:
-        from .solver import EnergyRecord, StepInfo
-
         s = self.solver
         s.u = np.array(arrays["dyn/u"])
         if self.kind == "dynamic":

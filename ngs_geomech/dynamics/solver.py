@@ -148,6 +148,9 @@ class _Stepper:
                               for op, law in contact]
         self._g0_ref = [np.array(op.g0, dtype=float) for op, _ in contact]
         self.contact_solver = None
+        self.dissipated = 0.0               # J per m of depth: viscous dissipation so far (viscous problem)
+        self.energy_history: list[EnergyRecord] = []       # the energy balance per step (dynamic problem)
+        self.started = False                # set_initial called
         if self.contact_items:
             props = forms.elastic.setup.props
             self.contact_solver = build_contact_solver(self.contact_items, contact_options or ContactOptions(),
@@ -229,6 +232,11 @@ class _Stepper:
         ef.gf.vec.FV().NumPy()[:] = self.u
         for b, w in zip(self.f.branches, self.w):
             b.w.vec.FV().NumPy()[:] = w[:nv]
+
+    @property
+    def factorizations(self) -> int:
+        """Matrices factored so far (one per time-step size)."""
+        return len(self._lu)
 
 
 class DynamicSolver(_Stepper):
@@ -386,6 +394,7 @@ class ViscousSolver(_Stepper):
         self.u = np.zeros(self.n) if u0 is None else np.array(u0, dtype=float)
         self.w = [np.zeros(self.n) for _ in self.f.branches]
         self.dissipated = 0.0
+        self.started = True
         self.sync_fields()
 
     def jump(self) -> StepInfo:
@@ -402,7 +411,7 @@ class ViscousSolver(_Stepper):
         return self._advance(dt)
 
     def _advance(self, dt: float) -> StepInfo:
-        if not hasattr(self, "dissipated"):
+        if not self.started:
             self.set_initial()
         tic = time.perf_counter()
         F = self.f

@@ -62,3 +62,11 @@ def vertex_values(gf) -> np.ndarray:
     mesh = gf.space.mesh
     vals = np.array(gf.vec.FV().NumPy()[:mesh.nv], copy=True)
     return parallel.concat(mesh, vals) if parallel.distributed(mesh) else vals
+
+
+def vertex_average(mesh, cf) -> np.ndarray:
+    """Vertex values of a (possibly discontinuous) scalar CoefficientFunction for drawing: its L2 projection
+    onto P1, vertex dofs (gathered like :func:`vertex_values`)."""
+    g = ngs.GridFunction(ngs.H1(mesh, order=1))
+    g.Set(cf)
+    return vertex_values(g)

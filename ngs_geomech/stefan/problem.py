@@ -36,10 +36,13 @@ from ..geometry.assemble import GeometryModel
 from ..geometry.isolines import IsoLines, iso_segments
 from ..heat.materials import has_phase_change, isotropic_conductivity, phase_change_properties, volumetric_heat_capacity
 from ..heat.problem import initial_temperature, pressure_coefficients, region_measure, source_function
+from ..heat.run import temperature_figures
 from ..io.meshdata import mesh_arrays, vertex_values
 from ..linalg.iterative import choose_solver
+from ..parts import Part, Step
 from ..scene.expressions import short
 from ..scene.model import Scene
+from ..scene.units import YEAR
 from .forms import (
     DEFAULT_INTERFACE_PENALTY,
     ConductivityRangeError,
@@ -65,6 +68,10 @@ MAX_HALVINGS = 6
 
 LEVEL = 0.5
 """The phase boundary is the iso-line liquid_fraction = LEVEL."""
+
+TRANSFER_ORDER = 4
+"""Extra quadrature order of the lumped projection of an enthalpy onto another mesh (the old P1 field is
+piecewise linear on the old mesh)."""
 
 
 def stefan_materials(scene: Scene) -> dict:
@@ -128,14 +135,18 @@ def _nodal(mesh, cf) -> np.ndarray:
     return np.asarray(cf(mips), dtype=float).ravel()
 
 
-class StefanRun:
-    """The Stefan problem of a run: forms, solver, output fields and the histories a summary and a checkpoint
-    need. ``regions`` are the phase-change regions (scene order). The Newton steps are solved by GMRES on a
-    distributed mesh and, serially, when ``solver.linear`` chooses "iterative" (above :data:`AUTO_NODES` nodes for
-    "auto"); ``krylov_preconditioner`` ("bddc", "h1amg" or "jacobi", None: BDDC distributed, h1amg serial) is
-    then their preconditioner (:mod:`ngs_geomech.stefan.solver`)."""
+class StefanRun(Part):
+    """The Stefan problem of a run (a :class:`~ngs_geomech.parts.Part`): forms, solver, output fields and the
+    histories a summary and a checkpoint need. ``regions`` are the phase-change regions (scene order). The Newton
+    steps are solved by GMRES on a distributed mesh and, serially, when ``solver.linear`` chooses "iterative"
+    (above :data:`AUTO_NODES` nodes for "auto"); ``krylov_preconditioner`` ("bddc", "h1amg" or "jacobi", None:
+    BDDC distributed, h1amg serial) is then their preconditioner (:mod:`ngs_geomech.stefan.solver`)."""
+
+    key = "stefan"
+    probes_every_step = True
 
     def __init__(self, scene: Scene, mesh, geo: GeometryModel | None = None, krylov_preconditioner: str | None = None):
+        super().__init__()
         self.scene = scene
         self.mesh = mesh
         self.forms = f = StefanForms(mesh, stefan_setup(scene, mesh, geo))
@@ -160,6 +171,9 @@ class StefanRun:
                              for n, m in f.setup.materials.items()}, default=0.0)
         self.fields = {"temperature": T, "enthalpy": f.gf_enthalpy, "liquid_fraction": f.gf_liquid_fraction,
                        "heat_flux": -k * ngs.grad(T)}
+        self.T = T
+        phi = f.gf_liquid_fraction
+        self.probe_fields = {"temperature": T, "liquid_fraction": phi, "front": phi}
         self.iterations: list[int] = []                  # per (sub)step
         self.halvings = 0                                # steps split because Newton failed
         self.dirichlet_heat: list[float] = []            # per step: heat in through the Dirichlet nodes
@@ -170,6 +184,104 @@ class StefanRun:
         self.transfers: list[tuple[int, float]] = []     # front-following meshes: (records before, heat change J)
         self.initial_heat = 0.0
         self._arrays = mesh_arrays(mesh) if mesh.dim == 2 else None
+
+    # -- the part of a run (:class:`~ngs_geomech.parts.Part`) ----------------------------------------------
+    def start(self, t0: float, where: str) -> None:
+        self.set_initial(t0)
+
+    def begin_step(self, step: Step) -> None:
+        """Nothing to set up: :meth:`step` takes the times."""
+
+    def solve_step(self, step: Step, heating=None):
+        """One step (:meth:`step`) with the nodal load of ``heating`` (a :class:`DeformationHeating`) when given."""
+        if heating is None:
+            return self.step(step.a, step.b, step.where)
+        return self.step(step.a, step.b, step.where, heating.load())
+
+    def finish_step(self, info) -> None:
+        """Keep a step's Newton iterations (of its last half when it was halved)."""
+        self.newton_iterations.append(info.iterations)
+
+    def advance(self, step: Step) -> None:
+        self.finish_step(self.solve_step(step))
+
+    def temperature_values(self) -> np.ndarray:
+        return self.forms.gf_temperature.vec.FV().NumPy().copy()
+
+    def set_pressure(self, pressure):
+        """Give the conductivities kappa(T, p) the mean pressure ``pressure`` (Pa); returns the (min, max)
+        conductivity factors, or None without pressure-dependent conductivities."""
+        if self.forms.gf_pressure is None:
+            return None
+        return self.forms.set_pressure(pressure)
+
+    def heating_target(self) -> tuple:
+        """(space, test function, volume measure, weight) a deformation-heating source is assembled against: the
+        nodal (vertex-rule) measure of the lumped P1 enthalpy forms."""
+        V = self.forms.V
+        return V, V.TestFunction(), ngs.dx(intrules=vertex_rules(self.mesh.dim)), 1.0
+
+    def take_state(self, old: StefanRun, t0: float | None) -> tuple[float, float, object]:
+        """Carry the nodal enthalpy of ``old`` (the same scene on another mesh) over by the lumped L2 projection
+        (:meth:`StefanForms.project_enthalpy`, which keeps the heat content up to quadrature). ``t0`` (s; a
+        remesh at the start time): the scene's initial state set instead (a projection would smear a geotherm
+        and unbalance an initial stress that cancels its thermal stress). Returns the heat content before and
+        after (J per m of depth in plane scenes, J in 3D) and a callable that continues ``old``'s histories here
+        with the change counted in the energy balance (None at the start time), to call once this mesh is kept."""
+        e_old = old.solver.e
+        before = old.forms.heat_content(e_old)
+        old.forms.store(e_old)
+        if t0 is not None:
+            self.set_initial(t0)
+            return before, self.forms.heat_content(self.solver.e), None
+        e = self.forms.project_enthalpy(old.forms.gf_enthalpy, order=TRANSFER_ORDER)
+        self.solver.set_initial_enthalpy(e)
+        after = self.forms.heat_content(e)
+        return before, after, lambda: self.adopt(old, after - before)
+
+    @property
+    def factorizations(self) -> int:
+        return self.solver.factorizations
+
+    @property
+    def ndof(self) -> int:
+        return self.forms.n
+
+    @property
+    def ndof_global(self) -> int:
+        return self.forms.V.ndofglobal
+
+    def summary(self) -> dict:
+        return {"stefan": self.report()}
+
+    def line_names(self, scene: Scene) -> list[str]:
+        """The phase boundary as a line series (2D scenes writing VTK)."""
+        return ["phase_boundary"] if scene.output.vtk and self.mesh.dim == 2 else []
+
+    def lines(self) -> dict:
+        """The phase boundary's points, segments and temperatures (collective on a distributed mesh)."""
+        iso = self.phase_boundary()
+        return {"phase_boundary": (iso.points, iso.segments,
+                                   {"temperature": iso.interpolate(vertex_values(self.forms.gf_temperature))})}
+
+    def figures(self, canvas) -> None:
+        """The temperature (:func:`temperature_figures`), the temperature with the phase boundary at the last
+        time, and the melted volume fraction of each phase-change region over the output times (2D)."""
+        temperature_figures(canvas, self.T)
+        if canvas.arrays is None:
+            return
+        iso = self.phase_boundary()
+        canvas.draw.field_figure(canvas.arrays, vertex_values(self.T), canvas.path("phase_boundary.png"),
+                                 title=f"{canvas.title}: temperature and phase boundary, {canvas.when}",
+                                 label=f"T ({canvas.t_unit})", axis_labels=canvas.labels, lines=iso.as_segments(),
+                                 lines_label="phase boundary (liquid fraction 1/2)")
+        rec = self.records
+        if len(rec["time_s"]) > 1:
+            times = np.array(rec["time_s"])
+            unit, label = (YEAR, "t (years)") if times[-1] - times[0] >= 2 * YEAR else (1.0, "t (s)")
+            canvas.draw.time_curves(times, {r: np.array(v) / self.volume[r] for r, v in rec["melted_volume"].items()},
+                                    canvas.path("melted_fraction.png"), title=f"{canvas.title}: melted volume fraction",
+                                    ylabel="liquid volume / region volume (-)", time_unit=unit, time_label=label)
 
     # -- stepping -----------------------------------------------------------------------------------------
     def set_initial(self, t0: float) -> None:
@@ -267,7 +379,8 @@ class StefanRun:
         tris = m.triangles[np.isin(m.tri_region, ids)]
         return iso_segments(m.points, tris, vertex_values(self.forms.gf_liquid_fraction), LEVEL)
 
-    def summary(self) -> dict:
+    def report(self) -> dict:
+        """The summary's ``stefan`` block."""
         rec = self.records
         plane = self.mesh.dim == 2
         supplied = np.cumsum(np.array(self.dirichlet_heat) + np.array(self.source_heat))
@@ -315,7 +428,8 @@ class StefanRun:
         over to this mesh with the heat content changed by ``heat_change`` (J per m of depth, or J)."""
         self.initial_heat = old.initial_heat
         self.halvings = old.halvings
-        for name in ("iterations", "dirichlet_heat", "source_heat", "_steps_at_record", "transfers"):
+        for name in ("iterations", "newton_iterations", "dirichlet_heat", "source_heat", "_steps_at_record",
+                     "transfers"):
             setattr(self, name, getattr(old, name))
         self.records = old.records
         self.transfers.append((len(self.records["time_s"]), float(heat_change)))
@@ -325,12 +439,14 @@ class StefanRun:
         """The solver's state (:meth:`StefanSolver.capture`: the nodal enthalpy, the predictor rate, the Newton
         matrix's reuse state) as ``stefan/...`` arrays and the lengths of the histories."""
         arrays = {f"stefan/{k}": v for k, v in self.solver.capture().items()}
-        return arrays, {"steps": len(self.iterations), "records": len(self.records["time_s"])}
+        return arrays, {"steps": len(self.iterations), "records": len(self.records["time_s"]),
+                        "newton": len(self.newton_iterations)}
 
     def meta(self, lengths: dict) -> dict:
         n, k = lengths["steps"], lengths["records"]
         rec = self.records
         return {"initial_heat": self.initial_heat, "iterations": self.iterations[:n],
+                "newton_iterations": self.newton_iterations[:lengths["newton"]],
                 "dirichlet_heat": self.dirichlet_heat[:n], "source_heat": self.source_heat[:n],
                 "steps_at_record": self._steps_at_record[:k],
                 "records": {"time_s": rec["time_s"][:k], "heat_content": rec["heat_content"][:k],
@@ -341,6 +457,7 @@ class StefanRun:
         self.solver.restore({k.split("/", 1)[1]: v for k, v in arrays.items() if k.startswith("stefan/")})
         self.initial_heat = float(meta["initial_heat"])
         self.iterations[:] = [int(i) for i in meta["iterations"]]
+        self.newton_iterations[:] = [int(i) for i in meta["newton_iterations"]]
         self.dirichlet_heat[:] = [float(v) for v in meta["dirichlet_heat"]]
         self.source_heat[:] = [float(v) for v in meta["source_heat"]]
         self._steps_at_record[:] = [int(v) for v in meta["steps_at_record"]]

@@ -53,7 +53,7 @@ def solve(comm=None, preconditioner: str = "bddc") -> dict:
         infos.append(run.step(k * DT, (k + 1) * DT, f"step {k + 1}"))
         run.record((k + 1) * DT)
     T = parallel.point_values(mesh, run.fields["temperature"], POINTS)[:, 0]
-    summary = run.summary()
+    summary = run.summary()["stefan"]
     iso = run.phase_boundary()
     seg = iso.as_segments()
     jac = run.solver.jac

@@ -1,18 +1,19 @@
 """Checkpoints of time-dependent runs: which objects make up the state of a run, capturing it after each
 step, writing it, and restoring a run from it (the file format is :mod:`ngs_geomech.io.checkpoint`).
 
-The state after step k (time t_k): the heat GridFunction vector (temperature and the mortar multipliers;
-the old state is a copy of it at the start of the next step) or, in a scene with phase change, the Stefan
-solver's state (:meth:`StefanSolver.capture`: the nodal enthalpy, its predictor rate and what its Newton matrix
-was factored from, with the correction rows solved since, so that the resumed Newton steps reuse the same
-factorization; with the melted volume, latent heat, energy and Newton histories), the mechanics GridFunction
-vector (at the last output step), the contact solvers' warm start (:meth:`ContactSolver.capture`: the
-active/stick/slip sets, slip signs and directions; the next solve starts from them as in an uninterrupted run),
-the probe series, the Newton iteration and interface heat flow histories, the
-mechanics solve histories, the VTK and contact series entries written so far, the time step schedule
-(where it started and with which dt, so the remaining steps are the same ones) and the scene and mesh
-sizes the checkpoint belongs to. :meth:`RunState.capture` after every completed step copies the vectors and
-notes the lengths of the (append-only) series, so that a failing step can still save the last good state.
+The state after step k (time t_k): what each part of the run captures (:meth:`ngs_geomech.parts.Part.capture`):
+the heat GridFunction vector (temperature and the mortar multipliers; the old state is a copy of it at the start
+of the next step) with the Newton iteration and interface heat flow histories or, in a scene with phase change,
+the Stefan solver's state (:meth:`StefanSolver.capture`: the nodal enthalpy, its predictor rate and what its
+Newton matrix was factored from, with the correction rows solved since, so that the resumed Newton steps reuse
+the same factorization; with the melted volume, latent heat, energy and Newton histories), the mechanics
+GridFunction vector (at the last output step) with its solve histories and the contact solvers' warm start
+(:meth:`ContactSolver.capture`: the active/stick/slip sets, slip signs and directions; the next solve starts from
+them as in an uninterrupted run), the coupling's displacement rate and history; and the output's probe series
+and the VTK and line series entries written so far, the time step schedule (where it started and with which dt,
+so the remaining steps are the same ones) and the scene and mesh sizes the checkpoint belongs to.
+:meth:`RunState.capture` after every completed step copies the vectors and notes the lengths of the
+(append-only) series, so that a failing step can still save the last good state.
 Everything a next step depends on is restored, so a resumed run repeats the uninterrupted one to the last bit
 (with one NGSolve thread; the Stefan solver's window mode on large meshes adapts its width to measured times
 and is not repeatable even without an interruption).
@@ -23,15 +24,16 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import time
 
 import numpy as np
 
-from .errors import ResumeError
-from .fem.timesteps import nominal_step, schedule
-from .io.checkpoint import Checkpoint, checkpoint_meta_base, scene_differences, write_checkpoint
-from .io.summary import versions
-from .scene.units import format_time
+from ..errors import ResumeError
+from ..fem.timesteps import nominal_step, schedule
+from ..io.checkpoint import Checkpoint, checkpoint_meta_base, scene_differences, write_checkpoint
+from ..io.summary import versions
+from ..scene.units import format_time
 
 CHECKPOINT_WALL_S = 300.0     # with the default checkpoint_every: also after any step ending 5 min after the last
 
@@ -106,21 +108,14 @@ def plan_steps(ts, cp: Checkpoint | None) -> Plan:
 
 
 class RunState:
-    """The objects of a run whose state a checkpoint holds (any of them None when the scene lacks it)."""
+    """The objects of a run whose state a checkpoint holds: the model's parts (each captures and restores its
+    own state, :class:`~ngs_geomech.parts.Part`) and the output's probes and series (``output``, a
+    :class:`~ngs_geomech.run.output.RunOutput`)."""
 
-    def __init__(self, scene_dict: dict, mesh, heat, heat_solver, mech, probes, vtk, lines: dict, history: dict,
-                 stefan=None, coupling=None):
+    def __init__(self, scene_dict: dict, model, output):
         self.scene_dict = scene_dict
-        self.coupling = coupling
-        self.stefan = stefan
-        self.mesh = mesh
-        self.heat = heat
-        self.heat_solver = heat_solver
-        self.mech = mech
-        self.probes = probes
-        self.vtk = vtk
-        self.lines = lines
-        self.history = history
+        self.model = model
+        self.output = output
         self.factorizations_before = 0      # in the runs before a resume
         self.resumed: list[dict] = []
         self.saved_step: int | None = None      # the step and time of the newest checkpoint on disk
@@ -128,11 +123,9 @@ class RunState:
 
     # -- what identifies the problem ------------------------------------------------------------------
     def mesh_info(self) -> dict:
-        coords = np.round(np.asarray(self.mesh.ngmesh.Coordinates(), dtype=float), 9)
-        return {"vertices": self.mesh.nv, "elements": self.mesh.ne,
-                "heat_dofs": (self.heat.X.ndof if self.heat is not None
-                              else self.stefan.forms.n if self.stefan is not None else 0),
-                "mechanics_dofs": self.mech.forms.X.ndof if self.mech is not None else 0,
+        mesh = self.model.mesh
+        coords = np.round(np.asarray(mesh.ngmesh.Coordinates(), dtype=float), 9)
+        return {"vertices": mesh.nv, "elements": mesh.ne, "dofs": {p.key: p.ndof for p in self.model.parts},
                 "vertex_coordinates_sha256": hashlib.sha256(coords.tobytes()).hexdigest()}
 
     def check_mesh(self, cp: Checkpoint) -> None:
@@ -144,60 +137,26 @@ class RunState:
                               "version or thread count?). Run without --resume to start anew.")
 
     def factorizations(self) -> int:
-        n = self.heat_solver.factorizations if self.heat_solver is not None else 0
-        if self.stefan is not None:
-            n += self.stefan.solver.factorizations
-        if self.mech is not None:
-            n += self.mech.factorizations
-        return self.factorizations_before + n
+        return self.factorizations_before + self.model.factorizations
 
     # -- capture and save -----------------------------------------------------------------------------
     def capture(self, step: int, t: float, solve_s: float) -> Snapshot:
         """The state after ``step`` completed steps (cheap: vector copies and list lengths)."""
-        arrays = {}
-        if self.heat is not None:
-            arrays["heat"] = np.array(self.heat.gf.vec.FV().NumPy())
-        stefan_lengths = None
-        if self.stefan is not None:
-            stefan_arrays, stefan_lengths = self.stefan.capture()
-            arrays.update(stefan_arrays)
-        if self.coupling is not None:
-            arrays.update(self.coupling.capture())
-        if self.mech is not None:                       # static, dynamic or viscous mechanics
-            mech_arrays, mech_lengths = self.mech.capture()
-            arrays.update(mech_arrays)
-        p = self.probes
-        lengths = {"probes": {n: len(v) for n, v in p.times.items()},
-                   "newton": len(self.history["newton_iterations"]),
-                   "flows": {n: len(v) for n, v in self.history["interface_heat_flow_W"].items()},
-                   "vtk": len(self.vtk.entries) if self.vtk is not None else 0,
-                   "lines": {n: len(s.entries) for n, s in self.lines.items()},
-                   "stefan": stefan_lengths,
-                   "coupling": len(self.history["coupling"]["passes"]) if "coupling" in self.history else 0}
-        if self.mech is not None:
-            lengths["mechanics"] = mech_lengths
-        return Snapshot(step, float(t), arrays, lengths, solve_s, self.factorizations())
+        arrays, lengths = {}, {}
+        for p in self.model.parts:
+            part_arrays, lengths[p.key] = p.capture()
+            arrays.update(part_arrays)
+        return Snapshot(step, float(t), arrays, {"parts": lengths, "output": self.output.lengths()}, solve_s,
+                        self.factorizations())
 
     def save(self, snap: Snapshot, directory, plan: Plan) -> None:
         """Write the checkpoint of ``snap`` into ``directory`` (atomically)."""
         L = snap.lengths
-        p = self.probes
         meta = {**checkpoint_meta_base(self.scene_dict), "versions": versions(), "mesh": self.mesh_info(),
                 "step": snap.step, "time_s": snap.time, "segment": plan.segment,
                 "time_settings": plan.settings, "solve_s": snap.solve_s, "factorizations": snap.factorizations,
-                "resumed": self.resumed,
-                "probes": {"times": {n: p.times[n][:L["probes"][n]] for n in p.times},
-                           "series": {n: p.series[n][:L["probes"][n]] for n in p.series}},
-                "history": {"newton_iterations": self.history["newton_iterations"][:L["newton"]],
-                            "coupling": {n: v[:L["coupling"]] for n, v in self.history.get("coupling", {}).items()},
-                            "interface_heat_flow_W": {n: v[:L["flows"].get(n, 0)] for n, v in
-                                                      self.history["interface_heat_flow_W"].items()}},
-                "vtk": self.vtk.entries[:L["vtk"]] if self.vtk is not None else [],
-                "lines": {n: s.entries[:L["lines"][n]] for n, s in self.lines.items()}}
-        if self.stefan is not None:
-            meta["stefan"] = self.stefan.meta(L["stefan"])
-        if self.mech is not None:
-            meta[self.mech.checkpoint_key] = self.mech.meta(L["mechanics"])
+                "resumed": self.resumed, "output": self.output.meta(L["output"]),
+                "parts": {p.key: p.meta(L["parts"][p.key]) for p in self.model.parts}}
         write_checkpoint(directory, json.loads(json.dumps(meta, default=_plain)), snap.arrays)
         self.saved_step, self.saved_time = snap.step, snap.time
 
@@ -205,28 +164,9 @@ class RunState:
     def restore(self, cp: Checkpoint) -> None:
         """Put the checkpoint's state into the run's objects (after :meth:`check_mesh`)."""
         meta, arrays = cp.meta, cp.arrays
-        if self.heat is not None:
-            self.heat.gf.vec.FV().NumPy()[:] = arrays["heat"]
-            self.heat.gf_old.vec.data = self.heat.gf.vec
-        if self.stefan is not None:
-            self.stefan.restore(arrays, meta["stefan"])
-        p = self.probes
-        for n in p.times:
-            p.times[n][:] = meta["probes"]["times"].get(n, [])
-            p.series[n][:] = meta["probes"]["series"].get(n, [])
-        self.history["newton_iterations"][:] = meta["history"]["newton_iterations"]
-        for n, v in meta["history"].get("coupling", {}).items():
-            self.history["coupling"][n][:] = v
-        if self.coupling is not None:
-            self.coupling.restore(arrays)
-        self.history["interface_heat_flow_W"].clear()
-        self.history["interface_heat_flow_W"].update(meta["history"]["interface_heat_flow_W"])
-        if self.vtk is not None:
-            self.vtk.restore(meta["vtk"])
-        for n, s in self.lines.items():
-            s.restore(meta["lines"].get(n, []))
-        if self.mech is not None:
-            self.mech.restore(arrays, meta[self.mech.checkpoint_key])
+        for p in self.model.parts:
+            p.restore(arrays, meta["parts"][p.key])
+        self.output.restore(meta["output"])
         self.factorizations_before = int(meta["factorizations"])
         self.resumed = list(meta.get("resumed", [])) + [{"step": meta["step"], "time_s": meta["time_s"],
                                                           "at": time.strftime("%Y-%m-%dT%H:%M:%S")}]
@@ -240,3 +180,34 @@ def _plain(obj):
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     raise TypeError(f"not JSON serializable: {type(obj).__name__}")
+
+
+class Checkpointer:
+    """When a run captures and writes its state: a capture after every step (cheap), a checkpoint into
+    ``scratch`` every ``output.checkpoint_every`` steps (default: every tenth of the steps, and after any step
+    ending :data:`CHECKPOINT_WALL_S` after the last checkpoint). ``scratch`` None: no checkpoints (a run writing
+    nothing, on followed meshes or distributed)."""
+
+    def __init__(self, state: RunState, scratch, plan: Plan, every: int | None):
+        self.state, self.scratch, self.plan = state, scratch, plan
+        if every is None:
+            self.every, self.wall = max(1, math.ceil(plan.total / 10)), CHECKPOINT_WALL_S
+        else:
+            self.every, self.wall = every, math.inf
+        self.last_saved = time.perf_counter()
+        self.snap: Snapshot | None = None
+
+    def capture(self, step: int, t: float, solve_s: float) -> None:
+        """The state after ``step`` completed steps (time t, s)."""
+        if self.scratch is not None:
+            self.snap = self.state.capture(step, t, solve_s)
+
+    def after_step(self, k: int, t: float, solve_s: float) -> None:
+        """Step k (from 0) ended at time t (s): capture, and write when due."""
+        if self.scratch is None:
+            return
+        self.capture(k + 1, t, solve_s)
+        if self.every and k + 1 < self.plan.total and \
+                ((k + 1) % self.every == 0 or time.perf_counter() - self.last_saved >= self.wall):
+            self.state.save(self.snap, self.scratch, self.plan)
+            self.last_saved = time.perf_counter()

@@ -1,0 +1,181 @@
+"""The heat part of a run (:class:`HeatRun`, a :class:`~ngs_geomech.parts.Part`): the heat problem of a scene
+without phase change (steady, or transient with theta-scheme steps), its output fields, the heat flow through
+each contact interface, its figures and its checkpoint state. Units: m, s, K (or degC), W.
+"""
+
+from __future__ import annotations
+
+import math
+
+import ngsolve as ngs
+import numpy as np
+
+from ..geometry.assemble import GeometryModel
+from ..io.meshdata import vertex_values
+from ..io.summary import finite
+from ..parts import Part, Step
+from ..scene.model import Scene
+from .forms import HeatForms
+from .problem import heat_setup, set_initial_temperature
+from .solver import HeatSolver
+
+
+def temperature_figures(canvas, T) -> None:
+    """The temperature at the last time, and in the scene's near-field window when it has one (2D)."""
+    if canvas.arrays is None:
+        return
+    vals = vertex_values(T)
+    canvas.draw.field_figure(canvas.arrays, vals, canvas.path("temperature.png"),
+                             title=f"{canvas.title}: temperature, {canvas.when}", label=f"T ({canvas.t_unit})",
+                             axis_labels=canvas.labels)
+    if canvas.window:
+        canvas.draw.field_figure(canvas.arrays, vals, canvas.path("temperature_zoom.png"),
+                                 title=f"{canvas.title}: temperature, {canvas.when} (near field)",
+                                 label=f"T ({canvas.t_unit})", axis_labels=canvas.labels, window=canvas.window)
+
+
+class HeatRun(Part):
+    """The heat problem of a run (module docstring): ``forms`` (:class:`HeatForms`), ``solver``
+    (:class:`HeatSolver`), ``T`` the temperature; ``flows`` the heat flow through each contact interface per
+    step (W; W per m of depth in plane scenes), master -> minion."""
+
+    key = "heat"
+    probes_every_step = True
+
+    def __init__(self, scene: Scene, geo: GeometryModel, mesh):
+        super().__init__()
+        self.scene, self.mesh = scene, mesh
+        self.axisymmetric = scene.scene.dimension == "axisymmetric"
+        setup = heat_setup(scene, geo, mesh)
+        self.forms = HeatForms(mesh, setup)
+        sv = scene.solver
+        self.solver = HeatSolver(self.forms, solver=sv.linear, tol=sv.tolerance, maxit=sv.max_iterations,
+                                 preconditioner=sv.preconditioner)
+        self.T = self.forms.temperature()
+        self.fields = {"temperature": self.T, "heat_flux": self.forms.heat_flux(self.T)}
+        if setup.nonlinear:
+            self.fields["kirchhoff_theta"] = self.forms.kirchhoff(self.T)
+        self.probe_fields = {"temperature": self.T}
+        self.flows: dict[str, list[float]] = {}
+
+    # -- solving --------------------------------------------------------------------------------------------
+    def steady(self, where: str) -> None:
+        self.forms.t_new.Set(0.0)
+        self.finish_step(self.solver.solve(where))
+
+    def steady_at(self, t: float, where: str) -> None:
+        """The steady problem with the data at time t (s) of a transient scene (the step operator with
+        1/dt = 0 and theta = 1): what a mesh pre-adapted to the start time is adapted to."""
+        h = self.forms
+        h.t_new.Set(t)
+        h.t_old.Set(t)
+        h.inv_dt.Set(0.0)
+        h.theta.Set(1.0)
+        h.gf_old.vec[:] = 0.0
+        self.solver.solve_steady(where)
+
+    def start(self, t0: float, where: str) -> None:
+        self.forms.t_new.Set(t0)
+        set_initial_temperature(self.T, self.scene, self.mesh, self.forms.t_new)
+        self.solver.set_dirichlet()
+
+    def begin_step(self, step: Step) -> None:
+        """Set the step from a to b up: the old state and the times."""
+        h = self.forms
+        h.gf_old.vec.data = h.gf.vec
+        h.t_old.Set(step.a)
+        h.t_new.Set(step.b)
+        h.inv_dt.Set(1.0 / step.dt)
+
+    def solve_step(self, step: Step, heating=None):
+        """Solve the step set up by :meth:`begin_step`; ``heating`` (a :class:`DeformationHeating`): its
+        assembled source is added to the load. Returns the solver's step info."""
+        if heating is not None:
+            self.forms.extra_load = heating.vector()
+        return self.solver.solve(step.where)
+
+    def finish_step(self, info) -> None:
+        """Keep a solved step's Newton iterations and interface heat flows."""
+        self.newton_iterations.append(info.iterations)
+        w = 2 * math.pi * ngs.x if self.axisymmetric else 1.0
+        for (master, _), lam in zip(self.forms.setup.contacts, self.forms.multipliers()):
+            q = float(ngs.Integrate(w * lam * ngs.ds(definedon=self.mesh.Boundaries(master)), self.mesh))
+            self.flows.setdefault(master, []).append(q)
+
+    def advance(self, step: Step) -> None:
+        self.begin_step(step)
+        self.finish_step(self.solve_step(step))
+
+    def mark(self):
+        """Nothing to keep: a repeated coupled pass solves the same step again from the last pass's state."""
+        return None
+
+    def rewind(self, mark) -> None:
+        pass
+
+    def temperature_values(self) -> np.ndarray:
+        return self.T.vec.FV().NumPy().copy()
+
+    def set_pressure(self, pressure):
+        """Give the conductivities kappa(T, p) the mean pressure ``pressure`` (Pa); returns the (min, max)
+        conductivity factors, or None without pressure-dependent conductivities."""
+        if self.forms.gf_pressure is None:
+            return None
+        return self.forms.set_pressure(pressure)
+
+    def heating_target(self) -> tuple:
+        """(space, test function, volume measure, weight) a deformation-heating source is assembled against."""
+        tests = self.forms.X.TestFunction()
+        v = tests[0] if self.forms.setup.contacts else tests
+        return self.forms.X, v, self.forms.volume_measure(), self.forms.weight
+
+    # -- meshes ---------------------------------------------------------------------------------------------
+    def take_state(self, old: HeatRun, t0: float | None) -> tuple[float, float, None]:
+        """Carry the temperature of ``old`` (the same scene on another mesh) over: interpolated (NGSolve's
+        ``Set``), the next step backward Euler (a Crank-Nicolson step would need the old interface multipliers).
+        ``t0`` (s; a remesh at the start time): the scene's initial temperature set instead. Returns the heat
+        content int rho c T dx before and after (J per m of depth in plane scenes) and None (nothing to commit)."""
+        if t0 is None:
+            self.T.Set(old.T)
+        else:
+            self.start(t0, "remesh")
+        self.solver.backward_euler_steps = 1      # (the next heat step copies the state into gf_old)
+        w = 2 * np.pi * ngs.x if self.axisymmetric else 1.0
+        before = float(ngs.Integrate(w * old.forms.rho_c * old.T, old.mesh))
+        after = float(ngs.Integrate(w * self.forms.rho_c * self.T, self.mesh))
+        return before, after, None
+
+    # -- checkpoints ----------------------------------------------------------------------------------------
+    def capture(self) -> tuple[dict, dict]:
+        return ({"heat": np.array(self.forms.gf.vec.FV().NumPy())},
+                {"steps": len(self.newton_iterations), "flows": {n: len(v) for n, v in self.flows.items()}})
+
+    def meta(self, lengths: dict) -> dict:
+        return {"newton_iterations": self.newton_iterations[:lengths["steps"]],
+                "flows": {n: v[:lengths["flows"].get(n, 0)] for n, v in self.flows.items()}}
+
+    def restore(self, arrays: dict, meta: dict) -> None:
+        self.forms.gf.vec.FV().NumPy()[:] = arrays["heat"]
+        self.forms.gf_old.vec.data = self.forms.gf.vec
+        self.newton_iterations[:] = meta["newton_iterations"]
+        self.flows.clear()
+        self.flows.update(meta["flows"])
+
+    # -- reporting ------------------------------------------------------------------------------------------
+    @property
+    def factorizations(self) -> int:
+        return self.solver.factorizations
+
+    @property
+    def ndof(self) -> int:
+        return self.forms.X.ndof
+
+    @property
+    def ndof_global(self) -> int:
+        return self.forms.X.ndofglobal
+
+    def summary(self) -> dict:
+        return {"interface_heat_flow_W": {k: finite(v) for k, v in self.flows.items()}}
+
+    def figures(self, canvas) -> None:
+        temperature_figures(canvas, self.T)

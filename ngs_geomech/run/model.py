@@ -1,0 +1,104 @@
+"""What a scene solves on one mesh (:class:`Model`): its parts (:class:`~ngs_geomech.parts.Part`), built only as
+the scene declares: a thermal part (the Stefan problem when a material changes phase, else heat), a mechanics
+part (static, or dynamic/viscous) and their coupling; the output fields of all of them. And the mesh policy a
+scene declares (:func:`mesh_policy`).
+"""
+
+from __future__ import annotations
+
+from ..adapt.contact_following import ContactFollowing
+from ..adapt.front_following import FrontFollowing
+from ..adapt.policy import FixedMesh, MeshPolicy
+from ..adapt.stationary import PreAdapted, StationaryAdaptive
+from ..coupling.run import CouplingRun
+from ..dynamics.problem import DynamicsRun
+from ..geometry.assemble import GeometryModel
+from ..heat.run import HeatRun
+from ..mechanics.run import StaticMechanicsRun
+from ..parts import Step
+from ..scene.model import Scene
+from ..scene.validate import stefan_scene
+from ..stefan.problem import StefanRun
+
+
+class Model:
+    """The parts of a scene on ``mesh`` (module docstring): ``thermal``, ``mechanics``, ``coupling`` (each None
+    when the scene lacks it), ``parts`` (those present, in this order), ``fields`` (the region id and every part's
+    fields: what the VTK holds). A coupled run advances the coupling part, which steps the other two; otherwise
+    each part advances in turn."""
+
+    def __init__(self, scene: Scene, geo: GeometryModel, mesh):
+        self.scene, self.mesh = scene, mesh
+        self.thermal = None
+        if stefan_scene(scene):           # phase change: the enthalpy (Stefan) solver replaces the heat solver
+            self.thermal = StefanRun(scene, mesh, geo)
+        elif scene.physics.thermal:
+            self.thermal = HeatRun(scene, geo, mesh)
+        T = self.thermal.T if self.thermal is not None else None
+        self.mechanics = None
+        if scene.physics.mechanics in ("dynamic", "viscous"):
+            self.mechanics = DynamicsRun(scene, geo, mesh, T)
+        elif scene.physics.mechanics:
+            self.mechanics = StaticMechanicsRun(scene, geo, mesh, T)
+        self.coupling = None
+        if scene.physics.coupling != "none" and self.mechanics is not None and self.thermal is not None:
+            self.coupling = CouplingRun(scene, self.thermal, self.mechanics)
+        self.parts = [p for p in (self.thermal, self.mechanics, self.coupling) if p is not None]
+        self.steppers = [self.coupling] if self.coupling is not None else self.parts
+        self.fields = {"region": mesh.MaterialCF({n: i for i, n in enumerate(mesh.GetMaterials())}, default=-1)}
+        for p in self.parts:
+            self.fields.update(p.fields)
+
+    def steady(self, where: str) -> None:
+        for p in self.parts:
+            p.steady(where)
+
+    def start(self, t0: float, where: str) -> None:
+        for p in self.parts:
+            p.start(t0, where)
+
+    def advance(self, step: Step) -> None:
+        for p in self.steppers:
+            p.advance(step)
+
+    def record(self, t: float, output: bool) -> None:
+        """The parts keep the state at t (s): at the output times, and every step those that record every step."""
+        for p in self.parts:
+            if output or p.records_every_step:
+                p.record(t)
+
+    def take_state(self, old: Model, t0: float | None) -> tuple[float, float, object]:
+        """The thermal state of ``old`` (the same scene on another mesh) carried over
+        (:meth:`HeatRun.take_state` / :meth:`StefanRun.take_state`)."""
+        return self.thermal.take_state(old.thermal, t0)
+
+    @property
+    def newton_iterations(self) -> list[int]:
+        """The thermal part's Newton iterations per step (empty without one)."""
+        return self.thermal.newton_iterations if self.thermal is not None else []
+
+    @property
+    def warnings(self) -> list[str]:
+        return [w for p in self.parts for w in p.warnings]
+
+    @property
+    def ndof(self) -> int:
+        return sum(p.ndof for p in self.parts)
+
+    @property
+    def factorizations(self) -> int:
+        return sum(p.factorizations for p in self.parts)
+
+
+def mesh_policy(scene: Scene, geo: GeometryModel, build) -> MeshPolicy:
+    """The mesh policy a validated scene declares (``[adaptivity]``; :mod:`ngs_geomech.adapt.policy`)."""
+    ad = scene.adaptivity
+    if ad is None:
+        return FixedMesh()
+    if scene.time is None:
+        return StationaryAdaptive(scene, build)
+    if "contact_zone" in ad.indicators:       # validated: static mechanics with contact, plane or axisymmetric
+        return ContactFollowing(scene, geo, build)
+    if "phase_front" in ad.indicators:        # validated: a plane Stefan problem
+        return FrontFollowing(scene, geo, build)
+    return PreAdapted(scene, build)           # transient heat without a followed feature
