@@ -1,4 +1,4 @@
-"""The linear algebra of the Stefan solver (:class:`ngs_geomech.stefan.solver._ColumnJacobian`): solves with a
+"""The linear algebra of the Stefan solver (:class:`ngs_geomech.stefan.column_jacobian.ColumnJacobian`): solves with a
 factorization kept over many Newton matrices and Sherman-Morrison-Woodbury corrections for the changed columns
 agree with direct sparse solves to round-off, also with a partly factored set (mushy columns left out) and
 after the rows kept of the correction vectors are outrun; a Stefan run reusing factorizations gives the same
@@ -13,8 +13,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ngs_geomech.fem.timesteps import schedule
+from ngs_geomech.stefan.column_jacobian import ColumnJacobian
 from ngs_geomech.stefan.forms import StefanForms, StefanSetup
-from ngs_geomech.stefan.solver import StefanSolver, _ColumnJacobian
+from ngs_geomech.stefan.solver import StefanSolver
 from ngs_geomech.verification import stefan as st
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
@@ -39,7 +40,7 @@ def _direct(forms, jac, mc, wd, w, dt, b):
 
 def test_random_column_changes_match_direct_solves(strip):
     _, _, forms = strip
-    jac = _ColumnJacobian(forms, max_changed=30)
+    jac = ColumnJacobian(forms, max_changed=30)
     nF = jac.nF
     rng = np.random.default_rng(7)
     mc = forms.mass[jac.free] * 3.0
@@ -67,7 +68,7 @@ def test_partly_factored_set_and_a_moving_band(strip):
     """Mushy columns (w = 0) far from any sensible node are not factored; a front sweeping the strip outruns
     the rows kept of the correction vectors and the reference is refactored around it."""
     _, mesh, forms = strip
-    jac = _ColumnJacobian(forms)
+    jac = ColumnJacobian(forms)
     jac.BAND = 2                                       # a narrow band on this small mesh, so that it is outrun
     xs = np.array([v.point[0] for v in mesh.vertices])[jac.free]
     nF = jac.nF
@@ -123,7 +124,7 @@ def test_window_mode_matches_direct_solves(strip):
     factored per changed matrix; a front sweeping the strip leaves the window, which is placed anew around it
     (the refactor trigger), and with it the conductivity jump; mushy columns far from it are not factored."""
     _, mesh, forms = strip
-    jac = _windowed(_ColumnJacobian(forms))
+    jac = _windowed(ColumnJacobian(forms))
     xs = np.array([v.point[0] for v in mesh.vertices])[jac.free]
     nF = jac.nF
     rng = np.random.default_rng(5)

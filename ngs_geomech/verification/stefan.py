@@ -49,8 +49,9 @@ from ..fem.timesteps import schedule
 from ..heat.forms import HeatForms, HeatSetup
 from ..heat.materials import ThermalProperties
 from ..heat.solver import HeatSolver
+from ..stefan.apparent import ApparentHeatCapacitySolver
 from ..stefan.forms import PhaseChangeMaterial, StefanForms, StefanSetup
-from ..stefan.solver import ApparentHeatCapacitySolver, StefanSolver
+from ..stefan.solver import StefanSolver
 from .study import observed_order, one_ngsolve_thread
 
 SQRT_PI = math.sqrt(math.pi)
@@ -344,7 +345,7 @@ def neumann_strip(problem: NeumannProblem, h: float, dt: float, t0: float, t1: f
     ``time_ratio_cpu`` (factorization reused; less disturbed by other jobs on the machine), ``factorizations``
     (and ``factorizations_per_step``), ``corrections_per_step`` (the Newton solver's extra solves: low-rank
     correction columns, one solve each, or in window mode (factored sets of 8000 unknowns and more) the solves for
-    the window's boundary nodes when a window is set up; :class:`ngs_geomech.stefan.solver._ColumnJacobian`) and
+    the window's boundary nodes when a window is set up; :class:`ngs_geomech.stefan.column_jacobian.ColumnJacobian`) and
     ``phase_changes_per_step`` (nodes changing between solid, mushy and liquid).
     Runs on one NGSolve thread and one BLAS thread (:func:`single_threaded_blas`; the timings compare like with
     like; idle worker threads made sparse Cholesky 30 times slower at 500 dofs).
