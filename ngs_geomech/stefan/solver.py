@@ -73,6 +73,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NoReturn
 
 import ngsolve as ngs
 import numpy as np
@@ -258,9 +259,44 @@ class StefanSolver:
         if not (dt > 0 and math.isfinite(dt)):
             raise ValueError(f"Stefan step: dt must be positive and finite, got {dt} (t_old {t_old}, t_new {t_new})")
         where = f"t = {t_new:g} s"
-        fact0, corr0 = self.jac.factorizations, self.jac.corrections
+        counts = (self.jac.factorizations, self.jac.corrections)
         e_old = self.e.copy()
         st_old = self._old_state(e_old)
+        e = self._first_iterate(e_old, st_old, dt, t_new)
+        F = self._loads(t_new, extra_load)
+        dt_m = dt / f.mass
+        history = []
+        prev_st = None
+        it = 0
+        while True:
+            st = f.nodal_state(e)
+            if it == 0:
+                scale = self._scale(np.concatenate([st_old.T, st.T]))
+            R = f.mass * (e - e_old) / dt + f.conduction(st.T) - F
+            res = self._defect(R, dt_m, history, where)
+            if self._converged(res, scale, it, e, e_old, st, F, dt_m):
+                break
+            if it >= self.maxit:
+                self._fail(where, history, st, prev_st, scale)
+            prev_st = st
+            e = self._newton_update(e, st, R, dt, dt_m, where)
+            it += 1
+        f.check_conductivity(st.T, f" at {where}")
+        if self.distributed:
+            return self._finish_distributed(e, e_old, st, st_old, R, F, dt, it, res, counts)
+        boundary_heat = float(dt * np.sum(R[~f.free]))
+        self._keep(e, e_old, st, dt, it)
+        return StefanStepInfo(iterations=max(it, 1), residual=res, boundary_heat=boundary_heat,
+                              source_heat=float(dt * np.sum(F)),
+                              phase_changes=int(np.count_nonzero(_branch(st) != _branch(st_old))),
+                              factorizations=self.jac.factorizations - counts[0],
+                              corrections=self.jac.corrections - counts[1])
+
+    def _first_iterate(self, e_old: np.ndarray, st_old: NodalState, dt: float, t_new: float) -> np.ndarray:
+        """The Newton iteration's first iterate: the old state plus dt times the last step's rate (the predictor;
+        kept in range by :meth:`_in_range` when a conductivity depends on T), the Dirichlet nodes whose temperature
+        changed set to the enthalpy of their temperature at t_new."""
+        f = self.f
         e = e_old.copy()
         if self.predictor and self._last_change is not None:
             e[f.free] += dt * self._last_change[f.free]
@@ -274,102 +310,104 @@ class StefanSolver:
                 T = st_old.T.copy()
                 T[d] = T_D
                 e[d[changed]] = f.enthalpy_of(T)[d[changed]]
-        F = f.loads(t_new)
+        return e
+
+    def _loads(self, t_new: float, extra_load: np.ndarray | None) -> np.ndarray:
+        """F at t_new (sources and fluxes) plus ``extra_load`` (nodal, W per metre of depth in 2D, W in 3D)."""
+        F = self.f.loads(t_new)
         if extra_load is not None:
             F = F + np.asarray(extra_load, dtype=float)
-        free = f.free
-        m = f.mass
-        jfree = self.jac.free                        # the free nodes (indices)
-        dt_m = dt / m
-        dt_m_free = dt_m[jfree]
-        rows = np.arange(f.n)
-        history = []
-        prev_st = None
-        it = 0
-        while True:
-            st = f.nodal_state(e)
-            if it == 0:
-                scale = self._scale(np.concatenate([st_old.T, st.T]))
-            R = m * (e - e_old) / dt + f.conduction(st.T) - F
-            Rf = R[jfree]
-            res = float(np.max(np.abs(Rf) * dt_m_free)) if len(jfree) else 0.0
-            if self.distributed:                      # the same on every rank: every rank takes the same branches
-                res = f.nodal_max(np.array([res if math.isfinite(res) else math.inf]), 0.0)
-            if not math.isfinite(res):
-                raise SolverError(f"Stefan Newton step at {where}: the residual is not finite "
-                                  f"(history {history}). Check the material data and the time step.")
-            history.append(res)
-            if res <= self.tol * scale:
-                break
-            if it >= 2:
-                # the defect cannot fall below the round-off of the terms it is made of (steps far longer than
-                # the diffusion time of the mesh, large interface penalties): accept it there
-                terms = (np.abs(e) + np.abs(e_old) + dt_m * (f.conduction_magnitude(st.T) + np.abs(F)))[jfree]
-                floor = 64 * np.finfo(float).eps * (f.nodal_max(terms, 0.0) if self.distributed
-                                                    else float(np.max(terms)))
-                if res <= floor:
-                    break
-            if it >= self.maxit:
-                f.check_conductivity(st.T, f" at {where}", floor=self.RANGE_FLOOR)
-                switching = (np.zeros(0, dtype=int) if prev_st is None
-                             else np.nonzero(_branch(st) != _branch(prev_st))[0])
-                raise SolverError(self._diagnosis(where, history, switching, st, scale))
-            prev_st = st
-            dtheta = f.kirchhoff_derivatives(st)
-            capacity = f.capacity[rows, st.segment]      # 1/D on the non-mushy nodes
-            # the Newton matrix in mixed unknowns (dT on the non-mushy nodes, a multiple of de on the mushy ones):
-            # column j is (m_j C_j/dt) e_j + sum_g K_g[:, j] dtheta_gj, without its off-diagonal part when j is
-            # mushy (the diagonal kept, so that a node entering or leaving the flat part changes only the
-            # off-diagonal entries of its column: a well-conditioned update); the mushy rows decouple
-            # (block triangular), so dT on the non-mushy nodes is the Schur-reduced Newton step
-            sensible = ~st.mushy[jfree]
-            dth = dtheta[jfree]
-            x = self.jac.solve((m * capacity)[jfree], dth, dth * sensible[:, None], -Rf * sensible, dt, where)
-            dT = np.zeros(f.n)
-            dT[jfree] = x * sensible
-            y = _conduction_derivative_apply(f, dtheta, dT)
-            # de = C dT on the non-mushy nodes; on the mushy ones from their rows: -(dt/m)(R + A'(T) dT)
-            if f.temperature_dependent:
-                # the update of a non-mushy node taken in its Kirchhoff variable (see _kirchhoff_update)
-                de = np.where(st.mushy, -dt_m * (R + y), self._kirchhoff_update(st, dT, dtheta) * capacity)
-                de[~free] = 0.0
-                de = self._in_range(e, de, st)
-            else:
-                de = np.where(st.mushy, -dt_m * (R + y), dT * capacity)
-                de[~free] = 0.0
-            e = e + de
-            if self.distributed:
-                e = f.consistent(e)                   # a shared vertex: the same bits on every rank
-            it += 1
-        f.check_conductivity(st.T, f" at {where}")
+        return F
+
+    def _defect(self, R: np.ndarray, dt_m: np.ndarray, history: list, where: str) -> float:
+        """The enthalpy defect max_i |R_i| dt/m_i of the free nodes (J/m^3; ``dt_m`` = dt/m), appended to
+        ``history``; on a distributed mesh the maximum over the ranks, so that every rank takes the same branches.
+        SolverError when it is not finite."""
+        jfree = self.jac.free
+        res = float(np.max(np.abs(R[jfree]) * dt_m[jfree])) if len(jfree) else 0.0
         if self.distributed:
-            return self._finish_distributed(e, e_old, st, st_old, R, F, dt, it, res, fact0)
-        boundary_heat = float(dt * np.sum(R[~free]))
+            res = self.f.nodal_max(np.array([res if math.isfinite(res) else math.inf]), 0.0)
+        if not math.isfinite(res):
+            raise SolverError(f"Stefan Newton step at {where}: the residual is not finite "
+                              f"(history {history}). Check the material data and the time step.")
+        history.append(res)
+        return res
+
+    def _converged(self, res: float, scale: float, it: int, e: np.ndarray, e_old: np.ndarray, st: NodalState,
+                   F: np.ndarray, dt_m: np.ndarray) -> bool:
+        """Whether the defect ``res`` (J/m^3) meets the tolerance relative to the step's enthalpy ``scale``, or,
+        from the third iterate on, the round-off floor of the terms the residual is made of."""
+        if res <= self.tol * scale:
+            return True
+        if it < 2:
+            return False
+        # the defect cannot fall below the round-off of the terms it is made of (steps far longer than the
+        # diffusion time of the mesh, large interface penalties): accept it there
+        f = self.f
+        jfree = self.jac.free
+        terms = (np.abs(e) + np.abs(e_old) + dt_m * (f.conduction_magnitude(st.T) + np.abs(F)))[jfree]
+        floor = 64 * np.finfo(float).eps * (f.nodal_max(terms, 0.0) if self.distributed else float(np.max(terms)))
+        return res <= floor
+
+    def _fail(self, where: str, history: list, st: NodalState, prev_st: NodalState | None,
+              scale: float) -> NoReturn:
+        """Raise the error of a step that did not converge in ``maxit`` iterations: ConductivityRangeError when a
+        conductivity factor was held at the edge of its range, SolverError with :meth:`_diagnosis` otherwise."""
+        self.f.check_conductivity(st.T, f" at {where}", floor=self.RANGE_FLOOR)
+        switching = (np.zeros(0, dtype=int) if prev_st is None
+                     else np.nonzero(_branch(st) != _branch(prev_st))[0])
+        raise SolverError(self._diagnosis(where, history, switching, st, scale))
+
+    def _newton_update(self, e: np.ndarray, st: NodalState, R: np.ndarray, dt: float, dt_m: np.ndarray,
+                       where: str) -> np.ndarray:
+        """The next Newton iterate from ``e`` (its nodal state ``st``, its residual ``R``; module docstring)."""
+        f = self.f
+        jfree = self.jac.free
+        dtheta = f.kirchhoff_derivatives(st)
+        capacity = f.capacity[np.arange(f.n), st.segment]      # 1/D on the non-mushy nodes
+        # the Newton matrix in mixed unknowns (dT on the non-mushy nodes, a multiple of de on the mushy ones):
+        # column j is (m_j C_j/dt) e_j + sum_g K_g[:, j] dtheta_gj, without its off-diagonal part when j is
+        # mushy (the diagonal kept, so that a node entering or leaving the flat part changes only the
+        # off-diagonal entries of its column: a well-conditioned update); the mushy rows decouple
+        # (block triangular), so dT on the non-mushy nodes is the Schur-reduced Newton step
+        sensible = ~st.mushy[jfree]
+        dth = dtheta[jfree]
+        x = self.jac.solve((f.mass * capacity)[jfree], dth, dth * sensible[:, None], -R[jfree] * sensible, dt, where)
+        dT = np.zeros(f.n)
+        dT[jfree] = x * sensible
+        y = _conduction_derivative_apply(f, dtheta, dT)
+        # de = C dT on the non-mushy nodes; on the mushy ones from their rows: -(dt/m)(R + A'(T) dT)
+        if f.temperature_dependent:
+            # the update of a non-mushy node taken in its Kirchhoff variable (see _kirchhoff_update)
+            de = np.where(st.mushy, -dt_m * (R + y), self._kirchhoff_update(st, dT, dtheta) * capacity)
+            de[~f.free] = 0.0
+            de = self._in_range(e, de, st)
+        else:
+            de = np.where(st.mushy, -dt_m * (R + y), dT * capacity)
+            de[~f.free] = 0.0
+        e = e + de
+        if self.distributed:
+            e = f.consistent(e)                   # a shared vertex: the same bits on every rank
+        return e
+
+    def _keep(self, e: np.ndarray, e_old: np.ndarray, st: NodalState, dt: float, it: int) -> None:
+        """Keep the state at the end of a step: the enthalpy, its nodal state, the predictor's rate."""
         self._last_change = (e - e_old) / dt
         self.e = e
         self._state = (e.copy(), st)
-        f.store(e, st)                               # st is the nodal state of the final e
+        self.f.store(e, st)                          # st is the nodal state of the final e
         self.iterations.append(max(it, 1))
-        return StefanStepInfo(iterations=max(it, 1), residual=res, boundary_heat=boundary_heat,
-                              source_heat=float(dt * np.sum(F)),
-                              phase_changes=int(np.count_nonzero(_branch(st) != _branch(st_old))),
-                              factorizations=self.jac.factorizations - fact0,
-                              corrections=self.jac.corrections - corr0)
 
-    def _finish_distributed(self, e, e_old, st, st_old, R, F, dt, it, res, fact0) -> StefanStepInfo:
+    def _finish_distributed(self, e, e_old, st, st_old, R, F, dt, it, res, counts) -> StefanStepInfo:
         """The end of :meth:`step` on a distributed mesh: the state kept, the heats and counts summed over the
         global vertices (each once), the same on every rank."""
         f = self.f
-        self._last_change = (e - e_old) / dt
-        self.e = e
-        self._state = (e.copy(), st)
-        f.store(e, st)
-        self.iterations.append(max(it, 1))
+        self._keep(e, e_old, st, dt, it)
         changes = (_branch(st) != _branch(st_old)).astype(float)
         return StefanStepInfo(iterations=max(it, 1), residual=res,
                               boundary_heat=dt * f.nodal_sum(np.where(f.free, 0.0, R)),
                               source_heat=dt * f.nodal_sum(F), phase_changes=int(round(f.nodal_sum(changes))),
-                              factorizations=self.jac.factorizations - fact0)
+                              factorizations=self.jac.factorizations - counts[0])
 
     def _kirchhoff_update(self, st: NodalState, dT: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
         """The temperature change of each node for the Newton step ``dT`` taken in the node's Kirchhoff variable.
