@@ -20,7 +20,8 @@ import numpy as np
 
 from ..errors import SolverError
 from .column_jacobian import ColumnJacobian
-from .forms import PhaseChangeMaterial, StefanForms
+from .forms import StefanForms
+from .materials import PhaseChangeMaterial
 from .solver import StefanStepInfo
 
 

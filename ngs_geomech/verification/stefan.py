@@ -50,7 +50,8 @@ from ..heat.forms import HeatForms, HeatSetup
 from ..heat.materials import ThermalProperties
 from ..heat.solver import HeatSolver
 from ..stefan.apparent import ApparentHeatCapacitySolver
-from ..stefan.forms import PhaseChangeMaterial, StefanForms, StefanSetup
+from ..stefan.forms import StefanForms, StefanSetup
+from ..stefan.materials import PhaseChangeMaterial
 from ..stefan.solver import StefanSolver
 from .study import observed_order, one_ngsolve_thread
 
