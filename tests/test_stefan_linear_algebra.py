@@ -83,8 +83,8 @@ def test_partly_factored_set_and_a_moving_band(strip):
         x = jac.solve(mc, wd, w, b, 0.005, "test")
         ref = _direct(forms, jac, mc, wd, w, 0.005, b)
         worst = max(worst, float(np.max(np.abs(x - ref)[sensible]) / np.max(np.abs(ref[sensible]))))
-        sizes.append(len(jac._A))
-        banded += jac._band is not None
+        sizes.append(jac.factored_size)
+        banded += jac.banded
     print(f"\nfront sweep: {jac.factorizations} factorizations, factored set {min(sizes)} .. {max(sizes)} of {nF}, "
           f"worst relative difference on the sensible nodes {worst:.1e}; {banded} solves with a band of rows")
     assert worst < 1e-11
@@ -139,9 +139,9 @@ def test_window_mode_matches_direct_solves(strip):
         x = jac.solve(mc, wd, w, b, 0.005, "test")
         ref = _direct(forms, jac, mc, wd, w, 0.005, b)
         worst = max(worst, float(np.max(np.abs(x - ref)[sensible]) / np.max(np.abs(ref[sensible]))))
-        if jac._win is not None:
+        if jac.window_size is not None:
             windowed += 1
-            sizes.append(jac._win["nC"])
+            sizes.append(jac.window_size)
     print(f"\nwindow mode, front sweep: {jac.factorizations} factorizations (placements), "
           f"{jac.window_factorizations} Schur complement factorizations, {jac.corrections} interface solves, "
           f"window {min(sizes)} .. {max(sizes)} of {nF} nodes; worst relative difference {worst:.1e}")
@@ -165,7 +165,7 @@ def test_window_mode_gives_the_same_run_as_factoring_at_every_change(strip):
     print(f"\nwindow mode: {win.factorizations} placements, {win.jac.window_factorizations} Schur complement "
           f"factorizations, {sum(i.corrections for i in wi)} interface solves; factoring at every change: "
           f"{fresh.factorizations}; max |de| {np.max(np.abs(win.e - fresh.e)):.1e}")
-    assert win.jac._win is not None
+    assert win.jac.window_size is not None
     assert [i.iterations for i in wi] == [i.iterations for i in fi]
     assert np.max(np.abs(win.e - fresh.e)) < 1e-10
     assert 1 < win.factorizations < fresh.factorizations / 3

@@ -151,6 +151,21 @@ class ColumnJacobian(NewtonJacobian):
         self._cycle = [0.0, 0.0]                        # seconds of the last placement, of Schur factorizations since
         """Sparse LU factorizations of the window's Schur complement (window mode, one per changed matrix)."""
 
+    @property
+    def factored_size(self) -> int:
+        """The number of unknowns in the factored set A (the others decouple, see the class docstring)."""
+        return len(self._A)
+
+    @property
+    def banded(self) -> bool:
+        """Whether only a band of rows of the correction vectors v_i is kept (Woodbury mode)."""
+        return self._band is not None
+
+    @property
+    def window_size(self) -> int | None:
+        """The number of nodes in the window C (window mode), None outside window mode."""
+        return None if self._win is None else self._win["nC"]
+
     def _load_stiffness(self) -> None:
         """The stiffness values in the free x free pattern (again after the forms' matrices changed)."""
         f = self.forms
