@@ -21,7 +21,8 @@ from netgen.occ import Box, Glue, OCCGeometry, Rectangle, X, Y
 
 from ngs_geomech.errors import SolverError
 from ngs_geomech.fem.timesteps import schedule
-from ngs_geomech.stefan.forms import PhaseChangeMaterial, PlainThermalMaterial, StefanForms, StefanSetup
+from ngs_geomech.stefan.forms import StefanForms, StefanSetup
+from ngs_geomech.stefan.materials import PhaseChangeMaterial, PlainThermalMaterial
 from ngs_geomech.stefan.solver import StefanSolver
 from ngs_geomech.verification import stefan as st
 

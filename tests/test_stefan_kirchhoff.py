@@ -25,7 +25,8 @@ from ngs_geomech.api import run
 from ngs_geomech.errors import SceneError, SolverError
 from ngs_geomech.fem.timesteps import schedule
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.stefan.forms import ConductivityRangeError, PhaseChangeMaterial, StefanForms, StefanSetup
+from ngs_geomech.stefan.forms import StefanForms, StefanSetup
+from ngs_geomech.stefan.materials import ConductivityRangeError, PhaseChangeMaterial
 from ngs_geomech.stefan.solver import StefanSolver
 from ngs_geomech.verification import stefan as st
 from ngs_geomech.verification import stefan_kirchhoff as sk

@@ -1,4 +1,4 @@
-"""The linear algebra of the Stefan solver (:class:`ngs_geomech.stefan.solver._ColumnJacobian`): solves with a
+"""The linear algebra of the Stefan solver (:class:`ngs_geomech.stefan.column_jacobian.ColumnJacobian`): solves with a
 factorization kept over many Newton matrices and Sherman-Morrison-Woodbury corrections for the changed columns
 agree with direct sparse solves to round-off, also with a partly factored set (mushy columns left out) and
 after the rows kept of the correction vectors are outrun; a Stefan run reusing factorizations gives the same
@@ -13,8 +13,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ngs_geomech.fem.timesteps import schedule
+from ngs_geomech.stefan.column_jacobian import ColumnJacobian
 from ngs_geomech.stefan.forms import StefanForms, StefanSetup
-from ngs_geomech.stefan.solver import StefanSolver, _ColumnJacobian
+from ngs_geomech.stefan.solver import StefanSolver
 from ngs_geomech.verification import stefan as st
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
@@ -39,7 +40,7 @@ def _direct(forms, jac, mc, wd, w, dt, b):
 
 def test_random_column_changes_match_direct_solves(strip):
     _, _, forms = strip
-    jac = _ColumnJacobian(forms, max_changed=30)
+    jac = ColumnJacobian(forms, max_changed=30)
     nF = jac.nF
     rng = np.random.default_rng(7)
     mc = forms.mass[jac.free] * 3.0
@@ -67,7 +68,7 @@ def test_partly_factored_set_and_a_moving_band(strip):
     """Mushy columns (w = 0) far from any sensible node are not factored; a front sweeping the strip outruns
     the rows kept of the correction vectors and the reference is refactored around it."""
     _, mesh, forms = strip
-    jac = _ColumnJacobian(forms)
+    jac = ColumnJacobian(forms)
     jac.BAND = 2                                       # a narrow band on this small mesh, so that it is outrun
     xs = np.array([v.point[0] for v in mesh.vertices])[jac.free]
     nF = jac.nF
@@ -82,8 +83,8 @@ def test_partly_factored_set_and_a_moving_band(strip):
         x = jac.solve(mc, wd, w, b, 0.005, "test")
         ref = _direct(forms, jac, mc, wd, w, 0.005, b)
         worst = max(worst, float(np.max(np.abs(x - ref)[sensible]) / np.max(np.abs(ref[sensible]))))
-        sizes.append(len(jac._A))
-        banded += jac._band is not None
+        sizes.append(jac.factored_size)
+        banded += jac.banded
     print(f"\nfront sweep: {jac.factorizations} factorizations, factored set {min(sizes)} .. {max(sizes)} of {nF}, "
           f"worst relative difference on the sensible nodes {worst:.1e}; {banded} solves with a band of rows")
     assert worst < 1e-11
@@ -123,7 +124,7 @@ def test_window_mode_matches_direct_solves(strip):
     factored per changed matrix; a front sweeping the strip leaves the window, which is placed anew around it
     (the refactor trigger), and with it the conductivity jump; mushy columns far from it are not factored."""
     _, mesh, forms = strip
-    jac = _windowed(_ColumnJacobian(forms))
+    jac = _windowed(ColumnJacobian(forms))
     xs = np.array([v.point[0] for v in mesh.vertices])[jac.free]
     nF = jac.nF
     rng = np.random.default_rng(5)
@@ -138,9 +139,9 @@ def test_window_mode_matches_direct_solves(strip):
         x = jac.solve(mc, wd, w, b, 0.005, "test")
         ref = _direct(forms, jac, mc, wd, w, 0.005, b)
         worst = max(worst, float(np.max(np.abs(x - ref)[sensible]) / np.max(np.abs(ref[sensible]))))
-        if jac._win is not None:
+        if jac.window_size is not None:
             windowed += 1
-            sizes.append(jac._win["nC"])
+            sizes.append(jac.window_size)
     print(f"\nwindow mode, front sweep: {jac.factorizations} factorizations (placements), "
           f"{jac.window_factorizations} Schur complement factorizations, {jac.corrections} interface solves, "
           f"window {min(sizes)} .. {max(sizes)} of {nF} nodes; worst relative difference {worst:.1e}")
@@ -164,7 +165,7 @@ def test_window_mode_gives_the_same_run_as_factoring_at_every_change(strip):
     print(f"\nwindow mode: {win.factorizations} placements, {win.jac.window_factorizations} Schur complement "
           f"factorizations, {sum(i.corrections for i in wi)} interface solves; factoring at every change: "
           f"{fresh.factorizations}; max |de| {np.max(np.abs(win.e - fresh.e)):.1e}")
-    assert win.jac._win is not None
+    assert win.jac.window_size is not None
     assert [i.iterations for i in wi] == [i.iterations for i in fi]
     assert np.max(np.abs(win.e - fresh.e)) < 1e-10
     assert 1 < win.factorizations < fresh.factorizations / 3

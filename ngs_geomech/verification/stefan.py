@@ -49,8 +49,10 @@ from ..fem.timesteps import schedule
 from ..heat.forms import HeatForms, HeatSetup
 from ..heat.materials import ThermalProperties
 from ..heat.solver import HeatSolver
-from ..stefan.forms import PhaseChangeMaterial, StefanForms, StefanSetup
-from ..stefan.solver import ApparentHeatCapacitySolver, StefanSolver
+from ..stefan.apparent import ApparentHeatCapacitySolver
+from ..stefan.forms import StefanForms, StefanSetup
+from ..stefan.materials import PhaseChangeMaterial
+from ..stefan.solver import StefanSolver
 from .study import observed_order, one_ngsolve_thread
 
 SQRT_PI = math.sqrt(math.pi)
@@ -344,7 +346,7 @@ def neumann_strip(problem: NeumannProblem, h: float, dt: float, t0: float, t1: f
     ``time_ratio_cpu`` (factorization reused; less disturbed by other jobs on the machine), ``factorizations``
     (and ``factorizations_per_step``), ``corrections_per_step`` (the Newton solver's extra solves: low-rank
     correction columns, one solve each, or in window mode (factored sets of 8000 unknowns and more) the solves for
-    the window's boundary nodes when a window is set up; :class:`ngs_geomech.stefan.solver._ColumnJacobian`) and
+    the window's boundary nodes when a window is set up; :class:`ngs_geomech.stefan.column_jacobian.ColumnJacobian`) and
     ``phase_changes_per_step`` (nodes changing between solid, mushy and liquid).
     Runs on one NGSolve thread and one BLAS thread (:func:`single_threaded_blas`; the timings compare like with
     like; idle worker threads made sparse Cholesky 30 times slower at 500 dofs).
@@ -365,43 +367,13 @@ def _neumann_strip(problem, h, dt, t0, t1, height, method, delta, linear_referen
     forms = StefanForms(mesh, setup)
     xs = np.array([v.point[0] for v in mesh.vertices])
     T0 = problem.temperature(xs, t0)
-    liquid = (xs < problem.front(t0)).astype(float)
-    if method == "enthalpy":
-        solver = StefanSolver(forms)
-        if initial == "project":
-            solver.set_initial_enthalpy(initial_enthalpy(forms, problem, t0))
-        else:
-            solver.set_initial(T0, liquid)
-        energy0 = forms.heat_content(solver.e)
-    else:
-        if delta is None or not delta > 0:
-            raise ValueError(f"the apparent heat capacity method needs delta > 0 K, got {delta}")
-        solver = ApparentHeatCapacitySolver(forms, delta)
-        solver.set_initial(T0)
-        energy0 = forms.heat_content(solver.enthalpy())
+    solver, energy0 = _strip_solver(problem, forms, method, delta, t0, T0, (xs < problem.front(t0)).astype(float),
+                                    initial)
     steps = list(schedule(t0, t1, dt))
-    boundary_heat = 0.0
-    iters, times, cpus, changes, lin = [], [], [], [], []
     reference = _LinearReference(mesh, problem, T0) if linear_reference else None
     if reference is not None:
         reference.step(*steps[0])                     # set-up and factorization, not counted
-    block = max(25, -(-len(steps) // 5))
-    for k in range(0, len(steps), block):
-        # five blocks of Stefan steps and of as many linear steps alternate, so that both are timed under the
-        # same load of the shared machine (the linear step alone varied by 40 % between runs); shorter blocks
-        # slowed the linear steps more than the Stefan ones (caches cold at each switch: blocks of 18 steps
-        # at 10.8k nodes, linear +15 %, Stefan +1 %), 5 blocks within the noise
-        cpu = time.process_time()
-        for a, b in steps[k:k + block]:
-            start = time.perf_counter()
-            info = solver.step(a, b)
-            times.append(time.perf_counter() - start)
-            iters.append(info.iterations)
-            changes.append(info.phase_changes)
-            boundary_heat += info.boundary_heat
-        cpus.append(time.process_time() - cpu)
-        if reference is not None:
-            lin += [reference.step(a, b) for a, b in steps[k:k + block]]
+    boundary_heat, iters, times, cpus, changes, lin = _timed_steps(solver, steps, reference)
     cpu_per_step = float(np.sum(cpus)) / len(steps)
     if method == "enthalpy":
         T = solver.temperature()
@@ -437,7 +409,7 @@ def _neumann_strip(problem, h, dt, t0, t1, height, method, delta, linear_referen
            "factorizations": int(solver.factorizations), "time_per_step": float(np.mean(times)),
            "cpu_time_per_step": cpu_per_step,
            "factorizations_per_step": solver.factorizations / len(steps),
-           "corrections_per_step": getattr(solver.jac, "corrections", 0) / len(steps),
+           "corrections_per_step": solver.jac.corrections / len(steps),
            "phase_changes_per_step": float(np.mean(changes))}
     if reference is not None:
         lin = np.array(lin)
@@ -447,6 +419,49 @@ def _neumann_strip(problem, h, dt, t0, t1, height, method, delta, linear_referen
                    time_ratio=out["time_per_step"] / reused, time_ratio_factor=out["time_per_step"] / fresh,
                    linear_step_cpu_time=reused_cpu, time_ratio_cpu=cpu_per_step / reused_cpu)
     return out
+
+
+def _strip_solver(problem, forms, method, delta, t0, T0, liquid, initial) -> tuple:
+    """The strip's solver of ``method`` at its initial state (nodal temperatures ``T0``, K; ``liquid`` fractions
+    deciding the nodes at the melting temperature) and its initial heat content (J/m)."""
+    if method == "enthalpy":
+        solver = StefanSolver(forms)
+        if initial == "project":
+            solver.set_initial_enthalpy(initial_enthalpy(forms, problem, t0))
+        else:
+            solver.set_initial(T0, liquid)
+        return solver, forms.heat_content(solver.e)
+    if delta is None or not delta > 0:
+        raise ValueError(f"the apparent heat capacity method needs delta > 0 K, got {delta}")
+    solver = ApparentHeatCapacitySolver(forms, delta)
+    solver.set_initial(T0)
+    return solver, forms.heat_content(solver.enthalpy())
+
+
+def _timed_steps(solver, steps, reference) -> tuple:
+    """Take the ``steps`` (t_old, t_new) with ``solver``, timed, alternating with the linear ``reference``'s steps:
+    the boundary heat (J/m), the lists of Newton iterations, wall times (s), CPU times of the blocks (s) and
+    phase changes per step, and the reference's (wall, CPU) times per step."""
+    boundary_heat = 0.0
+    iters, times, cpus, changes, lin = [], [], [], [], []
+    block = max(25, -(-len(steps) // 5))
+    for k in range(0, len(steps), block):
+        # five blocks of Stefan steps and of as many linear steps alternate, so that both are timed under the
+        # same load of the shared machine (the linear step alone varied by 40 % between runs); shorter blocks
+        # slowed the linear steps more than the Stefan ones (caches cold at each switch: blocks of 18 steps
+        # at 10.8k nodes, linear +15 %, Stefan +1 %), 5 blocks within the noise
+        cpu = time.process_time()
+        for a, b in steps[k:k + block]:
+            start = time.perf_counter()
+            info = solver.step(a, b)
+            times.append(time.perf_counter() - start)
+            iters.append(info.iterations)
+            changes.append(info.phase_changes)
+            boundary_heat += info.boundary_heat
+        cpus.append(time.process_time() - cpu)
+        if reference is not None:
+            lin += [reference.step(a, b) for a, b in steps[k:k + block]]
+    return boundary_heat, iters, times, cpus, changes, lin
 
 
 def neumann_convergence(problem: NeumannProblem, hs, dt_over_h: float, t0: float, t1: float,

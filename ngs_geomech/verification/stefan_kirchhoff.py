@@ -35,7 +35,8 @@ import numpy as np
 
 from ..errors import SolverError
 from ..fem.timesteps import schedule
-from ..stefan.forms import PhaseChangeMaterial, StefanForms, StefanSetup
+from ..stefan.forms import StefanForms, StefanSetup
+from ..stefan.materials import PhaseChangeMaterial
 from ..stefan.solver import StefanSolver
 from .stefan import NeumannProblem, single_threaded_blas, strip_mesh
 from .study import observed_order, one_ngsolve_thread

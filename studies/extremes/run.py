@@ -320,7 +320,7 @@ def _stefan(st_l: float, st_s: float = 0.0, *, h: float, dt_over_tau: float | No
     L = 1/St_L (T_S = -St_S/St_L): from s(t0) to s(t1) = 1 m (t0 = t1/4) in ``steps`` steps, or with
     dt = ``dt_over_tau`` h^2/a (the element diffusion time). Error: the front from the melted volume against
     the closed form, relative to s(t1); check: the discrete energy balance."""
-    from ngs_geomech.stefan.forms import PhaseChangeMaterial
+    from ngs_geomech.stefan.materials import PhaseChangeMaterial
     from ngs_geomech.verification.stefan import NeumannProblem, neumann_strip
     mat = PhaseChangeMaterial(melting_temperature=0.0, latent_heat=1.0 / st_l, rho_c_solid=1.0, rho_c_liquid=1.0,
                               conductivity_solid=1.0, conductivity_liquid=1.0)
