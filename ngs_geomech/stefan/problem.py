@@ -43,15 +43,8 @@ from ..parts import Part, Step
 from ..scene.expressions import short
 from ..scene.model import Scene
 from ..scene.units import YEAR
-from .forms import (
-    DEFAULT_INTERFACE_PENALTY,
-    ConductivityRangeError,
-    PhaseChangeMaterial,
-    PlainThermalMaterial,
-    StefanForms,
-    StefanSetup,
-    vertex_rules,
-)
+from .forms import DEFAULT_INTERFACE_PENALTY, StefanForms, StefanSetup, vertex_rules
+from .materials import ConductivityRangeError, PhaseChangeMaterial, PlainThermalMaterial
 from .solver import StefanSolver
 
 AUTO_NODES = {2: 1_000_000, 3: 5_000}
@@ -60,8 +53,8 @@ SuperLU with low-rank updates (per mesh dimension). Measured on one thread, ``me
 (6 x 2 x 4 m, the lens 1.25 x 1 x 0.4 m, 20 days in 15 steps, whole runs): direct / GMRES 2.7 / 4.7 s at 2k nodes,
 67 / 17.6 s at 7k (SuperLU factors the 3D Newton matrix 14 times, 3.9 s each), > 420 s (stopped) / 38 s at 13k;
 GMRES 234 s at 46k. GMRES iterations per solve, max: 13 / 18 / 19 / 24 at 2k / 7k / 13k / 46k nodes. In 2D SuperLU
-stays far ahead (13 x faster at 12k nodes on the Neumann strip, :mod:`ngs_geomech.stefan.solver`): the 2D value
-keeps the direct path (not measured up to it)."""
+stays far ahead (13 x faster at 12k nodes on the Neumann strip, :mod:`ngs_geomech.stefan.krylov_jacobian`): the 2D
+value keeps the direct path (not measured up to it)."""
 
 MAX_HALVINGS = 6
 """A Stefan step whose Newton iteration fails is split in halves at most this often (dt / 64)."""
@@ -140,7 +133,7 @@ class StefanRun(Part):
     histories a summary and a checkpoint need. ``regions`` are the phase-change regions (scene order). The Newton
     steps are solved by GMRES on a distributed mesh and, serially, when ``solver.linear`` chooses "iterative"
     (above :data:`AUTO_NODES` nodes for "auto"); ``krylov_preconditioner`` ("bddc", "h1amg" or "jacobi", None:
-    BDDC distributed, h1amg serial) is then their preconditioner (:mod:`ngs_geomech.stefan.solver`)."""
+    BDDC distributed, h1amg serial) is then their preconditioner (:mod:`ngs_geomech.stefan.krylov_jacobian`)."""
 
     key = "stefan"
     probes_every_step = True
