@@ -208,6 +208,12 @@ def _clipped_pieces(sf: _Surface, of: _Surface, reach: float) -> tuple[list, lis
     return p_tri, p_opp, p_abc
 
 
+def _shapes_at(surface: _Surface, tri: np.ndarray, ref: np.ndarray, order: int) -> np.ndarray:
+    """(np, nq, nloc) values of the shapes of ``surface``'s triangles ``tri`` at the reference points ``ref``."""
+    npc, nq = ref.shape[:2]
+    return np.einsum("pqk,pki->pqi", _monomials(ref.reshape(-1, 2), order).reshape(npc, nq, -1), surface.coef[tri])
+
+
 class _Pieces:
     """The quadrature of the pieces of S (S triangle ``tri``, O triangle ``opp`` or -1 for the foundation,
     corners ``abc`` (np, 3, 2) in S's reference coordinates): the points ``xi`` (np, nq, 2) in S's reference
@@ -237,12 +243,6 @@ class _Pieces:
         rg = np.einsum("pij,pqj->pqi", np.linalg.inv(A), x - of.P[self.opp][:, None])
         return rg[:, :, 2], rg[:, :, :2]
 
-    def shapes(self, surface: _Surface, tri: np.ndarray, ref: np.ndarray, order: int) -> np.ndarray:
-        """(np, nq, nloc) values of the shapes of ``surface``'s triangles ``tri`` at the reference points ``ref``."""
-        npc, nq = ref.shape[:2]
-        return np.einsum("pqk,pki->pqi", _monomials(ref.reshape(-1, 2), order).reshape(npc, nq, -1),
-                         surface.coef[tri])
-
 
 def _mortar_3d(pieces: _Pieces, sf: _Surface, of: _Surface | None, plane: tuple | None, reach: float,
                tri_nodes: np.ndarray, m: int, order: int):
@@ -257,11 +257,11 @@ def _mortar_3d(pieces: _Pieces, sf: _Surface, of: _Surface | None, plane: tuple 
     g0, covered = np.zeros(m), np.zeros(m)
     np.add.at(covered, rows3, np.einsum("pq,pqa->pa", w, phi))
     np.add.at(g0, rows3, np.einsum("pq,pqa,pq->pa", w, psi, g))
-    NS = pieces.shapes(sf, pieces.tri, xi, order)
+    NS = _shapes_at(sf, pieces.tri, xi, order)
     M = [-np.einsum("pq,pqa,pqi->pai", w, psi, NS)]                 # (np, 3, nloc)
     dofs = [sf.dofs[pieces.tri]]
     if of is not None:
-        NO = pieces.shapes(of, pieces.opp, r, order)
+        NO = _shapes_at(of, pieces.opp, r, order)
         M.append(np.einsum("pq,pqa,pqi->pai", w, psi, NO))
         dofs.append(of.dofs[pieces.opp])
     return g0, covered, rows3, np.concatenate(M, axis=2), np.concatenate(dofs, axis=1)
