@@ -126,30 +126,54 @@ def _outward_signs(mesh, side: str, segments) -> list[float]:
     return out
 
 
-def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, axisymmetric: bool,
-                        obstacle: tuple | None = None, search_distance: float | None = None) -> ContactOperator:
-    """Assemble the operators of :class:`ContactOperator` for contact side ``side`` (multipliers) against
-    the boundary ``opposite`` of another body, or (``opposite`` None) against a rigid straight foundation
-    ``obstacle`` = (point, outward unit normal of the foundation) that does not move; ``V`` is the VectorH1
-    displacement space. ``search_distance`` (m): rays longer than this (|g0| larger) are ignored (default: a
-    quarter of the extent of the side; the nearest crossing of O counts)."""
+def scalar_space(mesh, V, dim: int, message: str):
+    """(order, the scalar H1 space of V's shapes and dofs, its ndof ns): component c of the VectorH1 space ``V``
+    has dof c * ns + the scalar dof. ``message``: the error when ``V`` is not a ``dim``-component VectorH1."""
     order = V.globalorder
-    S = ngs.H1(mesh, order=order)       # scalar shapes and dofs: component c of V has dof c * ns + scalar dof
+    S = ngs.H1(mesh, order=order)
     ns = S.ndof
-    if V.ndof != 2 * ns:
-        raise ValueError("contact_operator_2d needs a 2D VectorH1 space")
-    sides = [Segment(mesh, S, el.nr) for el in mesh.Boundaries(side).Elements()]
-    opps = [] if opposite is None else [Segment(mesh, S, el.nr) for el in mesh.Boundaries(opposite).Elements()]
-    if not sides or (opposite is not None and not opps):
-        raise ValueError(f"contact interface {name!r}: side {side!r} or {opposite!r} has no boundary elements")
-    if opposite is None:
-        if obstacle is None:
-            raise ValueError(f"contact interface {name!r}: neither an opposite side nor a rigid foundation")
+    if V.ndof != dim * ns:
+        raise ValueError(message)
+    return order, S, ns
+
+
+def foundation_plane(name: str, obstacle: tuple | None, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """(a point of the rigid foundation, its outward unit normal) from ``obstacle`` = (point, normal); plane
+    scenes (``dim`` 2) take the first two components of each."""
+    if obstacle is None:
+        raise ValueError(f"contact interface {name!r}: neither an opposite side nor a rigid foundation")
+    if dim == 2:
         q_ob = np.asarray(obstacle[0], dtype=float)[:2]
         n_ob = np.asarray(obstacle[1], dtype=float)[:2]
-        n_ob = n_ob / np.linalg.norm(n_ob)
-    nrm = ngs.specialcf.normal(2)
-    outward = _outward_signs(mesh, side, sides)
+        return q_ob, n_ob / np.linalg.norm(n_ob)
+    q_ob = np.asarray(obstacle[0], dtype=float).ravel()
+    n_ob = np.asarray(obstacle[1], dtype=float).ravel()
+    if q_ob.shape != (dim,) or n_ob.shape != (dim,) or not np.linalg.norm(n_ob) > 0:
+        raise ValueError(f"contact interface {name!r}: the foundation needs a point and a nonzero normal with "
+                         f"{dim} components, got {obstacle!r}")
+    return q_ob, n_ob / np.linalg.norm(n_ob)
+
+
+def default_search_distance(points: np.ndarray) -> float:
+    """The default search distance (m): a quarter of the extent of the contact side's ``points`` (k, dim)."""
+    return 0.25 * float(np.max(np.ptp(points, axis=0)))
+
+
+def mortar_matrix(rows: np.ndarray, cols: np.ndarray, vals: np.ndarray, shape: tuple[int, int]) -> sp.csr_matrix:
+    """The sparse operator of the COO entries (rows, cols, vals), duplicates summed."""
+    B = sp.coo_matrix((vals, (rows, cols)), shape=shape).tocsr()
+    B.sum_duplicates()
+    return B
+
+
+def covered_fraction(covered: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """``coverage`` of :class:`ContactOperator`: covered / weight, 0 where the weight vanishes."""
+    return np.divide(covered, weight, out=np.zeros(len(weight)), where=weight > 0)
+
+
+def _side_nodes(mesh, side: str, sides: list[Segment]):
+    """The multiplier nodes of the contact side: (mesh vertex numbers (m,), coordinates (m, 2), per segment the
+    node numbers at its reference coordinates s = 0 and s = 1)."""
     vert: dict[int, int] = {}
     seg_nodes = []
     for el, sg in zip(mesh.Boundaries(side).Elements(), sides):
@@ -161,95 +185,158 @@ def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, 
         for v in vs:
             vert.setdefault(v, len(vert))
         seg_nodes.append((vert[vs[0]], vert[vs[1]]))
-    m = len(vert)
-    coords = np.zeros((m, 2))
+    coords = np.zeros((len(vert), 2))
     for v, j in vert.items():
         coords[j] = mesh[ngs.NodeId(ngs.VERTEX, v)].point[:2]
-    gx, gw = np.polynomial.legendre.leggauss(order + 3)
-    gx, gw = (gx + 1) / 2, gw / 2
-    omin = np.array([np.minimum(o.p0, o.p1) for o in opps]).reshape(-1, 2)
-    omax = np.array([np.maximum(o.p0, o.p1) for o in opps]).reshape(-1, 2)
-    opp_pts = [(o.p0, o.p1) for o in opps]
-    if search_distance is None:   # default: a quarter of the extent of the contact side
-        ext = np.ptp(np.array([p for sg in sides for p in (sg.p0, sg.p1)]), axis=0)
-        search_distance = 0.25 * float(np.max(ext))
-    reach = float(search_distance)
-    rows_n, cols, vn, vt = [], [], [], []
-    g0 = np.zeros(m)
-    weight = np.zeros(m)
-    length = np.zeros(m)
-    covered = np.zeros(m)
-    for sg, (j0, j1), sign in zip(sides, seg_nodes, outward):
-        # dual (biorthogonal) basis on this segment: psi_a = sum_b A_ab phi_b, int psi_a phi_b w = delta_ab D_a
-        Me = np.zeros((2, 2))
-        for xq, wq in zip(gx, gw):
-            pq = sg.point(xq)
-            wt = wq * sg.speed(xq) * (pq[0] if axisymmetric else 1.0)
-            ph = np.array([1.0 - xq, xq])
-            Me += wt * np.outer(ph, ph)
-        dual = np.diag(Me.sum(axis=1)) @ np.linalg.inv(Me)
+    return np.array(list(vert), dtype=int), coords, seg_nodes
+
+
+class _Opposite2D:
+    """What the rays of the contact side meet: the segments of the opposite side O, or (``plane`` = (point,
+    outward unit normal)) a rigid straight foundation; rays longer than ``reach`` (m) are ignored."""
+
+    def __init__(self, opps: list[Segment], plane: tuple | None, reach: float):
+        self.opps, self.plane, self.reach = opps, plane, reach
+        self.omin = np.array([np.minimum(o.p0, o.p1) for o in opps]).reshape(-1, 2)
+        self.omax = np.array([np.maximum(o.p0, o.p1) for o in opps]).reshape(-1, 2)
+
+    def candidates(self, sg: Segment) -> np.ndarray:
+        """The O segments whose bounding boxes come within ``reach`` of the segment ``sg``."""
         lo, hi = np.minimum(sg.p0, sg.p1), np.maximum(sg.p0, sg.p1)
-        cand = np.where(np.all(omin <= hi + reach, axis=1) & np.all(omax >= lo - reach, axis=1))[0]
+        reach = self.reach
+        return np.where(np.all(self.omin <= hi + reach, axis=1) & np.all(self.omax >= lo - reach, axis=1))[0]
+
+    def cuts(self, sg: Segment, cand: np.ndarray) -> list[float]:
+        """The reference coordinates of ``sg`` splitting it where the nodes of the candidates project onto it."""
         cuts = {0.0, 1.0}
         for k in cand:
-            for q in opp_pts[k]:
+            for q in (self.opps[k].p0, self.opps[k].p1):
                 s = sg.locate(q)
                 if 0.0 < s < 1.0:
                     cuts.add(s)
-        cuts = sorted(cuts)
+        return sorted(cuts)
+
+    def nearest(self, p: np.ndarray, n: np.ndarray, cand: np.ndarray) -> tuple[float, float, int] | None:
+        """(gap g, reference coordinate t on O, O segment or -1 for the foundation) of the nearest crossing of the
+        ray p + g n within ``reach``, or None."""
+        best = None
+        if self.plane is not None:
+            q_ob, n_ob = self.plane
+            nn = float(np.dot(n, n_ob))
+            if nn < -1e-12:   # facing the foundation
+                g = float(np.dot(q_ob - p, n_ob)) / nn
+                if abs(g) <= self.reach:
+                    best = (g, 0.0, -1)
+        for k in cand:
+            hit = _ray_hit(self.opps[k], p, n)
+            if hit is not None and abs(hit[0]) <= self.reach and (best is None or abs(hit[0]) < abs(best[0])):
+                best = (hit[0], hit[1], k)
+        return best
+
+    def shapes(self, k: int, t: float) -> tuple[list, np.ndarray]:
+        """(scalar dofs, shape values) of O at the point t of its segment ``k`` (none for the foundation)."""
+        if k < 0:
+            return [], np.zeros(0)
+        return self.opps[k].dofs, np.array(self.opps[k].fe.CalcShape(t))
+
+
+class _Mortar2D:
+    """The sums of the 2D mortar integrals (module docstring) of one contact side, segment by segment: the COO
+    entries of Bn and Bt and the nodal g0, weight, length and covered weight of ``m`` multiplier nodes."""
+
+    def __init__(self, m: int, ns: int, order: int, axisymmetric: bool):
+        gx, gw = np.polynomial.legendre.leggauss(order + 3)
+        self.gx, self.gw = (gx + 1) / 2, gw / 2
+        self.ns, self.axisymmetric = ns, axisymmetric
+        self.rows, self.cols, self.vn, self.vt = [], [], [], []
+        self.g0, self.weight, self.length, self.covered = (np.zeros(m) for _ in range(4))
+
+    def dual_basis(self, sg: Segment) -> np.ndarray:
+        """The dual (biorthogonal) basis on the segment: psi_a = sum_b A_ab phi_b with
+        int psi_a phi_b w ds = delta_ab D_a; returns A."""
+        Me = np.zeros((2, 2))
+        for xq, wq in zip(self.gx, self.gw):
+            pq = sg.point(xq)
+            wt = wq * sg.speed(xq) * (pq[0] if self.axisymmetric else 1.0)
+            ph = np.array([1.0 - xq, xq])
+            Me += wt * np.outer(ph, ph)
+        return np.diag(Me.sum(axis=1)) @ np.linalg.inv(Me)
+
+    def add_segment(self, sg: Segment, nodes: tuple[int, int], sign: float, opposite: _Opposite2D) -> None:
+        """Integrate over the segment ``sg`` (its multiplier ``nodes`` at s = 0, 1; ``sign`` the factor of its
+        outward normal), piece by piece between the projections of O's nodes."""
+        nrm = ngs.specialcf.normal(2)
+        dual = self.dual_basis(sg)
+        cand = opposite.candidates(sg)
+        cuts = opposite.cuts(sg, cand)
         for a, b in zip(cuts[:-1], cuts[1:]):
             if b - a <= 1e-12:
                 continue
-            for xq, wq in zip(gx, gw):
+            for xq, wq in zip(self.gx, self.gw):
                 s = a + (b - a) * xq
                 mip = sg.trafo(s)
                 p = np.array([ngs.x(mip), ngs.y(mip)])
                 n = np.array(nrm(mip)).ravel()[:2]
                 n = sign * n / np.linalg.norm(n)
-                tvec = np.array([-n[1], n[0]])
-                wt = wq * (b - a) * sg.speed(s) * (p[0] if axisymmetric else 1.0)
+                wt = wq * (b - a) * sg.speed(s) * (p[0] if self.axisymmetric else 1.0)
                 phi = (1.0 - s, s)
-                for j, ph in zip((j0, j1), phi):
-                    weight[j] += wt * ph
-                    length[j] += wq * (b - a) * sg.speed(s) * ph
-                best = None
-                if opposite is None:
-                    nn = float(np.dot(n, n_ob))
-                    if nn < -1e-12:   # facing the foundation
-                        g = float(np.dot(q_ob - p, n_ob)) / nn
-                        if abs(g) <= reach:
-                            best = (g, 0.0, -1)
-                for k in cand:
-                    hit = _ray_hit(opps[k], p, n)
-                    if hit is not None and abs(hit[0]) <= reach and (best is None or abs(hit[0]) < abs(best[0])):
-                        best = (hit[0], hit[1], k)
-                if best is None:
-                    continue
-                g, t, k = best
-                NS = np.array(sg.fe.CalcShape(s))
-                psi = dual @ np.array(phi)
-                if k >= 0:
-                    odofs, NO = opps[k].dofs, np.array(opps[k].fe.CalcShape(t))
-                else:
-                    odofs, NO = [], np.zeros(0)
-                for j, ph, ps in zip((j0, j1), phi, psi):
-                    covered[j] += wt * ph
-                    c = wt * ps
-                    g0[j] += c * g
-                    for comp in range(2):
-                        off = comp * ns
-                        dofs = [off + d for d in odofs] + [off + d for d in sg.dofs]
-                        shp = np.concatenate([NO, -NS]) * c
-                        rows_n += [j] * len(dofs)
-                        cols += dofs
-                        vn += list(shp * n[comp])
-                        vt += list(shp * tvec[comp])
-    rows = np.array(rows_n, dtype=int)
-    cols = np.array(cols, dtype=int)
-    Bn = sp.csr_matrix((np.array(vn), (rows, cols)), shape=(m, V.ndof))
-    Bt = sp.csr_matrix((np.array(vt), (rows, cols)), shape=(m, V.ndof))
-    Bn.sum_duplicates()
-    Bt.sum_duplicates()
-    coverage = np.divide(covered, weight, out=np.zeros(m), where=weight > 0)
-    return ContactOperator(name, side, opposite, np.array(list(vert), dtype=int), coords, Bn, Bt, g0, weight, length,
-                           coverage, search_distance=reach)
+                for j, ph in zip(nodes, phi):
+                    self.weight[j] += wt * ph
+                    self.length[j] += wq * (b - a) * sg.speed(s) * ph
+                best = opposite.nearest(p, n, cand)
+                if best is not None:
+                    self.add_point(sg, nodes, dual @ np.array(phi), s, wt, n, best, opposite)
+
+    def add_point(self, sg: Segment, nodes: tuple[int, int], psi: np.ndarray, s: float, wt: float, n: np.ndarray,
+                  hit: tuple[float, float, int], opposite: _Opposite2D) -> None:
+        """The integrands of g0, Bn and Bt at the point s of ``sg`` (quadrature weight ``wt``, dual shapes ``psi``
+        of its ``nodes``, unit normal ``n``) whose ray meets O at ``hit`` = (g, t, k)."""
+        g, t, k = hit
+        tvec = np.array([-n[1], n[0]])
+        NS = np.array(sg.fe.CalcShape(s))
+        odofs, NO = opposite.shapes(k, t)
+        for j, ph, ps in zip(nodes, (1.0 - s, s), psi):
+            self.covered[j] += wt * ph
+            c = wt * ps
+            self.g0[j] += c * g
+            for comp in range(2):
+                off = comp * self.ns
+                dofs = [off + d for d in odofs] + [off + d for d in sg.dofs]
+                shp = np.concatenate([NO, -NS]) * c
+                self.rows += [j] * len(dofs)
+                self.cols += dofs
+                self.vn += list(shp * n[comp])
+                self.vt += list(shp * tvec[comp])
+
+    def matrices(self, shape: tuple[int, int]) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """(Bn, Bt) of the summed entries."""
+        rows = np.array(self.rows, dtype=int)
+        cols = np.array(self.cols, dtype=int)
+        return mortar_matrix(rows, cols, np.array(self.vn), shape), mortar_matrix(rows, cols, np.array(self.vt), shape)
+
+
+def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, axisymmetric: bool,
+                        obstacle: tuple | None = None, search_distance: float | None = None) -> ContactOperator:
+    """Assemble the operators of :class:`ContactOperator` for contact side ``side`` (multipliers) against
+    the boundary ``opposite`` of another body, or (``opposite`` None) against a rigid straight foundation
+    ``obstacle`` = (point, outward unit normal of the foundation) that does not move; ``V`` is the VectorH1
+    displacement space. ``search_distance`` (m): rays longer than this (|g0| larger) are ignored (default: a
+    quarter of the extent of the side; the nearest crossing of O counts)."""
+    order, S, ns = scalar_space(mesh, V, 2, "contact_operator_2d needs a 2D VectorH1 space")
+    sides = [Segment(mesh, S, el.nr) for el in mesh.Boundaries(side).Elements()]
+    opps = [] if opposite is None else [Segment(mesh, S, el.nr) for el in mesh.Boundaries(opposite).Elements()]
+    if not sides or (opposite is not None and not opps):
+        raise ValueError(f"contact interface {name!r}: side {side!r} or {opposite!r} has no boundary elements")
+    plane = foundation_plane(name, obstacle, 2) if opposite is None else None
+    outward = _outward_signs(mesh, side, sides)
+    nodes, coords, seg_nodes = _side_nodes(mesh, side, sides)
+    if search_distance is None:
+        search_distance = default_search_distance(np.array([p for sg in sides for p in (sg.p0, sg.p1)]))
+    reach = float(search_distance)
+    found = _Opposite2D(opps, plane, reach)
+    sums = _Mortar2D(len(nodes), ns, order, axisymmetric)
+    for sg, jj, sign in zip(sides, seg_nodes, outward):
+        sums.add_segment(sg, jj, sign, found)
+    Bn, Bt = sums.matrices((len(nodes), V.ndof))
+    return ContactOperator(name, side, opposite, nodes, coords, Bn, Bt, sums.g0, sums.weight, sums.length,
+                           covered_fraction(sums.covered, sums.weight), search_distance=reach)

@@ -41,7 +41,14 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
-from .forms import ContactOperator
+from .forms import (
+    ContactOperator,
+    covered_fraction,
+    default_search_distance,
+    foundation_plane,
+    mortar_matrix,
+    scalar_space,
+)
 
 _FACING = -1e-3      # O triangles count when n_O . n_S < this (they face S)
 
@@ -148,6 +155,128 @@ def _tangent(n: np.ndarray) -> np.ndarray:
     return t / np.linalg.norm(t, axis=1)[:, None]
 
 
+def _check_names(name: str, side, opposite) -> None:
+    """The boundary names of the interface are nonempty strings (``opposite`` None: a foundation)."""
+    for what, bnd in (("contact side", side), ("opposite", opposite)):
+        if bnd is None and what == "opposite":
+            continue
+        if not isinstance(bnd, str) or not bnd.strip():
+            raise ValueError(f"contact interface {name!r}: the {what} boundary name {bnd!r} is empty")
+
+
+def _facing_pieces(sf: _Surface, n_ob: np.ndarray) -> tuple[list, list, list]:
+    """The pieces against a rigid plane of outward normal ``n_ob``: the whole triangles of S facing it."""
+    facing = np.where(sf.n @ n_ob < -1e-12)[0]
+    return list(facing), [-1] * len(facing), [np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])] * len(facing)
+
+
+def _fan(piece: np.ndarray) -> list[np.ndarray]:
+    """The non-degenerate triangles (3, 2) of the fan of the convex polygon ``piece`` from its first corner."""
+    out = []
+    for k in range(1, len(piece) - 1):
+        a, b, cc = piece[0], piece[k], piece[k + 1]
+        det = (b[0] - a[0]) * (cc[1] - a[1]) - (b[1] - a[1]) * (cc[0] - a[0])
+        if abs(det) > 1e-14:
+            out.append(np.array([a, b, cc]))
+    return out
+
+
+def _clipped_pieces(sf: _Surface, of: _Surface, reach: float) -> tuple[list, list, list]:
+    """The pieces against the opposite surface ``of`` (module docstring): each S triangle clipped against the
+    projections of the facing O triangles within ``reach`` of it, fanned into triangles."""
+    p_tri, p_opp, p_abc = [], [], []
+    JtJ = np.einsum("tki,tkj->tij", sf.J, sf.J)
+    pinv = np.linalg.solve(JtJ, np.transpose(sf.J, (0, 2, 1)))        # (nt, 2, 3)
+    tol_box = 1e-9 * float(np.max(np.ptp(sf.X.reshape(-1, 3), axis=0)))
+    for t in range(len(sf)):
+        ends = np.concatenate([sf.X[t] - reach * sf.n[t], sf.X[t] + reach * sf.n[t]])
+        lo, hi = ends.min(axis=0) - tol_box, ends.max(axis=0) + tol_box
+        cand = np.where(np.all(of.lo <= hi, axis=1) & np.all(of.hi >= lo, axis=1)
+                        & (of.n @ sf.n[t] < _FACING))[0]
+        if not len(cand):
+            continue
+        R = np.einsum("ij,ckj->cki", pinv[t], of.X[cand] - sf.P[t])      # O corners in S's coordinates
+        L3 = 1.0 - R.sum(axis=2)
+        eps = 1e-12
+        out = (np.all(R[:, :, 0] <= eps, axis=1) | np.all(R[:, :, 1] <= eps, axis=1)
+               | np.all(L3 <= eps, axis=1))
+        for c, poly in zip(cand[~out], R[~out]):
+            for tri in _fan(_clip(poly)):
+                p_tri.append(t)
+                p_opp.append(int(c))
+                p_abc.append(tri)
+    return p_tri, p_opp, p_abc
+
+
+def _shapes_at(surface: _Surface, tri: np.ndarray, ref: np.ndarray, order: int) -> np.ndarray:
+    """(np, nq, nloc) values of the shapes of ``surface``'s triangles ``tri`` at the reference points ``ref``."""
+    npc, nq = ref.shape[:2]
+    return np.einsum("pqk,pki->pqi", _monomials(ref.reshape(-1, 2), order).reshape(npc, nq, -1), surface.coef[tri])
+
+
+class _Pieces:
+    """The quadrature of the pieces of S (S triangle ``tri``, O triangle ``opp`` or -1 for the foundation,
+    corners ``abc`` (np, 3, 2) in S's reference coordinates): the points ``xi`` (np, nq, 2) in S's reference
+    coordinates, ``x`` (np, nq, 3) in space, the weights ``w`` (np, nq) (dA) and S's normals ``n`` (np, 3)."""
+
+    def __init__(self, sf: _Surface, tri: np.ndarray, opp: np.ndarray, abc: np.ndarray, order: int):
+        self.tri, self.opp = tri, opp
+        qx, qw = _duffy_rule(order + 2)
+        e1, e2 = abc[:, 1] - abc[:, 0], abc[:, 2] - abc[:, 0]
+        det = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+        self.xi = abc[:, None, 0] + qx[None, :, 0, None] * e1[:, None] + qx[None, :, 1, None] * e2[:, None]
+        self.w = qw[None, :] * det[:, None] * sf.area2[tri][:, None]
+        self.x = sf.P[tri][:, None] + np.einsum("pij,pqj->pqi", sf.J[tri], self.xi)
+        self.n = sf.n[tri]                                               # constant per flat triangle
+
+    def __len__(self) -> int:
+        return len(self.tri)
+
+    def rays(self, of: _Surface | None, plane: tuple | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """(gaps g (np, nq), the hit points r (np, nq, 2) in O's reference coordinates or None on the foundation
+        ``plane``) of the rays x + g n."""
+        x, n = self.x, self.n
+        if of is None:
+            q_ob, n_ob = plane
+            return np.einsum("pqi,i->pq", q_ob - x, n_ob) / (n @ n_ob)[:, None], None
+        A = np.stack([of.J[self.opp][:, :, 0], of.J[self.opp][:, :, 1], -n], axis=2)     # (np, 3, 3)
+        rg = np.einsum("pij,pqj->pqi", np.linalg.inv(A), x - of.P[self.opp][:, None])
+        return rg[:, :, 2], rg[:, :, :2]
+
+
+def _mortar_3d(pieces: _Pieces, sf: _Surface, of: _Surface | None, plane: tuple | None, reach: float,
+               tri_nodes: np.ndarray, m: int, order: int):
+    """The local mortar integrals of the pieces: (g0 (m,), covered (m,), rows (np, 3) of their multiplier nodes,
+    the coupling M (np, 3, nl) of the dual shapes with (u(x_o) - u(x)) and its scalar dofs (np, nl))."""
+    g, r = pieces.rays(of, plane)
+    w = np.where(np.abs(g) <= reach, pieces.w, 0.0)
+    xi = pieces.xi
+    phi = np.concatenate([xi, 1.0 - xi.sum(axis=2, keepdims=True)], axis=2)     # (np, nq, 3) hats
+    psi = 4.0 * phi - 1.0                                            # dual basis (flat triangles)
+    rows3 = tri_nodes[pieces.tri]                                    # (np, 3)
+    g0, covered = np.zeros(m), np.zeros(m)
+    np.add.at(covered, rows3, np.einsum("pq,pqa->pa", w, phi))
+    np.add.at(g0, rows3, np.einsum("pq,pqa,pq->pa", w, psi, g))
+    NS = _shapes_at(sf, pieces.tri, xi, order)
+    M = [-np.einsum("pq,pqa,pqi->pai", w, psi, NS)]                 # (np, 3, nloc)
+    dofs = [sf.dofs[pieces.tri]]
+    if of is not None:
+        NO = _shapes_at(of, pieces.opp, r, order)
+        M.append(np.einsum("pq,pqa,pqi->pai", w, psi, NO))
+        dofs.append(of.dofs[pieces.opp])
+    return g0, covered, rows3, np.concatenate(M, axis=2), np.concatenate(dofs, axis=1)
+
+
+def _mortar_matrices(rows3: np.ndarray, M: np.ndarray, dofs: np.ndarray, directions, ns: int,
+                     shape: tuple[int, int]) -> list[sp.csr_matrix]:
+    """The operators (one per direction d (np, 3): n, t1, t2) with the entries M d_c on the dofs c ns + dofs."""
+    npc, nl = dofs.shape
+    rows = np.broadcast_to(rows3[:, :, None, None], (npc, 3, nl, 3))
+    cols = np.broadcast_to(dofs[:, None, :, None] + ns * np.arange(3)[None, None, None, :], (npc, 3, nl, 3))
+    return [mortar_matrix(rows.ravel(), cols.ravel(), (M[:, :, :, None] * d[:, None, None, :]).ravel(), shape)
+            for d in directions]
+
+
 def contact_operator_3d(mesh, V, name: str, side: str, opposite: str | None, *, obstacle: tuple | None = None,
                         search_distance: float | None = None) -> ContactOperator:
     """Assemble the operators of :class:`ContactOperator` (3D, module docstring) for the contact side ``side``
@@ -158,123 +287,29 @@ def contact_operator_3d(mesh, V, name: str, side: str, opposite: str | None, *, 
     extra field ``Bt2`` holds the second tangential direction t2 = n x t1 (``Bt`` holds t1)."""
     if mesh.dim != 3:
         raise ValueError(f"contact interface {name!r}: contact_operator_3d needs a 3D mesh (got dim {mesh.dim})")
-    for what, bnd in (("contact side", side), ("opposite", opposite)):
-        if bnd is None and what == "opposite":
-            continue
-        if not isinstance(bnd, str) or not bnd.strip():
-            raise ValueError(f"contact interface {name!r}: the {what} boundary name {bnd!r} is empty")
-    order = V.globalorder
-    S = ngs.H1(mesh, order=order)       # scalar shapes and dofs: component c of V has dof c * ns + scalar dof
-    ns = S.ndof
-    if V.ndof != 3 * ns:
-        raise ValueError(f"contact interface {name!r}: contact_operator_3d needs a 3D VectorH1 space")
-    if opposite is None:
-        if obstacle is None:
-            raise ValueError(f"contact interface {name!r}: neither an opposite side nor a rigid foundation")
-        q_ob = np.asarray(obstacle[0], dtype=float).ravel()
-        n_ob = np.asarray(obstacle[1], dtype=float).ravel()
-        if q_ob.shape != (3,) or n_ob.shape != (3,) or not np.linalg.norm(n_ob) > 0:
-            raise ValueError(f"contact interface {name!r}: the foundation needs a point and a nonzero normal with "
-                             f"3 components, got {obstacle!r}")
-        n_ob = n_ob / np.linalg.norm(n_ob)
+    _check_names(name, side, opposite)
+    order, S, ns = scalar_space(mesh, V, 3, f"contact interface {name!r}: contact_operator_3d needs a 3D "
+                                            "VectorH1 space")
+    plane = foundation_plane(name, obstacle, 3) if opposite is None else None
     pts = np.asarray(mesh.ngmesh.Coordinates(), dtype=float)[:mesh.nv]     # vertex k = point k + 1 of netgen
     sf = _Surface(mesh, pts, S, side, order, "contact side", name)
     of = None if opposite is None else _Surface(mesh, pts, S, opposite, order, "opposite", name)
-    nt = len(sf)
     nodes, tri_nodes = np.unique(sf.verts, return_inverse=True)
-    tri_nodes = tri_nodes.reshape(nt, 3)
+    tri_nodes = tri_nodes.reshape(len(sf), 3)
     m = len(nodes)
-    coords = pts[nodes]
-    if search_distance is None:   # default: a quarter of the extent of the contact side
-        search_distance = 0.25 * float(np.max(np.ptp(sf.X.reshape(-1, 3), axis=0)))
+    if search_distance is None:
+        search_distance = default_search_distance(sf.X.reshape(-1, 3))
     reach = float(search_distance)
     weight = np.zeros(m)
     np.add.at(weight, tri_nodes, np.repeat(sf.area2[:, None] / 6.0, 3, axis=1))
-    length = np.sqrt(weight)
-
-    # pieces: (S triangle, O triangle or -1 for the foundation, corners in S's reference coordinates)
-    p_tri, p_opp, p_abc = [], [], []
-    ref_tri = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
-    if of is None:
-        facing = np.where(sf.n @ n_ob < -1e-12)[0]
-        p_tri, p_opp = list(facing), [-1] * len(facing)
-        p_abc = [ref_tri] * len(facing)
-    else:
-        JtJ = np.einsum("tki,tkj->tij", sf.J, sf.J)
-        pinv = np.linalg.solve(JtJ, np.transpose(sf.J, (0, 2, 1)))        # (nt, 2, 3)
-        tol_box = 1e-9 * float(np.max(np.ptp(sf.X.reshape(-1, 3), axis=0)))
-        for t in range(nt):
-            ends = np.concatenate([sf.X[t] - reach * sf.n[t], sf.X[t] + reach * sf.n[t]])
-            lo, hi = ends.min(axis=0) - tol_box, ends.max(axis=0) + tol_box
-            cand = np.where(np.all(of.lo <= hi, axis=1) & np.all(of.hi >= lo, axis=1)
-                            & (of.n @ sf.n[t] < _FACING))[0]
-            if not len(cand):
-                continue
-            R = np.einsum("ij,ckj->cki", pinv[t], of.X[cand] - sf.P[t])      # O corners in S's coordinates
-            L3 = 1.0 - R.sum(axis=2)
-            eps = 1e-12
-            out = (np.all(R[:, :, 0] <= eps, axis=1) | np.all(R[:, :, 1] <= eps, axis=1)
-                   | np.all(L3 <= eps, axis=1))
-            for c, poly in zip(cand[~out], R[~out]):
-                piece = _clip(poly)
-                for k in range(1, len(piece) - 1):   # fan of the convex piece
-                    a, b, cc = piece[0], piece[k], piece[k + 1]
-                    det = (b[0] - a[0]) * (cc[1] - a[1]) - (b[1] - a[1]) * (cc[0] - a[0])
-                    if abs(det) > 1e-14:
-                        p_tri.append(t)
-                        p_opp.append(int(c))
-                        p_abc.append(np.array([a, b, cc]))
-    p_tri = np.array(p_tri, dtype=int)
-    p_opp = np.array(p_opp, dtype=int)
-    npc = len(p_tri)
-    g0 = np.zeros(m)
-    covered = np.zeros(m)
+    p_tri, p_opp, p_abc = _facing_pieces(sf, plane[1]) if of is None else _clipped_pieces(sf, of, reach)
+    g0, covered = np.zeros(m), np.zeros(m)
     Bs = [sp.csr_matrix((m, V.ndof)) for _ in range(3)]
-    n_all = sf.n
-    t1_all = _tangent(n_all)
-    t2_all = np.cross(n_all, t1_all)
-    if npc:
-        abc = np.array(p_abc)                                           # (np, 3, 2)
-        qx, qw = _duffy_rule(order + 2)
-        nq = len(qw)
-        e1, e2 = abc[:, 1] - abc[:, 0], abc[:, 2] - abc[:, 0]
-        det = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-        xi = abc[:, None, 0] + qx[None, :, 0, None] * e1[:, None] + qx[None, :, 1, None] * e2[:, None]  # (np,nq,2)
-        w = qw[None, :] * det[:, None] * sf.area2[p_tri][:, None]       # (np, nq): dA
-        x = sf.P[p_tri][:, None] + np.einsum("pij,pqj->pqi", sf.J[p_tri], xi)
-        n = n_all[p_tri]                                                 # (np, 3), constant per flat triangle
-        if of is None:
-            g = np.einsum("pqi,i->pq", q_ob - x, n_ob) / (n @ n_ob)[:, None]
-            r = None
-        else:
-            A = np.stack([of.J[p_opp][:, :, 0], of.J[p_opp][:, :, 1], -n], axis=2)     # (np, 3, 3)
-            rg = np.einsum("pij,pqj->pqi", np.linalg.inv(A), x - of.P[p_opp][:, None])
-            g, r = rg[:, :, 2], rg[:, :, :2]
-        w = np.where(np.abs(g) <= reach, w, 0.0)
-        phi = np.concatenate([xi, 1.0 - xi.sum(axis=2, keepdims=True)], axis=2)     # (np, nq, 3) hats
-        psi = 4.0 * phi - 1.0                                            # dual basis (flat triangles)
-        rows3 = tri_nodes[p_tri]                                         # (np, 3)
-        np.add.at(covered, rows3, np.einsum("pq,pqa->pa", w, phi))
-        np.add.at(g0, rows3, np.einsum("pq,pqa,pq->pa", w, psi, g))
-        NS = np.einsum("pqk,pki->pqi", _monomials(xi.reshape(-1, 2), order).reshape(npc, nq, -1),
-                       sf.coef[p_tri])
-        M = [-np.einsum("pq,pqa,pqi->pai", w, psi, NS)]                 # (np, 3, nloc)
-        dofs = [sf.dofs[p_tri]]
-        if of is not None:
-            NO = np.einsum("pqk,pki->pqi", _monomials(r.reshape(-1, 2), order).reshape(npc, nq, -1),
-                           of.coef[p_opp])
-            M.append(np.einsum("pq,pqa,pqi->pai", w, psi, NO))
-            dofs.append(of.dofs[p_opp])
-        M = np.concatenate(M, axis=2)                                    # (np, 3, nl)
-        dofs = np.concatenate(dofs, axis=1)                              # (np, nl)
-        nl = dofs.shape[1]
-        rows = np.broadcast_to(rows3[:, :, None, None], (npc, 3, nl, 3))
-        cols = np.broadcast_to(dofs[:, None, :, None] + ns * np.arange(3)[None, None, None, :], (npc, 3, nl, 3))
-        for k, d in enumerate((n, t1_all[p_tri], t2_all[p_tri])):
-            vals = M[:, :, :, None] * d[:, None, None, :]
-            B = sp.coo_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(m, V.ndof)).tocsr()
-            B.sum_duplicates()
-            Bs[k] = B
-    coverage = np.divide(covered, weight, out=np.zeros(m), where=weight > 0)
-    return ContactOperator(name, side, opposite, nodes.astype(int), coords, Bs[0], Bs[1], g0, weight, length,
-                           coverage, Bt2=Bs[2], search_distance=reach)
+    if len(p_tri):
+        pieces = _Pieces(sf, np.array(p_tri, dtype=int), np.array(p_opp, dtype=int), np.array(p_abc), order)
+        g0, covered, rows3, M, dofs = _mortar_3d(pieces, sf, of, plane, reach, tri_nodes, m, order)
+        t1 = _tangent(sf.n)
+        directions = (pieces.n, t1[pieces.tri], np.cross(sf.n, t1)[pieces.tri])
+        Bs = _mortar_matrices(rows3, M, dofs, directions, ns, (m, V.ndof))
+    return ContactOperator(name, side, opposite, nodes.astype(int), pts[nodes], Bs[0], Bs[1], g0, weight,
+                           np.sqrt(weight), covered_fraction(covered, weight), Bt2=Bs[2], search_distance=reach)

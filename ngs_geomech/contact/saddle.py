@@ -150,7 +150,7 @@ class SaddlePattern:
 
 def _segment(it, add) -> dict:
     """The entries of one interface in the pattern, added by ``add(rows, cols, values) -> slice``: per block its
-    slice of the COO values and what :func:`.solver._assemble_rows` needs to set them (node of each row entry,
+    slice of the COO values and what :func:`.active_set.assemble_rows` needs to set them (node of each row entry,
     the constant -B values); ``mirror``: the row entries the columns -B^T mirror (None in 3D with friction)."""
     on, ot = it.offset, it.offset + it.m
     seg = {}

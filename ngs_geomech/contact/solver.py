@@ -20,28 +20,13 @@ piecewise linear conditions means the step solved them exactly. Measured on the 
 contact only (an open node carries no traction).
 
 3D (the operator has ``Bt2``): lam_t,j, s~_j and z_j are vectors of R^2 (components along t1, t2 = n x t1),
-the cone is |lam_t,j| <= b_j, and the slip condition lam_t = b z / |z| is nonlinear. The slip rows are the
-Newton linearization at the current iterate (z_k, b_k) of the projection form of C_t,
-lam_t - b z / max(b, |z|) (C_t above divided by max(b, |z|): the same zeros), with e = z_k / |z_k|,
-T = I - e e^T (the projection onto the plane normal to the slip direction) and kappa = b_k / max(|z_k|, b_k)
-(b_k = g_c, or F_c lam_n,k as in the 2D rows):
-
-    lam_t,j - kappa T (lam_t,j - c_t s~_j) = g_c e (Tresca),     ... = F_c lam_n,j e (Coulomb)
-
-(d(b z/|z|)/dz = b/|z| T). In 2D T = 0 and these are the rows above, so the 2D iteration is unchanged. Why this
-form rather than the full Newton rows of HSW's max(b, |z|) lam_t - b z, whose derivative
-|z| dlam + lam_k e^T dz - b dz - z db carries lam_k: the two coincide when lam_k = b e (at the solution), but
-for lam_k off the cone (just after stick -> slip) those rows need lam_k damped back into the cone
-(HSW's modified algorithm) to keep the 2 x 2 block regular, while here I - kappa T has the eigenvalues 1 (along e) and
-1 - kappa in [0, 1) across, and the across direction always keeps the penalty-like coupling kappa c_t T s~ (a
-stick row in the limit kappa -> 1): the block is regular for any iterate, and nothing of lam_k enters. A node
-forced to slip with |z_k| < b (the twice-switched nodes below) gets kappa = 1: lam_t . e = b with no slip
-across e. The sets no longer settle the solution: the iteration stops when they repeat and the slip rows'
-residual max |lam_t - b z / |z|| over the nodes slipping in both of the last two iterates is below
-NEWTON_TOL (1e-11) of the largest bound (superlinear, e.g. 9e-3, 1e-4, 3e-11, 4e-16 in the last steps; 5 to 10
-iterations on the block tests, tests/test_contact_friction_3d.py). The slip rows change at every iteration, so
-a 3D solve with more than a few slipping nodes factors at every iteration (no Woodbury reuse). The multipliers
-of a 3D interface are (lam_n (m,), lam_t (m, 2)).
+the cone is |lam_t,j| <= b_j, and the slip rows are the Newton linearization of the slip condition
+lam_t = b z / |z| at the current iterate (:mod:`.active_set`). The sets no longer settle the solution: the
+iteration stops when they repeat and the slip rows' residual max |lam_t - b z / |z|| over the nodes slipping in
+both of the last two iterates is below NEWTON_TOL (1e-11) of the largest bound (superlinear, e.g. 9e-3, 1e-4,
+3e-11, 4e-16 in the last steps; 5 to 10 iterations on the block tests, tests/test_contact_friction_3d.py). The
+slip rows change at every iteration, so a 3D solve with more than a few slipping nodes factors at every
+iteration (no Woodbury reuse). The multipliers of a 3D interface are (lam_n (m,), lam_t (m, 2)).
 
 Linear algebra (one strategy of :mod:`.steps` per solve: sparse direct, dense condensed or Krylov steps): one
 saddle-point matrix per solve with a fixed sparsity pattern (:class:`.saddle.SaddlePattern`; in 3D a third
@@ -94,178 +79,33 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from dataclasses import dataclass, field
 
 import ngsolve as ngs
 import numpy as np
-import scipy.sparse as sp
 
 from ..errors import SolverError
 from ..linalg import pardiso
 from ..linalg.direct import check_finite
+from .active_set import assemble_rows, fixed_multipliers, new_sets
 from .base import ContactSolverBase
 from .condensed import CondensedContact, applicable
+from .floating import balance_scale, check_load, rigid_balance, unheld_reason, walk_slip
 from .forms import ContactOperator
 from .krylov import near_null_space
 from .laws import ContactLaw, ContactOptions, slip_bound
 from .linear_algebra import drop_prescribed_nodes
 from .saddle import SaddlePattern
-from .steps import NewtonSystem, newton_steps, relative_change
+from .state import ContactInfo, InterfaceState
+from .steps import NewtonSystem, exact_residual, newton_steps, relative_change
 
 COULOMB_FIXED_POINT_TOL = 1e-8    # Coulomb fallback: relative change of the slip bounds F_c p that ends it
 COULOMB_FIXED_POINT_MAXIT = 60
 NEWTON_TOL = 1e-11     # 3D slip rows: converged when max |lam_t - b z / |z|| <= NEWTON_TOL x the largest bound
-POLYGON = 16           # 3D solvability check: the friction disc |lam_t| <= b inside a regular 16-gon
 INEXACT_REFINEMENTS = 6  # refinement steps with the quasi-definite factorization before factoring exactly
 
 
 class _Cycling(SolverError):
     """The active sets of the semi-smooth Newton iteration cycle (ContactSolver falls back for Coulomb)."""
-
-
-@dataclass
-class ContactInfo:
-    """History of one contact solve: per iteration the numbers of nodes in contact, sticking and slipping
-    and of set changes; the final complementarity residuals; wall time and factorizations."""
-
-    iterations: int = 0
-    active: list = field(default_factory=list)
-    stick: list = field(default_factory=list)
-    slip: list = field(default_factory=list)
-    changes: list = field(default_factory=list)
-    max_penetration: float = 0.0
-    min_pressure: float = 0.0
-    wall_s: float = 0.0
-    factorizations: int = 0
-    coulomb_fixed_point_passes: int = 0
-    """>0: Coulomb was solved by the fixed point of Tresca problems after the active sets cycled (passes)."""
-    penalty_iterations: int = 0
-    unheld_sets: int = 0
-    reused_solves: int = 0
-    exact_start_failed: bool = False
-    """A cold solve whose exact start failed and that was solved again from the penalty start."""
-    cholesky_factorizations: int = 0
-    """Of ``factorizations``: the symmetric quasi-definite companions factored by sparse Cholesky."""
-    woodbury_columns: int = 0
-    newton_residual: list = field(default_factory=list)
-    gmres_iterations: list = field(default_factory=list)
-    """linear="iterative": the GMRES iterations of every Newton-step solve (:mod:`.krylov`)."""
-    amg_setups: int = 0
-    """linear="iterative": the AMG hierarchies built (one per solve; later Newton steps refresh its operators)."""
-    condensed_dofs: int = 0
-    """linear="condensed": the surface dofs of the condensed problem (:mod:`.condensed`)."""
-    candidate_passes: int = 0
-    """linear="condensed": the candidate sets tried (1 when the first held every node in contact)."""
-    condensed_fallback: bool = False
-    """linear="condensed": the condensed path could not take the problem and the sparse direct path solved it."""
-
-
-class _Interface:
-    """One interface's operator, law and current sets inside the solver."""
-
-    def __init__(self, op: ContactOperator, law: ContactLaw, c_scale: float, offset: int, ndof: int):
-        self.op, self.law = op, law
-        keep = op.coverage > 1.0 - 1e-6     # dual multipliers need the whole support projected
-        self.keep = keep
-        m = op.size
-        # first multiplier index: the normal block, then the tangential block(s) at offset + m (3D: t1) and
-        # offset + 2 m (3D: t2 = n x t1)
-        self.offset = offset
-        self.dim3 = op.Bt2 is not None
-        self.blocks = 3 if self.dim3 else 2
-        pad = sp.csr_matrix((m, ndof - op.Bn.shape[1]))
-        self.Bn = sp.hstack([op.Bn, pad]).tocsr()
-        self.Bt = sp.hstack([op.Bt, pad]).tocsr()
-        self.Bt2 = sp.hstack([op.Bt2, pad]).tocsr() if self.dim3 else None
-        # the equilibrium rows' entries -Bn^T lam_n - Bt^T lam_t (- Bt2^T lam_t2) (constant): COO rows, cols, values
-        cs = [B.tocoo() for B in (self.Bn, self.Bt, self.Bt2) if B is not None]
-        self.transposed = (np.concatenate([c.col for c in cs]).astype(np.int64),
-                           np.concatenate([c.row + offset + k * m for k, c in enumerate(cs)]).astype(np.int64),
-                           -np.concatenate([c.data for c in cs]))
-        w = np.maximum(op.weight, 1e-300)
-        if law.augmentation is not None:
-            self.c = np.full(m, float(law.augmentation))
-        else:
-            self.c = c_scale / np.maximum(op.length, 1e-300)
-        # tangential augmentation: the modulus over the extent of the side (E/h cycled between stick and
-        # slip in the Tresca block test; E/L converged in 5-6 iterations)
-        extent = float(np.max(np.ptp(op.coords, axis=0))) if m > 1 else 1.0
-        self.ct = (np.full(m, float(law.augmentation)) if law.augmentation is not None
-                   else np.full(m, c_scale / max(extent, 1e-300)))
-        self.w = w                         # nodal weights: g_j / w_j is the nodal gap (m)
-        if law.kind == "tresca":
-            self.bound0 = np.broadcast_to(np.asarray(law.slip_bound, dtype=float), (m,)).copy()
-        else:
-            self.bound0 = np.zeros(m)
-        gap = op.g0 / w
-        # start: the nodes touching first (smallest nodal gap, or in initial overlap)
-        gmin = float(np.min(gap[keep])) if keep.any() else 0.0
-        self.active = keep & (gap <= max(gmin, 0.0) + 1e-3 * op.length)
-        self.stick = self.active & (law.kind != "frictionless")
-        self.slip = np.zeros(m, dtype=bool)
-        self.sign = np.zeros(m)
-        # 3D slip rows: the unit direction e = z / |z| and kappa = b / max(|z|, b) of the current iterate
-        self.dir = np.zeros((m, 2))
-        self.kappa = np.zeros(m)
-        self.flips = np.zeros(m, dtype=int)     # contact <-> separation switches of each node in this solve
-
-    @property
-    def m(self) -> int:
-        return self.op.size
-
-
-def _balance_slip(it, lam_t: np.ndarray, rigid: np.ndarray, n: int, imbalance: np.ndarray) -> np.ndarray:
-    """2D, every active node of ``it`` slipping and the free rigid motions ``rigid`` unbalanced by ``imbalance``
-    (rigid^T times the residual of the equilibrium rows): choose a node to stick and the slip directions of the
-    others so that the friction can balance the load. The slip along an interface varies monotonically between
-    points where it turns (a translation plus a smooth deformation), so the candidates move a turning point node
-    by node (from an end when the direction does not turn): at each node, if sticking there balances the load
-    with a traction within the node's bound, that is the choice; else the node flips its direction when that
-    reduces the imbalance. The candidate with the fewest flips among the feasible ones is taken (else the least
-    infeasible); returns the imbalance left for the stick node. Changing lam_t of node i by delta changes the
-    residual by Bt[i]^T delta, so the imbalance by G[:, i] delta with G = rigid^T Bt^T."""
-    slip = np.nonzero(it.slip & it.active)[0]
-    xy = np.asarray(it.op.coords, dtype=float)[slip, :2]
-    d = xy - xy.mean(axis=0)
-    axis = np.linalg.svd(d, full_matrices=False)[2][0] if len(slip) > 1 else np.array([1.0, 0.0])
-    order = slip[np.argsort(d @ axis)]
-    G = rigid.T @ it.Bt[:, :n].T.toarray()
-    s = it.sign[order]
-    turns = np.nonzero(s[1:] != s[:-1])[0]
-    starts = [(p, -1) for p in turns] + [(p + 1, 1) for p in turns] if len(turns) else [(0, 1), (len(order) - 1, -1)]
-    best = None                                    # (violation, flips, stick node, imbalance)
-    for start, step in starts:
-        r = imbalance.copy()
-        flipped: list = []
-        k = start
-        while 0 <= k < len(order):
-            i = order[k]
-            g = G[:, i]
-            gg = float(g @ g)
-            free_r = r - g * lam_t[i]              # node i's traction taken out
-            t = -float(g @ free_r) / gg if gg > 0 else math.inf
-            violation = max(abs(t) - abs(lam_t[i]), 0.0) / max(abs(lam_t[i]), 1e-300)
-            cand = (violation, len(flipped), list(flipped), i, free_r + g * t)
-            if best is None or (cand[0], cand[1]) < (best[0], best[1]):
-                best = cand
-            if violation == 0.0:
-                break
-            r_new = r + g * (-2.0 * lam_t[i])
-            if np.linalg.norm(r_new) >= np.linalg.norm(r):
-                break
-            flipped.append(i)
-            r = r_new
-            k += step
-    if best is None:                               # no slipping node: stick all (the old fallback)
-        it.stick, it.slip = it.active.copy(), np.zeros(it.m, dtype=bool)
-        return imbalance
-    _, _, flipped, stick_node, r = best
-    it.sign = it.sign.copy()
-    it.sign[flipped] *= -1.0
-    it.stick = np.zeros(it.m, dtype=bool)
-    it.stick[stick_node] = True
-    it.slip = it.active & ~it.stick
-    return r
 
 
 class ContactSolver(ContactSolverBase):
@@ -319,18 +159,18 @@ class ContactSolver(ContactSolverBase):
         self.reuse_rows = opts.reuse_rows
         self.quasi_definite = opts.quasi_definite
         self.infos: list[ContactInfo] = []
-        self._state: list[_Interface] | None = None
+        self._state: list[InterfaceState] | None = None
         self._pattern: SaddlePattern | None = None
         self.converged = False
         self._penalty_start = False      # a cold solve from the penalty start (after a failed exact start)
         self._exact_cold = False         # the last solve started cold with the exact constraints
         self.multipliers: list[tuple[np.ndarray, np.ndarray]] = []
 
-    def interfaces(self, ndof: int) -> list[_Interface]:
+    def interfaces(self, ndof: int) -> list[InterfaceState]:
         if self._state is None:
             out, off = [], ndof
             for op, law in self.items:
-                out.append(_Interface(op, law, self.modulus, off, ndof))
+                out.append(InterfaceState(op, law, self.modulus, off, ndof))
                 off += out[-1].blocks * op.size
             self._state = out
         return self._state
@@ -544,13 +384,13 @@ class ContactSolver(ContactSolverBase):
         newton_tol = max(NEWTON_TOL, steps.tol_floor)
         info = s.info
         for it_nr in range(1, self.maxit + 1):
-            b = _assemble_rows(s, x, penalty)
+            b = assemble_rows(s, x, penalty)
             step = steps.step(s, b, it_nr)
             x, held, xv, r = self._newton_step(s, steps, step, b, x, it_nr)
             if not held:
                 penalty = self._unheld_sets(s, steps, b, x, xv, r, it_nr, penalty)
                 continue
-            changes, newton = _new_sets(s, x, lam_n, lam_t, penalty, it_nr)
+            changes, newton = new_sets(s, x, lam_n, lam_t, penalty, it_nr)
             if changes == 0:
                 if penalty and self.method == "ssn":
                     penalty = False
@@ -585,7 +425,8 @@ class ContactSolver(ContactSolverBase):
             self._modes = near_null_space(self.forms)
         return self._modes
 
-    def _system(self, matrix, rhs, free: np.ndarray, n: int, ifs: list[_Interface], steps, where: str) -> NewtonSystem:
+    def _system(self, matrix, rhs, free: np.ndarray, n: int, ifs: list[InterfaceState], steps,
+                where: str) -> NewtonSystem:
         """The data the Newton steps of a solve share (:class:`.steps.NewtonSystem`): the load on the free dofs, the
         shift of the floating bodies' free dofs (``steps.shift`` of their mean diagonal; the residual is always
         that of the exact system), their rigid motions, the saddle-point pattern (kept for the next solve with the
@@ -651,7 +492,7 @@ class ContactSolver(ContactSolverBase):
                 # the quasi-definite companion does not converge fast to the exact system here: factor the matrix
                 # itself
                 step = steps.refactor(exact=True)
-            ra = _residual(s, xv, r)
+            ra = exact_residual(s, xv, r)
             ra[:] = b - ra
             ra[~s.freemask] = 0.0
             if not step.apply(r, dx):        # the reused factorization did not converge: factor now
@@ -693,36 +534,36 @@ class ContactSolver(ContactSolverBase):
                     break
                 # the shift leaves a residual eps u along the rigid motions (eps x translation x dofs: 0.5 N
                 # of a 2.5 kN load on a weak Coulomb interface); refine while that falls
-                balance = _rigid_balance(s, b, xv, r)
-                if balance <= 1e-10 * _balance_scale(s, b, xv) or balance > 0.5 * last_balance:
+                balance = rigid_balance(s, b, xv, r)
+                if balance <= 1e-10 * balance_scale(s, b, xv) or balance > 0.5 * last_balance:
                     break
                 last_balance = balance
         else:
             held = False
         if held and s.rigid.shape[1]:   # the loaded rigid motions must be balanced by the contact forces
-            held = _rigid_balance(s, b, xv, r) <= 1e-8 * _balance_scale(s, b, xv)
+            held = rigid_balance(s, b, xv, r) <= 1e-8 * balance_scale(s, b, xv)
         check_finite(xv, f"{s.what}, iteration {it_nr}")
-        return _fixed_multipliers(s, np.array(xv.FV().NumPy())), held, xv, r
+        return fixed_multipliers(s, np.array(xv.FV().NumPy())), held, xv, r
 
     def _unheld_sets(self, s: NewtonSystem, steps, b: np.ndarray, x: np.ndarray, xv, r, it_nr: int,
                      penalty: bool) -> bool:
         """New sets when the current ones leave a floating body free along a loaded rigid motion: every node
         slipping while the friction cannot balance the load (retry with the active nodes sticking, or walk the
-        slip directions, :func:`_balance_slip`), or too few nodes in contact (e.g. the single first node of a
+        slip directions, :func:`.floating.walk_slip`), or too few nodes in contact (e.g. the single first node of a
         curved side: add the nearest open nodes). Returns whether the penalty phase goes on."""
         ifs, info, n = s.ifs, s.info, s.n
         info.unheld_sets += 1
         grow = all(not (it.slip & it.active).any() for it in ifs)
         if info.unheld_sets > 3 or (grow and not any((it.keep & ~it.active).any() for it in ifs)):
-            ra = _residual(s, xv, r)
+            ra = exact_residual(s, xv, r)
             raise SolverError(f"{s.what}, iteration {it_nr}: "
-                              + self._unheld(ifs, s.rigid, (b - ra)[:n] * s.free, s.f, n))
+                              + unheld_reason(self.floating, ifs, s.rigid, (b - ra)[:n] * s.free, s.f, n))
         walked = False
         if not grow and s.rigid.shape[1] and not any(it.dim3 for it in ifs):
             # every active node slips and their friction does not balance the load: move the points where
             # the slip direction turns until it does (sticking all nodes instead threw the sets back to
             # the start: they cycled, e.g. a block spreading under its load on a weak interface)
-            walked = _walk_slip(s, b, x, xv, r)
+            walked = walk_slip(s, b, x, xv, r)
             if walked and self.method == "ssn":
                 # the penalty rows let a sticking node slip by lam_t / c_t, which turns its neighbours'
                 # slip directions back (the sets cycled): the exact rows from here on
@@ -747,92 +588,10 @@ class ContactSolver(ContactSolverBase):
         info.slip.append(0)
         return penalty
 
-    def _unheld(self, ifs: list[_Interface], rigid: np.ndarray, ru: np.ndarray, f: np.ndarray, n: int) -> str:
-        """Why the active sets leave a floating body free along a loaded rigid motion: the body, the motion with
-        the largest unbalanced force or moment rigid^T ru (``ru`` the residual of the equilibrium rows; N/m for a
-        translation in plane scenes, N m/m for a rotation), the load's component rigid^T f along it, and what
-        the body's contact nodes do (none closed, all slipping, frictionless against a tangential load, or
-        closed but not holding this motion)."""
-        labels = [(b, nm) for b in self.floating for nm in b.names]
-        norms = np.maximum(np.linalg.norm(rigid, axis=0), 1e-300)
-        j = int(np.argmax(np.abs(rigid.T @ ru) / norms))
-        body, name = labels[j]
-        kind = "moment" if "rotation" in name else "force"
-        mode = rigid[:, j]
-        closed = slipping = 0
-        frictionless, normal = True, False
-        for it in ifs:
-            Bn = it.Bn[:, :n]
-            on = (np.abs(Bn @ np.abs(body.modes[:n])).sum(axis=1) > 0) & it.active & it.keep
-            closed += int(on.sum())
-            slipping += int((on & it.slip).sum())
-            frictionless = frictionless and (it.law.kind == "frictionless" or not on.any())
-            # the closed nodes' normal rows see this motion: holding it would take tension
-            size = np.asarray(abs(Bn[on]).sum(axis=1)).ravel() * float(np.max(np.abs(mode)))
-            normal = normal or bool(np.any(np.abs(Bn[on] @ mode) > 1e-8 * size))
-        nodes = f"{closed} closed node{'s' if closed != 1 else ''}"
-        if not closed:
-            why = "no contact node of the body is closed (the load pulls it off its supports)"
-        elif normal:
-            why = (f"its {nodes} would have to pull (contact carries compression only): the load "
-                   "pulls the body off its supports")
-        elif frictionless:
-            why = f"its {nodes} (frictionless) carry no tangential force"
-        elif slipping == closed:
-            why = f"its {nodes} all slip: the load exceeds what friction can carry"
-        else:
-            why = f"its {nodes} ({slipping} slipping) do not hold this motion"
-        return (f"body {'+'.join(body.regions)}: {name} is not held by the contact set (load component "
-                f"{float(mode @ f):.3g}, unbalanced {kind} {float(mode @ ru):.3g}): {why}; add a support "
-                "(displacement or symmetry condition) or change the load")
-
-    def check_load(self, ifs: list[_Interface], f: np.ndarray, where: str) -> None:
+    def check_load(self, ifs: list[InterfaceState], f: np.ndarray, where: str) -> None:
         """Stop with a SolverError naming the body and the rigid motion when no admissible contact forces
-        balance the load on the free rigid motions of the floating bodies: an LP for lam_n >= 0,
-        |lam_t| <= g_c (Tresca) or F_c lam_n (Coulomb), lam_t = 0 (frictionless) with
-        R^T (f + Bn^T lam_n + Bt^T lam_t) = 0 (a necessary condition of (P)). In 3D the disc |lam_t| <= b is
-        not linear: it is replaced by the circumscribed regular POLYGON-gon (16: d_k . lam_t <= b for the unit
-        vectors d_k at the angles 2 pi k / 16), which contains the disc, so the LP is a relaxation and the
-        refusal only fires for loads that no admissible traction balances. A load between the two (at most
-        1/cos(pi/16) - 1 = 2 % above the capacity, in the worst direction) passes the check, and the solve
-        itself then fails (the sets leave the body unheld, or they cycle)."""
-        from scipy.optimize import linprog
-        R = np.hstack([b.modes for b in self.floating])
-        labels = [(b, nm) for b in self.floating for nm in b.names]
-        cols_eq, bounds, ub_rows, ub_poly, nvar = _load_lp(ifs, R)
-        Aeq = np.hstack(cols_eq) if cols_eq else np.zeros((R.shape[1], 0))
-        beq = -(R.T @ f)
-        # scaled unknowns lam = sigma mu so that the LP's coefficients are O(1): the entries of Aeq are
-        # lengths (m, e.g. 1e-4 on fine meshes) and the loads forces (e.g. 1e7 N/m); unscaled, HiGHS drops
-        # the tiny coefficients and reports a false imbalance
-        a_s = max(float(np.max(np.abs(Aeq), initial=0.0)), 1e-300)
-        b_s = max(float(np.max(np.abs(beq))), 1e-300)
-        sigma = b_s / a_s
-        bounds = [(None if lo is None else lo / sigma, None if hi is None else hi / sigma) for lo, hi in bounds]
-        k = R.shape[1]
-        Aub, bub = _friction_inequalities(ub_rows, ub_poly, nvar, k, sigma)
-        # the smallest unbalanced load: minimise sum |residual| with slacks s+ - s- on the equations
-        A2 = np.hstack([Aeq / a_s, np.eye(k), -np.eye(k)])
-        c = np.concatenate([np.zeros(nvar), np.ones(2 * k)])
-        res = linprog(c, A_ub=Aub, b_ub=bub, A_eq=A2, b_eq=beq / b_s, bounds=bounds + [(0, None)] * (2 * k),
-                      method="highs")
-        if res.status != 0:
-            return   # undecided: let the solve itself report
-        resid = (res.x[nvar:nvar + k] - res.x[nvar + k:]) * b_s
-        load = np.abs(R.T @ f)
-        tol = 1e-8 * max(float(np.max(load)), 1e-300)
-        bad = [j for j in range(k) if abs(resid[j]) > tol]
-        if bad:
-            parts = []
-            for j in bad:
-                body, name = labels[j]
-                kind = "moment" if "rotation" in name else "force"
-                parts.append(f"body {'+'.join(body.regions)}: {name} is not held (load component "
-                             f"{float(R[:, j] @ f):.3g}, unbalanced {kind} {-resid[j]:.3g})")
-            raise SolverError(f"contact solve{' at ' + where if where else ''}: the contacts cannot hold the load: "
-                              + "; ".join(parts) + ". The load pulls the body off its supports, or a tangential "
-                              "load exceeds what friction can carry (frictionless contact carries none); add a "
-                              "support (displacement or symmetry condition) or change the load")
+        balance the load on the free rigid motions of the floating bodies (:func:`.floating.check_load`)."""
+        check_load(self.floating, ifs, f, where)
 
 
 class PenaltyContactSolver(ContactSolver):
@@ -843,326 +602,6 @@ class PenaltyContactSolver(ContactSolver):
                  forms=None, options: ContactOptions | None = None, **settings):
         super().__init__(interfaces, modulus=modulus, floating=floating, forms=forms, options=options,
                          **{**settings, "method": "penalty"})
-
-
-def _load_lp(ifs: list[_Interface], R: np.ndarray) -> tuple[list, list, list, list, int]:
-    """The unknowns of :meth:`ContactSolver.check_load`'s LP per interface (lam_n >= 0 of the kept nodes, then
-    lam_t: bounded by g_c (2D Tresca), free with |lam_t| <= F_c lam_n rows (2D Coulomb) or polygon rows (3D
-    friction)): the equation columns R^T B^T, the bounds, the Coulomb rows (lam_t, lam_n, F_c), the polygon rows
-    (t1, t2, cos, sin, lam_n or None, F_c, right-hand side) and the number of unknowns."""
-    cols_eq, bounds, ub_rows, ub_poly = [], [], [], []
-    nvar = 0
-    for it in ifs:
-        kidx = np.where(it.keep)[0]
-        cols_eq.append((it.Bn[kidx] @ R).T)
-        bounds += [(0, None)] * len(kidx)
-        jn = np.arange(nvar, nvar + len(kidx))
-        nvar += len(kidx)
-        if it.dim3 and it.law.kind != "frictionless":
-            # |lam_t| <= b replaced by the circumscribed regular polygon d_k . lam_t <= b (k < POLYGON):
-            # an outer approximation, so a load it cannot balance no admissible traction balances
-            cols_eq += [(it.Bt[kidx] @ R).T, (it.Bt2[kidx] @ R).T]
-            bounds += [(None, None)] * (2 * len(kidx))
-            j1 = np.arange(nvar, nvar + len(kidx))
-            j2 = j1 + len(kidx)
-            nvar += 2 * len(kidx)
-            ang = 2 * np.pi * np.arange(POLYGON) / POLYGON
-            for ca, sa in zip(np.cos(ang), np.sin(ang)):
-                if it.law.kind == "tresca":
-                    ub_poly.append((j1, j2, ca, sa, None, 0.0, it.bound0[kidx]))
-                else:
-                    ub_poly.append((j1, j2, ca, sa, jn, it.law.friction, np.zeros(len(kidx))))
-        elif it.law.kind == "tresca":
-            cols_eq.append((it.Bt[kidx] @ R).T)
-            bounds += [(-float(g), float(g)) for g in it.bound0[kidx]]
-            nvar += len(kidx)
-        elif it.law.kind == "coulomb":
-            cols_eq.append((it.Bt[kidx] @ R).T)
-            bounds += [(None, None)] * len(kidx)
-            jt = np.arange(nvar, nvar + len(kidx))
-            nvar += len(kidx)
-            ub_rows += [(a, b_, it.law.friction) for a, b_ in zip(jt, jn)]
-    return cols_eq, bounds, ub_rows, ub_poly, nvar
-
-
-def _friction_inequalities(ub_rows: list, ub_poly: list, nvar: int, k: int, sigma: float):
-    """The inequality rows of the friction bounds of :meth:`ContactSolver.check_load`'s LP (in the unknowns scaled
-    by ``sigma``; ``k`` slack pairs follow the ``nvar`` unknowns): (A_ub, b_ub), or (None, None) without friction."""
-    if not (ub_rows or ub_poly):
-        return None, None
-    rr, cc, vv, bb = [], [], [], []
-    for q, (jt_, jn_, F) in enumerate(ub_rows):      # lam_t - F lam_n <= 0, -lam_t - F lam_n <= 0
-        rr += [2 * q, 2 * q, 2 * q + 1, 2 * q + 1]
-        cc += [jt_, jn_, jt_, jn_]
-        vv += [1.0, -F, -1.0, -F]
-    nrow = 2 * len(ub_rows)
-    bb.append(np.zeros(nrow))
-    for j1, j2, ca, sa, jn_, F, rhs in ub_poly:       # cos lam_t1 + sin lam_t2 (- F lam_n) <= g_c / sigma
-        rows = nrow + np.arange(len(j1))
-        rr += [rows, rows] + ([rows] if jn_ is not None else [])
-        cc += [j1, j2] + ([jn_] if jn_ is not None else [])
-        vv += [np.full(len(j1), ca), np.full(len(j1), sa)] + ([np.full(len(j1), -F)] if jn_ is not None
-                                                              else [])
-        bb.append(rhs / sigma)
-        nrow += len(j1)
-    rr = np.concatenate([np.atleast_1d(np.asarray(a)) for a in rr])
-    cc = np.concatenate([np.atleast_1d(np.asarray(a)) for a in cc])
-    vv = np.concatenate([np.atleast_1d(np.asarray(a, dtype=float)) for a in vv])
-    Aub = sp.csr_matrix((vv, (rr, cc)), shape=(nrow, nvar + 2 * k))
-    bub = np.concatenate(bb)
-    return Aub, bub
-
-
-def _residual(s: NewtonSystem, xv, r) -> np.ndarray:
-    """The residual's matrix part M x of the exact system (without the shift eps) into ``r``; returns its array."""
-    r.data = s.mat * xv
-    ra = r.FV().NumPy()
-    ra[s.reg_dofs] -= s.eps * xv.FV().NumPy()[s.reg_dofs]
-    return ra
-
-
-def _rigid_balance(s: NewtonSystem, b: np.ndarray, xv, r) -> float:
-    """The largest unbalanced force or moment along the floating bodies' rigid motions at the iterate ``xv``."""
-    ra = _residual(s, xv, r)
-    return float(np.max(np.abs(s.rigid.T @ ((b - ra)[:s.n] * s.free))))
-
-
-def _balance_scale(s: NewtonSystem, b: np.ndarray, xv) -> float:
-    """Forces the rigid-motion balance is measured against: the load, or the contact forces of the iterate when
-    there is none (a problem driven by its gaps alone: an overlap pressing a body)."""
-    xs = xv.FV().NumPy()
-    forces = float(np.linalg.norm(b[:s.n] * s.free))
-    for it in s.ifs:
-        forces = max(forces, float(np.linalg.norm(it.Bn[:, :s.n].T @ xs[it.offset:it.offset + it.m])))
-    return max(forces * s.mode_size, 1e-300)
-
-
-def _fixed_multipliers(s: NewtonSystem, x: np.ndarray) -> np.ndarray:
-    """``x`` with the fixed multipliers set exactly (their identity rows hold them to round-off)."""
-    for it in s.ifs:
-        on, ot = it.offset, it.offset + it.m
-        A = it.active & it.keep
-        x[on:on + it.m] = np.where(A, x[on:on + it.m], 0.0)
-        if it.law.kind == "frictionless":
-            x[ot:it.offset + it.blocks * it.m] = 0.0
-        elif it.dim3:
-            x[ot:ot + it.m] = np.where(A, x[ot:ot + it.m], 0.0)
-            x[ot + it.m:ot + 2 * it.m] = np.where(A, x[ot + it.m:ot + 2 * it.m], 0.0)
-        else:
-            x[ot:ot + it.m] = np.where(~A, 0.0, np.where(A & it.slip & (it.law.kind == "tresca"),
-                                                         it.bound0 * it.sign, x[ot:ot + it.m]))
-    return x
-
-
-def _walk_slip(s: NewtonSystem, b: np.ndarray, x: np.ndarray, xv, r) -> bool:
-    """2D, every active node slipping and a floating body unheld: :func:`_balance_slip` on each frictional
-    interface, for the rigid motions the active normal rows leave free (the others are balanced by the normal
-    pressures whatever the friction does). Whether any interface's sets were walked."""
-    n, rigid = s.n, s.rigid
-    ra = _residual(s, xv, r)
-    held_rows = [(it.Bn[:, :n][it.active & it.keep] @ rigid) for it in s.ifs]
-    A_held = np.vstack(held_rows) if held_rows else np.zeros((0, rigid.shape[1]))
-    _, sv, vt = np.linalg.svd(A_held, full_matrices=True) if A_held.size else (None, np.zeros(0),
-                                                                              np.eye(rigid.shape[1]))
-    rank = int(np.sum(sv > 1e-10 * max(float(sv.max(initial=0.0)), 1e-300)))
-    free_modes = rigid @ vt[rank:].T
-    imbalance = free_modes.T @ ((b - ra)[:n] * s.free)
-    walked = False
-    for it in s.ifs:
-        if it.law.kind != "frictionless" and (it.slip & it.active).any() and free_modes.shape[1]:
-            imbalance = _balance_slip(it, x[it.offset + it.m:it.offset + 2 * it.m], free_modes, n, imbalance)
-            walked = True
-    return walked
-
-
-def _assemble_rows(s: NewtonSystem, x: np.ndarray, penalty: bool) -> np.ndarray:
-    """Set the multiplier rows of the current sets in the pattern's values (and the matrix), the start values of
-    the fixed multipliers in ``x``; returns the right-hand side b (N)."""
-    n = s.n
-    b = np.zeros(s.N)
-    b[:n] = s.f
-    vals = s.pattern.values
-    for it, seg in zip(s.ifs, s.pattern.segments):
-        on, ot = it.offset, it.offset + it.m
-        A = it.active & it.keep
-        b[on:on + it.m] = np.where(A, it.op.g0, 0.0)     # -Bn u = g0 (g = 0) or lam_n = 0
-        x[on:on + it.m] = np.where(A, x[on:on + it.m], 0.0)
-        pen_i = penalty or it.law.penalty
-        vals[seg["rows_n"]] = seg["rows_n_values"] * A[seg["rows_n_node"]]
-        # -Bn u - (weight / c) lam_n = g0 in the penalty phase (lam_n = -c g~)
-        # (the identity rows of fixed multipliers scaled like the penalty rows: -weight / c)
-        vals[seg["diag_n"]] = np.where(A & (not pen_i), 0.0, -it.w / it.c)
-        if it.law.kind == "frictionless":
-            x[ot:it.offset + it.blocks * it.m] = 0.0
-        elif it.dim3:
-            _rows_3d(it, seg, vals, b, x, A, pen_i)
-        else:
-            _rows_2d(it, seg, vals, b, x, A, pen_i)
-    s.pattern.update()
-    return b
-
-
-def _rows_2d(it: _Interface, seg: dict, vals: np.ndarray, b: np.ndarray, x: np.ndarray, A: np.ndarray,
-             pen: bool) -> None:
-    """The tangential rows of a 2D frictional interface for the current sets: stick rows -Bt u (- weight / ct
-    lam_t) = 0; Coulomb slip rows lam_t - F sign lam_n = 0; Tresca slip rows lam_t = g_c sign; open nodes
-    lam_t = 0."""
-    ot = it.offset + it.m
-    stick = A & it.stick
-    slip = A & it.slip
-    vals[seg["rows_t"]] = seg["rows_t_values"] * stick[seg["rows_t_node"]]
-    vals[seg["diag_t"]] = np.where(stick & (not pen), 0.0, -it.w / it.ct)
-    coulomb_slip = slip if it.law.kind == "coulomb" else np.zeros(it.m, dtype=bool)
-    vals[seg["couple"]] = np.where(coulomb_slip, it.w / it.ct * it.law.friction * it.sign, 0.0)
-    fixed_t = np.where(slip & (it.law.kind == "tresca"), it.bound0 * it.sign, 0.0)
-    b[ot:ot + it.m] = -it.w / it.ct * fixed_t
-    x[ot:ot + it.m] = np.where(stick | coulomb_slip, x[ot:ot + it.m], fixed_t)
-
-
-def _new_sets(s: NewtonSystem, x: np.ndarray, lam_n: list, lam_t: list, penalty: bool, it_nr: int) -> tuple[int, float]:
-    """The multipliers of the iterate ``x`` into ``lam_n``, ``lam_t`` and the new sets of every interface, recorded
-    in the history: (the number of set changes, the largest relative residual of the 3D slip rows)."""
-    changes = 0
-    n_act = n_stick = n_slip = 0
-    u = x[:s.n]
-    newton = 0.0      # 3D: the largest residual |lam_t - b z / |z|| of the slip rows / the largest bound
-    for k, it in enumerate(s.ifs):
-        on, ot = it.offset, it.offset + it.m
-        lam_n[k] = x[on:on + it.m].copy()
-        if it.dim3:
-            lam_t[k] = np.column_stack([x[ot:ot + it.m], x[ot + it.m:ot + 2 * it.m]])
-            ch, res = _sets_3d(it, lam_n[k], lam_t[k], u, penalty or it.law.penalty)
-            newton = max(newton, res)
-        else:
-            lam_t[k] = x[ot:ot + it.m].copy()
-            ch = _sets_2d(it, lam_n[k], lam_t[k], u, penalty or it.law.penalty)
-        changes += ch
-        n_act += int(it.active.sum())
-        n_stick += int(it.stick.sum())
-        n_slip += int(it.slip.sum())
-    info = s.info
-    info.iterations = it_nr
-    info.active.append(n_act)
-    info.stick.append(n_stick)
-    info.slip.append(n_slip)
-    info.changes.append(changes)
-    info.newton_residual.append(newton)
-    return changes, newton
-
-
-def _sets_2d(it: _Interface, lam_n: np.ndarray, lam_t: np.ndarray, u: np.ndarray, pen: bool) -> int:
-    """The new sets and slip signs of a 2D interface from the iterate (lam_n, lam_t, u): the number of set changes.
-    ``pen``: penalty rows, whose sets use the trial tractions -c g~, -c_t s~ (lam - c g~ would double them, and a
-    Tresca node would start slipping at half its bound)."""
-    gap = (it.op.g0 + it.Bn @ u) / it.w
-    zn = (0.0 if pen else lam_n) - it.c * gap
-    act = (zn > 0) & it.keep
-    stick = np.zeros(it.m, dtype=bool)
-    slip = np.zeros(it.m, dtype=bool)
-    sign = it.sign.copy()
-    if it.law.kind != "frictionless":
-        sl = (it.Bt @ u) / it.w
-        z = (0.0 if pen else lam_t) - it.ct * sl
-        bound = it.bound0 if it.law.kind == "tresca" else slip_bound(it.law.friction, zn)
-        stick = act & (np.abs(z) < bound)
-        slip = act & ~stick
-        # nodes that have switched between contact and separation twice (e.g. the tip of a wedge on a Coulomb
-        # fault: sticking, the node goes into tension; released, it penetrates) go through the slip state: a
-        # sticking node in tension slips instead of opening, and such a node comes back into contact slipping
-        prone = it.flips >= 2
-        to_slip = prone & ((~act & it.active & it.stick & it.keep) | (act & ~it.active & stick))
-        act = act | to_slip
-        stick = stick & ~to_slip
-        slip = slip | to_slip
-        sign = np.where(slip, np.sign(z), 0.0)
-        sign[slip & (sign == 0)] = 1.0
-    changes = int(np.sum(act != (it.active & it.keep)) + np.sum(stick != (it.stick & it.active))
-                  + np.sum(slip & (sign != it.sign)) + np.sum(slip != (it.slip & it.active)))
-    it.flips += act != (it.active & it.keep)
-    it.active, it.stick, it.slip, it.sign = act, stick, slip, sign
-    return changes
-
-
-def _rows_3d(it: _Interface, seg: dict, vals: np.ndarray, b: np.ndarray, x: np.ndarray, A: np.ndarray,
-             pen: bool) -> None:
-    """The tangential rows of a 3D frictional interface for the current sets (module docstring): per node the
-    2 x 2 blocks R (on the rows -Bt u, -Bt2 u), L (on lam_t) and the Coulomb column on lam_n, right-hand side
-    and start values. Stick: R = I, L = 0 (-weight / ct I in the penalty phase); slip: R = kappa T,
-    L = -weight / ct (I - kappa T), T = I - e e^T; open: R = 0, L = -weight / ct I (lam_t = 0)."""
-    m = it.m
-    ot = it.offset + m
-    stick = A & it.stick
-    slip = A & it.slip
-    s = it.w / it.ct
-    e = it.dir
-    T = np.eye(2)[None] - e[:, :, None] * e[:, None, :]                 # (m, 2, 2)
-    kT = it.kappa[:, None, None] * T
-    R = np.where(stick[:, None, None], np.eye(2)[None], np.where(slip[:, None, None], kT, 0.0))
-    # (penalty rows: the slip law lam_t = b z / |z| with z = -c_t s, so no kappa T on lam_t)
-    L = -s[:, None, None] * np.where((slip & (not pen))[:, None, None], np.eye(2)[None] - kT, np.eye(2)[None])
-    L = np.where((stick & (not pen))[:, None, None], 0.0, L)
-    node = seg["rows_t_node"]
-    a1, a2 = seg["rows_t_a"], seg["rows_t_b"]
-    vals[seg["rows_t"]] = R[node, 0, 0] * a1 + R[node, 0, 1] * a2
-    vals[seg["rows_t2"]] = R[node, 1, 0] * a1 + R[node, 1, 1] * a2
-    vals[seg["diag_t"]] = L[:, 0, 0]
-    vals[seg["off_t"]] = L[:, 0, 1]
-    vals[seg["off_t2"]] = L[:, 1, 0]
-    vals[seg["diag_t2"]] = L[:, 1, 1]
-    coulomb_slip = slip if it.law.kind == "coulomb" else np.zeros(m, dtype=bool)
-    vals[seg["couple"]] = np.where(coulomb_slip, s * it.law.friction * e[:, 0], 0.0)
-    vals[seg["couple2"]] = np.where(coulomb_slip, s * it.law.friction * e[:, 1], 0.0)
-    tresca_slip = slip if it.law.kind == "tresca" else np.zeros(m, dtype=bool)
-    b[ot:ot + m] = np.where(tresca_slip, -s * it.bound0 * e[:, 0], 0.0)
-    b[ot + m:ot + 2 * m] = np.where(tresca_slip, -s * it.bound0 * e[:, 1], 0.0)
-    x[ot:ot + m] = np.where(A, x[ot:ot + m], 0.0)
-    x[ot + m:ot + 2 * m] = np.where(A, x[ot + m:ot + 2 * m], 0.0)
-
-
-def _sets_3d(it: _Interface, lam_n: np.ndarray, lam_t: np.ndarray, u: np.ndarray, pen: bool) -> tuple[int, float]:
-    """The new sets and slip linearization of a 3D interface from the iterate (lam_n, lam_t (m, 2), u): the
-    number of set changes and the residual max |lam_t - b z / |z|| of the nodes slipping before and now,
-    relative to the largest bound (0 for a frictionless interface). ``pen``: penalty rows, whose sets use the
-    trial tractions z = -c_t s~, zn = -c g~ (as in 2D)."""
-    m = it.m
-    gap = (it.op.g0 + it.Bn @ u) / it.w
-    zn = (0.0 if pen else lam_n) - it.c * gap
-    act = (zn > 0) & it.keep
-    stick = np.zeros(m, dtype=bool)
-    slip = np.zeros(m, dtype=bool)
-    res = 0.0
-    if it.law.kind != "frictionless":
-        sl = np.column_stack([it.Bt @ u, it.Bt2 @ u]) / it.w[:, None]
-        z = (0.0 if pen else lam_t) - it.ct[:, None] * sl
-        nz = np.linalg.norm(z, axis=1)
-        bound = it.bound0 if it.law.kind == "tresca" else slip_bound(it.law.friction, zn)
-        stick = act & (nz < bound)
-        slip = act & ~stick
-        prone = it.flips >= 2          # as in 2D: twice switched nodes go through the slip state
-        to_slip = prone & ((~act & it.active & it.stick & it.keep) | (act & ~it.active & stick))
-        act = act | to_slip
-        stick = stick & ~to_slip
-        slip = slip | to_slip
-        e = np.zeros((m, 2))
-        pos = nz > 0
-        e[pos] = z[pos] / nz[pos, None]
-        e[~pos, 0] = 1.0
-        # the bound of the slip rows: g_c, or F_c lam_n (as the 2D rows; = F_c zn at an iterate of the exact
-        # phase, where the nodes in contact have g~ = 0, and of the penalty rows, where zn = -c g~ = lam_n)
-        brow = it.bound0 if it.law.kind == "tresca" else slip_bound(it.law.friction, lam_n)
-        it.dir = np.where(slip[:, None], e, 0.0)
-        it.kappa = np.where(slip, np.divide(brow, np.maximum(nz, brow), out=np.zeros(m),
-                                            where=np.maximum(nz, brow) > 0), 0.0)
-        both = slip & it.slip & it.active
-        if both.any():
-            r = np.linalg.norm(lam_t[both] - brow[both, None] * e[both], axis=1)
-            scale = max(float(np.max(brow[act], initial=0.0)), float(np.max(bound[act], initial=0.0)), 1e-300)
-            res = float(np.max(r)) / scale
-    changes = int(np.sum(act != (it.active & it.keep)) + np.sum(stick != (it.stick & it.active))
-                  + np.sum(slip != (it.slip & it.active)))
-    it.flips += act != (it.active & it.keep)
-    it.active, it.stick, it.slip = act, stick, slip
-    return changes, res
 
 
 def nodal_modulus(props) -> float:

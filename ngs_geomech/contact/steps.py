@@ -275,6 +275,14 @@ def relative_change(dx: np.ndarray, x: np.ndarray, n: int, freemask: np.ndarray)
     return max(du, dl)
 
 
+def exact_residual(s: NewtonSystem, xv, r) -> np.ndarray:
+    """The residual's matrix part M x of the exact system (without the shift eps) into ``r``; returns its array."""
+    r.data = s.mat * xv
+    ra = r.FV().NumPy()
+    ra[s.reg_dofs] -= s.eps * xv.FV().NumPy()[s.reg_dofs]
+    return ra
+
+
 class KrylovStep:
     """A step solved by GMRES (:class:`.krylov.SaddleKrylov`) with the preconditioner of the current
     matrix; the tolerance is relative to the Newton step's right-hand side ``b`` (or the first residual when

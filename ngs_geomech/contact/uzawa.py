@@ -187,6 +187,53 @@ def _project_balanced(y: np.ndarray, b: np.ndarray, w: np.ndarray, a: np.ndarray
     return lam(nu)
 
 
+class _Tangential:
+    """The tangential multipliers of all interfaces as one vector: the nodal weights ``W``, the split per interface,
+    the projection P onto the friction bounds and, with a floating body's sliding motion ``r`` (an X vector, or
+    None), the balance a . lam_t = c of its tangential load (a = the parts Bt r of the interfaces, c = -r . f).
+    ``at``: the solve's name in errors."""
+
+    def __init__(self, sides: list[_Side], r: np.ndarray | None, f: np.ndarray, floating: list, n: int, at: str):
+        self.r, self.at = r, at
+        self.names = ", ".join(s.op.name for s in sides)
+        self.cuts = np.cumsum([0] + [s.op.size for s in sides])
+        self.W = np.concatenate([s.w for s in sides]) if sides else np.zeros(0)
+        if r is not None:
+            self.a = np.concatenate([s.Bt @ r for s in sides])
+            self.c = -float(r @ f)
+            # rounding of the load: the scale of ContactSolver's solvability check (all free rigid motions)
+            self.c_tol = 1e-10 * float(np.max(np.abs(np.hstack([bd.modes[:n] for bd in floating]).T @ f)))
+
+    def split(self, v: np.ndarray) -> list[np.ndarray]:
+        """The parts of ``v`` per interface."""
+        return [v[self.cuts[k]:self.cuts[k + 1]] for k in range(len(self.cuts) - 1)]
+
+    def project(self, y: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """P(y): y clipped to [-b, b], balanced on the sliding motion (:func:`_project_balanced`) when there is
+        one; SolverError when the friction cannot balance it."""
+        if self.r is None:
+            return np.clip(y, -b, b)
+        lam = _project_balanced(y, b, self.W, self.a, self.c, self.c_tol)
+        if lam is None:
+            raise SolverError(f"{self.at}: the friction on {self.names} cannot hold the tangential load of the "
+                              f"floating body (unbalanced {abs(self.c):.3g} against a capacity "
+                              f"{float(np.sum(np.abs(self.a) * np.where(np.isfinite(b), b, 0))):.3g}): add a "
+                              "support or change the load")
+        return lam
+
+    def hold_stick(self, u: np.ndarray, slip: np.ndarray, stick: np.ndarray) -> np.ndarray:
+        """``u`` moved along the sliding motion so that the stick nodes do not slip (least squares; ``u``
+        itself without a sliding motion)."""
+        if self.r is None:
+            return u
+        sig = self.a / self.W
+        den = float(np.sum(self.W[stick] * sig[stick] ** 2))
+        if den > 0:
+            shift = -float(np.sum(self.W[stick] * sig[stick] * slip[stick])) / den
+            u = u + shift * self.r
+        return u
+
+
 class UzawaSolver(ContactSolverBase):
     """Uzawa's algorithm (2.66) for Tresca and Coulomb friction (module docstring), with the interface of
     :class:`ContactSolver`: ``solve(matrix, rhs, free, x0, where) -> (u, info)`` and the multipliers per
@@ -301,61 +348,24 @@ class UzawaSolver(ContactSolverBase):
         """The displacement vector (X) and the history; raises SolverError when the change of lam_t does not
         fall below ``tol`` in ``maxit`` steps or a floating body's tangential load exceeds the friction."""
         tic = time.perf_counter()
-        at = f"Uzawa contact solve{' at ' + where if where else ''}"
         n = len(x0)
         f = np.asarray(rhs, dtype=float)
         sides = [_Side(op, law, n, self.modulus, rho) for (op, law), rho in zip(self.items, self.rho)]
         info = UzawaInfo(rho=[s.rho for s in sides])
-        names = ", ".join(op.name for op, _ in self.items)
-        r = self._sliding_motion(sides, n, where)
-        if r is not None:   # the balance a . lam_t = c on the sliding motion, per interface the part of a
-            parts = [s.Bt @ r for s in sides]
-            c = -float(r @ f)
-            # rounding of the load: the scale of ContactSolver's solvability check (all free rigid motions)
-            c_tol = 1e-10 * float(np.max(np.abs(np.hstack([bd.modes[:n] for bd in self.floating]).T @ f)))
-        sizes = [s.op.size for s in sides]
-        cuts = np.cumsum([0] + sizes)
-        W = np.concatenate([s.w for s in sides]) if sides else np.zeros(0)
-
-        def project(y, b):
-            if r is None:
-                return np.clip(y, -b, b)
-            a = np.concatenate(parts)
-            lam = _project_balanced(y, b, W, a, c, c_tol)
-            if lam is None:
-                raise SolverError(f"{at}: the friction on {names} cannot hold the tangential load of the floating "
-                                  f"body (unbalanced {abs(c):.3g} against a capacity "
-                                  f"{float(np.sum(np.abs(a) * np.where(np.isfinite(b), b, 0))):.3g}): add a "
-                                  "support or change the load")
-            return lam
-
-        def split(v):
-            return [v[cuts[k]:cuts[k + 1]] for k in range(len(sides))]
-
+        tan = _Tangential(sides, self._sliding_motion(sides, n, where), f, self.floating, n,
+                          f"Uzawa contact solve{' at ' + where if where else ''}")
+        W = tan.W
         b = np.concatenate([s.bound(None) for s in sides]) if sides else np.zeros(0)
-        lam = project(self._last if self._last is not None and len(self._last) == len(W) else np.zeros_like(W), b)
+        lam = tan.project(self._last if self._last is not None and len(self._last) == len(W) else np.zeros_like(W), b)
         change = float("inf")
         best, since_best = float("inf"), 0
         for it_nr in range(1, self.maxit + 1):
-            load = f.copy()
-            for s, lt in zip(sides, split(lam)):
-                if s.frictional:
-                    load += s.Bt.T @ lt
-            u, inner = self.inner.solve(matrix, load, free, x0, f"{where}, Uzawa step {it_nr}")
-            info.inner_iterations += inner.iterations
-            info.factorizations += inner.factorizations
-            lam_n = np.concatenate([ln for ln, _ in self.inner.multipliers]) if sides else np.zeros(0)
-            b = np.concatenate([s.bound(ln) for s, (ln, _) in zip(sides, self.inner.multipliers)])
-            slip = np.concatenate([(s.Bt @ u) / s.w for s in sides]) if sides else np.zeros(0)
+            u, lam_n, b, slip = self._normal_step(matrix, f, free, x0, f"{where}, Uzawa step {it_nr}", sides,
+                                                  tan.split(lam), info)
             rho = np.concatenate([np.full(s.op.size, s.rho) for s in sides])
-            new = project(lam - rho * slip, b)      # independent of the free motion of a floating body
+            new = tan.project(lam - rho * slip, b)      # independent of the free motion of a floating body
             stick = (b > 0) & (np.abs(new) < b)
-            if r is not None:   # move the body along its free motion so that the stick nodes do not slip
-                sig = np.concatenate(parts) / W
-                den = float(np.sum(W[stick] * sig[stick] ** 2))
-                if den > 0:
-                    shift = -float(np.sum(W[stick] * sig[stick] * slip[stick])) / den
-                    u = u + shift * r
+            u = tan.hold_stick(u, slip, stick)
             scale = max(float(np.sqrt(W @ new ** 2)), float(np.sqrt(W @ np.where(np.isfinite(b), b, 0) ** 2)),
                         1e-300)
             change = float(np.sqrt(W @ (new - lam) ** 2)) / scale
@@ -372,9 +382,25 @@ class UzawaSolver(ContactSolverBase):
             # without a new smallest change
             best, since_best = self._safeguard(sides, info, change, best, since_best)
         else:
-            raise SolverError(f"{at}: the friction multipliers on {names} still change by {change:.2e} (relative) "
-                              f"after {self.maxit} Uzawa steps (tol {self.tol:.1e}, rho "
+            raise SolverError(f"{tan.at}: the friction multipliers on {tan.names} still change by {change:.2e} "
+                              f"(relative) after {self.maxit} Uzawa steps (tol {self.tol:.1e}, rho "
                               f"{', '.join(f'{s.rho:.3g}' for s in sides)} Pa/m): lower {self.settings[0]} (too "
                               f"large a step diverges) or raise {self.settings[1]}")
-        self._finish(sides, u, lam, lam_n, split(lam), info, tic)
+        self._finish(sides, u, lam, lam_n, tan.split(lam), info, tic)
         return u, info
+
+    def _normal_step(self, matrix, f: np.ndarray, free: np.ndarray, x0: np.ndarray, where: str, sides: list[_Side],
+                     lam_t: list, info: UzawaInfo):
+        """The frictionless contact solution for the load f + Bt^T lam_t (per interface ``lam_t``): (u, lam_n, the
+        bounds b and the nodal slips s~ of all interfaces)."""
+        load = f.copy()
+        for s, lt in zip(sides, lam_t):
+            if s.frictional:
+                load += s.Bt.T @ lt
+        u, inner = self.inner.solve(matrix, load, free, x0, where)
+        info.inner_iterations += inner.iterations
+        info.factorizations += inner.factorizations
+        lam_n = np.concatenate([ln for ln, _ in self.inner.multipliers]) if sides else np.zeros(0)
+        b = np.concatenate([s.bound(ln) for s, (ln, _) in zip(sides, self.inner.multipliers)])
+        slip = np.concatenate([(s.Bt @ u) / s.w for s in sides]) if sides else np.zeros(0)
+        return u, lam_n, b, slip

@@ -444,6 +444,48 @@ def cattaneo(h_contact: float, order: int = 1, *, Q_ratio: float = 0.5, friction
     Q = Q_ratio * mu * P
     ref = cc.hertz_line(P, R, E_star)
     c_ref = cc.cattaneo_stick_half_width(Q, P, mu, ref.a)
+    mesh = _cattaneo_mesh(a_ref, h_contact, order, maxh, grading)
+    props = _props(E, nu, ["cylinder", "block"])
+    setup = ElasticSetup(props=props, model="plane_strain", order=order)
+    setup.dirichlet["bottom"] = [expression_function(0.0), expression_function(0.0)]
+    setup.traction["top"] = [expression_function(Q / (2 * R)),
+                             expression_function(f"{-P / (2 * R)!r} + {3 * Q / (2 * R ** 2)!r} * x")]
+    forms, K, f, free, x0 = _system(mesh, setup)
+    floating = forms.floating_bodies()
+    op = contact_operator_2d(mesh, forms.V, "cattaneo", "block_contact", "cylinder_contact", axisymmetric=False,
+                             search_distance=a_ref / 2)
+    solver = ContactSolver([(op, ContactLaw("coulomb", friction=mu))], modulus=nodal_modulus(props),
+                           floating=floating)
+    u, info = solver.solve(K, f, free, x0, "cattaneo")
+    lam_n, lam_t = solver.multipliers[0]
+    fx, fy = _cylinder_resultant(floating, op, lam_n, lam_t)
+    measures, prof = _cattaneo_measures(op.coords[:, 0], lam_n, lam_t, mu, ref, c_ref)
+    return {"a": ref.a, "p0": ref.p0, "P": P, "Q": Q, "c": c_ref, "c_over_a": c_ref / ref.a, **measures,
+            "force_balance_n": abs(float(np.dot(op.weight, lam_n)) - P) / P,
+            "force_balance_t": abs(float(np.dot(op.weight, lam_t)) - Q) / Q,
+            "transfer_error": math.hypot(fx + Q, fy - P) / P,
+            "stick": int(prof["stick"].sum()), "slip": int(prof["slip"].sum()), "solver_stick": info.stick[-1],
+            "solver_slip": info.slip[-1], "iterations": info.iterations,
+            "penalty_iterations": info.penalty_iterations, "max_penetration": info.max_penetration,
+            "ndof": int(forms.X.ndof), "wall_s": info.wall_s,
+            "x": prof["x"].tolist(), "p": prof["p"].tolist(), "q": prof["q"].tolist(), "q_ref": prof["q_ref"].tolist()}
+
+
+def _cylinder_resultant(floating: list, op, lam_n: np.ndarray, lam_t: np.ndarray) -> tuple[float, float]:
+    """The contact resultant (N/m) on :func:`cattaneo`'s cylinder through the mortar operators (O side):
+    (-int q, int p)."""
+    body = next(b for b in floating if "cylinder" in b.regions)
+    nv = op.Bn.shape[1]
+    force = op.Bn.T @ lam_n + op.Bt.T @ lam_t
+    fx = float(body.modes[:nv, body.names.index("translation along x")] @ force)
+    fy = float(body.modes[:nv, body.names.index("translation along y")] @ force)
+    return fx, fy
+
+
+def _cattaneo_mesh(a_ref: float, h_contact: float, order: int, maxh: float | None, grading: float):
+    """The mesh of :func:`cattaneo`: the half cylinder (fine arc |x| <= ~4a) and the block (contact edge
+    |x| <= 3a) meshed independently, curved to order max(order, 2)."""
+    R = R_HERTZ
     th = 4 * a_ref / R                  # the cylinder's fine arc |x| <= ~4a
     L = 3 * a_ref                       # the block's contact edge |x| <= 3a (the multiplier side)
 
@@ -468,39 +510,35 @@ def cattaneo(h_contact: float, order: int = 1, *, Q_ratio: float = 0.5, friction
     shape = Compound([cyl, block])      # not glued: independent meshes on the two sides
     mesh = ngs.Mesh(OCCGeometry(shape, dim=2).GenerateMesh(maxh=maxh or R / 4, grading=grading))
     mesh.Curve(max(order, 2))
-    props = _props(E, nu, ["cylinder", "block"])
-    setup = ElasticSetup(props=props, model="plane_strain", order=order)
-    setup.dirichlet["bottom"] = [expression_function(0.0), expression_function(0.0)]
-    setup.traction["top"] = [expression_function(Q / (2 * R)),
-                             expression_function(f"{-P / (2 * R)!r} + {3 * Q / (2 * R ** 2)!r} * x")]
-    forms, K, f, free, x0 = _system(mesh, setup)
-    floating = forms.floating_bodies()
-    op = contact_operator_2d(mesh, forms.V, "cattaneo", "block_contact", "cylinder_contact", axisymmetric=False,
-                             search_distance=a_ref / 2)
-    solver = ContactSolver([(op, ContactLaw("coulomb", friction=mu))], modulus=nodal_modulus(props),
-                           floating=floating)
-    u, info = solver.solve(K, f, free, x0, "cattaneo")
-    lam_n, lam_t = solver.multipliers[0]
-    # the contact resultant on the cylinder through the mortar operators (O side): (-int q, int p)
-    body = next(b for b in floating if "cylinder" in b.regions)
-    nv = op.Bn.shape[1]
-    force = op.Bn.T @ lam_n + op.Bt.T @ lam_t
-    fx = float(body.modes[:nv, body.names.index("translation along x")] @ force)
-    fy = float(body.modes[:nv, body.names.index("translation along y")] @ force)
-    x = op.coords[:, 0]
-    o = np.argsort(x)
-    xs, ps, qs = x[o], lam_n[o], lam_t[o]       # q > 0: the friction on the cylinder opposes Q (+x)
+    return mesh
+
+
+def _stick_zone(xs: np.ndarray, ps: np.ndarray, qs: np.ndarray, mu: float) -> dict:
+    """The contact and stick zones of the sorted nodal profile (x, p, q) of :func:`cattaneo`: the node sets
+    ``contact``, ``stick``, ``slip``, the extents of the contact nodes (cl, cr), of the stick nodes (kl, kr) and
+    of the innermost slip nodes (sl, sr), and the half widths ``a_num``, ``a_next`` (the first open nodes)."""
     contact = ps > 0
     stick = contact & (np.abs(qs) < mu * ps * (1 - 1e-10))
     slip = contact & ~stick
     xc, xk = xs[contact], xs[stick]
     cl, cr = float(xc.min()), float(xc.max())
-    a_num = (cr - cl) / 2
     open_l, open_r = xs[xs < cl], xs[xs > cr]
     a_next = (float(open_r.min() if len(open_r) else cr) - float(open_l.max() if len(open_l) else cl)) / 2
     kl, kr = (float(xk.min()), float(xk.max())) if len(xk) else (0.0, 0.0)   # no stick node: c_num 0
     sl_l, sl_r = xs[slip & (xs < kl)], xs[slip & (xs > kr)]
     sl, sr = (float(sl_l.max()) if len(sl_l) else cl), (float(sl_r.min()) if len(sl_r) else cr)
+    return {"contact": contact, "stick": stick, "slip": slip, "a_num": (cr - cl) / 2, "a_next": a_next,
+            "kl": kl, "kr": kr, "sl": sl, "sr": sr}
+
+
+def _cattaneo_measures(x: np.ndarray, lam_n: np.ndarray, lam_t: np.ndarray, mu: float, ref, c_ref: float):
+    """The measures of :func:`cattaneo`'s nodal profile (its docstring, from "c_num" to "slip_law_error") and the
+    profile sorted by x: {"x", "p", "q", "q_ref", "stick", "slip"}."""
+    o = np.argsort(x)
+    xs, ps, qs = x[o], lam_n[o], lam_t[o]       # q > 0: the friction on the cylinder opposes Q (+x)
+    z = _stick_zone(xs, ps, qs, mu)
+    contact, stick, slip = z["contact"], z["stick"], z["slip"]
+    kl, kr, sl, sr, a_num = z["kl"], z["kr"], z["sl"], z["sr"], z["a_num"]
     left, right = (kl + sl) / 2, (kr + sr) / 2
     c_num, shift = (right - left) / 2, (right + left) / 2
     # elliptical fit p^2 = p0'^2 (1 - x^2/a'^2) over |x| < 0.8 a
@@ -511,24 +549,17 @@ def cattaneo(h_contact: float, order: int = 1, *, Q_ratio: float = 0.5, friction
         - mu * ref.p0 * (c_ref / ref.a) * np.sqrt(np.clip(1.0 - ((xs - shift) / c_ref) ** 2, 0.0, None))
     inner = np.abs(xs) < 0.9 * ref.a
     scale = mu * ref.p0
-    return {"a": ref.a, "p0": ref.p0, "P": P, "Q": Q, "c": c_ref, "c_over_a": c_ref / ref.a,
-            "c_num": c_num, "c_num_over_a": c_num / ref.a, "c_stick": (kr - kl) / 2, "c_slip": (sr - sl) / 2,
-            "c_error": abs(c_num - c_ref), "h": ((sr - kr) + (kl - sl)) / 2, "stick_shift": shift,
-            "stick_contiguous": bool(np.all(stick[(xs >= kl) & (xs <= kr)])),
-            "a_num": a_num, "a_next": a_next, "a_error": abs(a_num - ref.a),
-            "a_fit": math.sqrt(-k0 / k1) if k0 > 0 > k1 else float("nan"),
-            "p0_num": float(ps[np.argmin(np.abs(xs))]), "p0_rel_error": float(ps[np.argmin(np.abs(xs))] / ref.p0 - 1),
-            "p0_fit_rel_error": math.sqrt(max(k0, 0.0)) / ref.p0 - 1,
-            "q_stick_max_error": float(np.max(np.abs(qs[stick] - qref[stick]), initial=0.0)) / scale,
-            "q_stick_max_error_shifted": float(np.max(np.abs(qs[stick] - qref_shifted[stick]), initial=0.0)) / scale,
-            "q_max_error": float(np.max(np.abs(qs[inner] - qref[inner]))) / scale,
-            "q_l2_error": math.sqrt(float(np.trapezoid((qs[inner] - qref[inner]) ** 2, xs[inner])) / ref.a) / scale,
-            "slip_law_error": float(np.max(np.abs(np.abs(qs[slip]) / (mu * ps[slip]) - 1), initial=0.0)),
-            "force_balance_n": abs(float(np.dot(op.weight, lam_n)) - P) / P,
-            "force_balance_t": abs(float(np.dot(op.weight, lam_t)) - Q) / Q,
-            "transfer_error": math.hypot(fx + Q, fy - P) / P,
-            "stick": int(stick.sum()), "slip": int(slip.sum()), "solver_stick": info.stick[-1],
-            "solver_slip": info.slip[-1], "iterations": info.iterations,
-            "penalty_iterations": info.penalty_iterations, "max_penetration": info.max_penetration,
-            "ndof": int(forms.X.ndof), "wall_s": info.wall_s,
-            "x": xs.tolist(), "p": ps.tolist(), "q": qs.tolist(), "q_ref": qref.tolist()}
+    measures = {
+        "c_num": c_num, "c_num_over_a": c_num / ref.a, "c_stick": (kr - kl) / 2, "c_slip": (sr - sl) / 2,
+        "c_error": abs(c_num - c_ref), "h": ((sr - kr) + (kl - sl)) / 2, "stick_shift": shift,
+        "stick_contiguous": bool(np.all(stick[(xs >= kl) & (xs <= kr)])),
+        "a_num": a_num, "a_next": z["a_next"], "a_error": abs(a_num - ref.a),
+        "a_fit": math.sqrt(-k0 / k1) if k0 > 0 > k1 else float("nan"),
+        "p0_num": float(ps[np.argmin(np.abs(xs))]), "p0_rel_error": float(ps[np.argmin(np.abs(xs))] / ref.p0 - 1),
+        "p0_fit_rel_error": math.sqrt(max(k0, 0.0)) / ref.p0 - 1,
+        "q_stick_max_error": float(np.max(np.abs(qs[stick] - qref[stick]), initial=0.0)) / scale,
+        "q_stick_max_error_shifted": float(np.max(np.abs(qs[stick] - qref_shifted[stick]), initial=0.0)) / scale,
+        "q_max_error": float(np.max(np.abs(qs[inner] - qref[inner]))) / scale,
+        "q_l2_error": math.sqrt(float(np.trapezoid((qs[inner] - qref[inner]) ** 2, xs[inner])) / ref.a) / scale,
+        "slip_law_error": float(np.max(np.abs(np.abs(qs[slip]) / (mu * ps[slip]) - 1), initial=0.0))}
+    return measures, {"x": xs, "p": ps, "q": qs, "q_ref": qref, "stick": stick, "slip": slip}
