@@ -576,7 +576,7 @@ def residual_elastic(forms: ElasticForms, *, c_volume: float = C_VOLUME, c_jump:
             for i in range(dim):
                 for k in range(dim):
                     div[i] = div[i] - float(forms.b[name][vi[(i, k)]]) * gT[k]
-        s0 = forms._sigma0_vector()
+        s0 = forms.sigma0_vector()
         if s0 is not None:
             for i in range(dim):
                 for k in range(dim):

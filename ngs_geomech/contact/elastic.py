@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..mechanics.forms import ElasticForms
-from ..mechanics.solver import ElasticSolver, NonlinearInfo, _Linearized, h1_norm
+from ..mechanics.solver import ElasticSolver, Linearized, NonlinearInfo, h1_norm
 from .solver import ContactSolver
 
 
@@ -85,7 +85,7 @@ class ElasticContactSolver:
     def _secant(self, where: str, infos: list) -> NonlinearInfo:
         f = self.f
         info = NonlinearInfo("secant")
-        with _Linearized(f):
+        with Linearized(f):
             self._contact_solve(where, infos)
         x = f.gf.vec
         prev = x.CreateVector()

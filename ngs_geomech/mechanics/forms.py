@@ -386,7 +386,8 @@ class ElasticForms:
             return None
         return self.setup.temperature - self.setup.props[name].T0
 
-    def _sigma0_vector(self):
+    def sigma0_vector(self):
+        """The initial stress (Pa) as the model's reduced Voigt vector, or None without one."""
         s0 = self.setup.initial_stress
         if s0 is None:
             return None
@@ -419,12 +420,12 @@ class ElasticForms:
             s = self.cf_matrix(mx.Ddev) * e + self.pressure(name) * m
             if dT is not None:
                 s = s - dT * self._cf_vector(mx.bdev)
-            s0 = self._sigma0_vector()
+            s0 = self.sigma0_vector()
             return s if s0 is None else s + s0
         s = self.factor(name, e) * (self.cf_matrix(self.D[name]) * e)
         if dT is not None:
             s = s - dT * self._cf_vector(self.b[name])
-        s0 = self._sigma0_vector()
+        s0 = self.sigma0_vector()
         return s if s0 is None else s + s0
 
     # -- forms -----------------------------------------------------------------------------------------------
@@ -489,7 +490,7 @@ class ElasticForms:
             if name in self.mixed:     # the Lagrangian: its derivative is the residual of the mixed system
                 k = self.mixed[name].index
                 _, _, lag = self._mixed_terms(name, u, v, trials[k], tests[k])
-                s0 = self._sigma0_vector()
+                s0 = self.sigma0_vector()
                 if s0 is not None:
                     lag = lag + ngs.InnerProduct(s0, self.strain_vector(u))
                 energy += w * lag * ngs.dx(definedon=self.mesh.Materials(name), intrules=self.intrules)
@@ -499,7 +500,7 @@ class ElasticForms:
             dT = self.delta_T(name)
             if dT is not None:
                 W = W - dT * ngs.InnerProduct(self._cf_vector(self.b[name]), e)
-            s0 = self._sigma0_vector()
+            s0 = self.sigma0_vector()
             if s0 is not None:
                 W = W + ngs.InnerProduct(s0, e)
             energy += w * W * ngs.dx(definedon=self.mesh.Materials(name), intrules=self.intrules)
@@ -530,7 +531,7 @@ class ElasticForms:
             dT = self.delta_T(name)
             if dT is not None and name not in self.mixed:
                 rhs += w * dT * ngs.InnerProduct(self._cf_vector(self.b[name]), self.strain_vector(v)) * mdx
-            s0 = self._sigma0_vector()
+            s0 = self.sigma0_vector()
             if s0 is not None:
                 rhs += -w * ngs.InnerProduct(s0, self.strain_vector(v)) * mdx
         for term in self._loads(v):

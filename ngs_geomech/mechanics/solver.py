@@ -296,7 +296,7 @@ class ElasticSolver:
         f = self.f
         info = NonlinearInfo("secant")
         u = f.displacement()
-        with _Linearized(f):
+        with Linearized(f):
             self._solve_secant_system(where, reuse=False)
         x = f.gf.vec
         prev, d, res, trial = x.CreateVector(), x.CreateVector(), x.CreateVector(), x.CreateVector()
@@ -336,7 +336,7 @@ class ElasticSolver:
         f = self.f
         info = NonlinearInfo("newton")
         if self.start == "linear":
-            with _Linearized(f):
+            with Linearized(f):
                 self._solve_secant_system(where, reuse=False)
         x = f.gf.vec
         res, d, trial = x.CreateVector(), x.CreateVector(), x.CreateVector()
@@ -517,7 +517,7 @@ class _PrimalDual:
         self.is_reset = False
 
 
-class _Linearized:
+class Linearized:
     """Context: the secant form with c* = c (linear elasticity), to start an iteration."""
 
     def __init__(self, forms: ElasticForms):
