@@ -21,11 +21,11 @@ import pytest
 
 from ngs_geomech import cli
 from ngs_geomech.api import run
-from ngs_geomech.contact.elastic import ElasticContactSolver
 from ngs_geomech.errors import ResumeError, SolverError
 from ngs_geomech.fem.timesteps import schedule
 from ngs_geomech.heat.solver import HeatSolver
 from ngs_geomech.io.checkpoint import load_checkpoint, read_checkpoint_file, write_checkpoint
+from ngs_geomech.mechanics.contact import ElasticContactSolver
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
 pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_checkpoint")]

@@ -3,5 +3,5 @@
 solvers behind one interface (:mod:`.base`; :mod:`.solver` with its state :mod:`.state`, nodal rows and sets
 :mod:`.active_set`, floating-body checks :mod:`.floating` and Newton-step strategies :mod:`.steps` on the
 saddle-point pattern :mod:`.saddle`, :mod:`.condensed`, :mod:`.krylov`, :mod:`.uzawa`) built in one place
-(:mod:`.factory`), elasticity with contact (:mod:`.elastic`), the scene's contact setup (:mod:`.problem`) and its
-output (:mod:`.output`)."""
+(:mod:`.factory`), the scene's contact setup (:mod:`.problem`) and its output (:mod:`.output`). Elasticity with
+contact (the secant loop around a contact solve) is :mod:`ngs_geomech.mechanics.contact`."""

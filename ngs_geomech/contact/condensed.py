@@ -60,7 +60,6 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 from ..linalg import pardiso
-from ..mechanics.forms import FloatingBody
 from .linear_algebra import drop_prescribed_nodes, is_symmetric
 
 CANDIDATE_GAP = 5e-4
@@ -286,7 +285,7 @@ class CondensedContact:
             g0 = op.g0 + _padded(op.Bn, n)[:, fixed] @ x0[fixed]
             items.append((dataclasses.replace(op, Bn=cut(op.Bn), Bt=cut(op.Bt), Bt2=cut(op.Bt2), g0=g0,
                                               coverage=np.where(cand & it.keep, op.coverage, 0.0)), law))
-        floating = [FloatingBody(b.regions, b.names, b.modes[:n][cols]) for b in outer.floating]
+        floating = [dataclasses.replace(b, modes=b.modes[:n][cols]) for b in outer.floating]
         # its dense bulk selects the dense steps; the solvability of the load was checked on all nodes (the outer
         # solver), the candidate nodes alone could wrongly refuse it
         inner = outer.inner_solver(items, floating)

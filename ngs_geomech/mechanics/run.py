@@ -13,7 +13,6 @@ import ngsolve as ngs
 import numpy as np
 
 from .. import parallel
-from ..contact.elastic import ElasticContactSolver
 from ..contact.factory import build_contact_solver
 from ..contact.output import ContactOutput, contact_figures, contact_lines
 from ..contact.problem import check_supported, contact_options, contact_specs, contact_warnings
@@ -24,6 +23,7 @@ from ..io import stress_figures
 from ..io.meshdata import vertex_average
 from ..parts import Part, Step
 from ..scene.model import Scene
+from .contact import ElasticContactSolver
 from .forms import ElasticForms, stress_measures
 from .nested import NestedStart
 from .problem import elastic_setup, mechanics_warnings, probe_fields, watch_small_strain

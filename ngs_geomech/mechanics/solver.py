@@ -92,7 +92,7 @@ class ElasticSolver:
         (iterative above ``iterative.AUTO_DOFS`` dofs). Iterative only for the pure displacement formulation
         (X = V: no oblique symmetry multipliers, no mixed pressures) and for the secant systems and the exact Newton
         Hessian; the primal-dual Newton tangent (unsymmetric) stays direct. Contact
-        (:mod:`~ngs_geomech.contact.elastic`) keeps its direct saddle-point solver. ``preconditioner``: of
+        (:mod:`~ngs_geomech.mechanics.contact`) keeps its direct saddle-point solver. ``preconditioner``: of
         CG, one of ``iterative.PRECONDITIONERS``."""
         if method not in ("newton", "secant"):
             raise ValueError(f"unknown nonlinear solver {method!r}")

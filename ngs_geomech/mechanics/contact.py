@@ -24,10 +24,10 @@ import time
 import ngsolve as ngs
 import numpy as np
 
+from ..contact.solver import ContactSolver
 from ..errors import SolverError
-from ..mechanics.forms import ElasticForms
-from ..mechanics.solver import ElasticSolver, Linearized, NonlinearInfo, h1_norm
-from .solver import ContactSolver
+from .forms import ElasticForms
+from .solver import ElasticSolver, Linearized, NonlinearInfo, h1_norm
 
 
 class ElasticContactSolver:
