@@ -185,6 +185,8 @@ class DynamicsRun(MechanicsPart):
             arrays.update({"dyn/v": np.array(s.v), "dyn/a": np.array(s.a)})
             if s.f_n is not None:
                 arrays["dyn/f"] = np.array(s.f_n)
+        else:        # the viscous solver keeps the last step's rate in the velocity field only (dissipation)
+            arrays["dyn/velocity"] = np.array(self.vforms.velocity.vec.FV().NumPy())
         for k, w in enumerate(s.w):
             arrays[f"dyn/w{k}"] = np.array(w)
         for k, act in enumerate(s.active):
@@ -217,3 +219,5 @@ class DynamicsRun(MechanicsPart):
         self.times[:] = meta["times"]
         self.history[:] = meta["history"]
         s.sync_fields()
+        if "dyn/velocity" in arrays:
+            self.vforms.velocity.vec.FV().NumPy()[:] = arrays["dyn/velocity"]
