@@ -15,6 +15,8 @@ from __future__ import annotations
 import abc
 from dataclasses import dataclass
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class Step:
@@ -116,3 +118,58 @@ class Part(abc.ABC):
     def figures(self, canvas) -> None:
         """Draw the part's figures of the last state on ``canvas`` (:class:`~ngs_geomech.io.canvas.Canvas`)."""
         return None
+
+
+class ThermalPart(Part):
+    """A part that carries the temperature (heat or Stefan): ``T`` (its temperature field), ``forms`` (with
+    ``gf_pressure`` None or a field of the mean pressure and ``set_pressure``). A coupled step
+    (:class:`~ngs_geomech.coupling.run.CouplingRun`) drives it through :meth:`begin_step`, :meth:`solve_step`
+    (with the deformation heating), :meth:`finish_step` and, between the passes of an iterated step,
+    :meth:`mark` / :meth:`rewind`."""
+
+    probes_every_step = True
+
+    def advance(self, step: Step) -> None:
+        self.begin_step(step)
+        self.finish_step(self.solve_step(step))
+
+    def begin_step(self, step: Step) -> None:
+        """Set the step up (the old state and the times)."""
+        return None
+
+    @abc.abstractmethod
+    def solve_step(self, step: Step, heating=None):
+        """Solve the step, with the source of ``heating`` (a DeformationHeating) added; returns the step's info
+        (its ``iterations``)."""
+
+    def finish_step(self, info) -> None:
+        """Keep what a solved step reports (its Newton iterations)."""
+        self.newton_iterations.append(info.iterations)
+
+    def mark(self):
+        """What :meth:`rewind` needs to repeat the step (None: nothing, the step starts from the last pass)."""
+        return None
+
+    def rewind(self, mark) -> None:
+        """Back to the state of :meth:`mark`."""
+        return None
+
+    def temperature_values(self) -> np.ndarray:
+        """The temperature's coefficient vector (a copy)."""
+        return self.T.vec.FV().NumPy().copy()
+
+    def set_pressure(self, pressure):
+        """Give the conductivities kappa(T, p) the mean pressure ``pressure`` (Pa); returns the (min, max)
+        conductivity factors, or None without pressure-dependent conductivities."""
+        if self.forms.gf_pressure is None:
+            return None
+        return self.forms.set_pressure(pressure)
+
+    @abc.abstractmethod
+    def heating_target(self) -> tuple:
+        """(space, test function, volume measure, weight) a deformation-heating source is assembled against."""
+
+    @abc.abstractmethod
+    def take_state(self, old, t0: float | None) -> tuple:
+        """Carry the state of ``old`` (the same part on another mesh) over, or set the initial state at ``t0``;
+        returns the heat content before and after and a callable to run once the new mesh is kept (or None)."""

@@ -17,9 +17,8 @@ from .problem import KELVIN, DeformationHeating, relative_change
 
 
 class CouplingRun(Part):
-    """The coupling of a thermal part (heat or Stefan: ``begin_step``, ``solve_step``, ``finish_step``, ``mark``,
-    ``rewind``, ``temperature_values``, ``set_pressure``, ``heating_target``) and a mechanics part
-    (``solve(t)``, ``fields``, ``forms``, ``dissipation_source()``). The run advances this part instead of the
+    """The coupling of a thermal part (:class:`~ngs_geomech.parts.ThermalPart`: heat or Stefan) and a mechanics
+    part (:class:`~ngs_geomech.mechanics.run.MechanicsPart`: static, dynamic or viscous). The run advances this part instead of the
     two: its :meth:`advance` is their coupled step; the mechanics is then kept at every step."""
 
     key = "coupling"

@@ -13,7 +13,7 @@ import numpy as np
 from ..geometry.assemble import GeometryModel
 from ..io.meshdata import vertex_values
 from ..io.summary import finite
-from ..parts import Part, Step
+from ..parts import Step, ThermalPart
 from ..scene.model import Scene
 from .forms import HeatForms
 from .problem import heat_setup, set_initial_temperature
@@ -34,13 +34,12 @@ def temperature_figures(canvas, T) -> None:
                                  label=f"T ({canvas.t_unit})", axis_labels=canvas.labels, window=canvas.window)
 
 
-class HeatRun(Part):
+class HeatRun(ThermalPart):
     """The heat problem of a run (module docstring): ``forms`` (:class:`HeatForms`), ``solver``
     (:class:`HeatSolver`), ``T`` the temperature; ``flows`` the heat flow through each contact interface per
     step (W; W per m of depth in plane scenes), master -> minion."""
 
     key = "heat"
-    probes_every_step = True
 
     def __init__(self, scene: Scene, geo: GeometryModel, mesh):
         super().__init__()
@@ -96,32 +95,11 @@ class HeatRun(Part):
 
     def finish_step(self, info) -> None:
         """Keep a solved step's Newton iterations and interface heat flows."""
-        self.newton_iterations.append(info.iterations)
+        super().finish_step(info)
         w = 2 * math.pi * ngs.x if self.axisymmetric else 1.0
         for (master, _), lam in zip(self.forms.setup.contacts, self.forms.multipliers()):
             q = float(ngs.Integrate(w * lam * ngs.ds(definedon=self.mesh.Boundaries(master)), self.mesh))
             self.flows.setdefault(master, []).append(q)
-
-    def advance(self, step: Step) -> None:
-        self.begin_step(step)
-        self.finish_step(self.solve_step(step))
-
-    def mark(self):
-        """Nothing to keep: a repeated coupled pass solves the same step again from the last pass's state."""
-        return None
-
-    def rewind(self, mark) -> None:
-        pass
-
-    def temperature_values(self) -> np.ndarray:
-        return self.T.vec.FV().NumPy().copy()
-
-    def set_pressure(self, pressure):
-        """Give the conductivities kappa(T, p) the mean pressure ``pressure`` (Pa); returns the (min, max)
-        conductivity factors, or None without pressure-dependent conductivities."""
-        if self.forms.gf_pressure is None:
-            return None
-        return self.forms.set_pressure(pressure)
 
     def heating_target(self) -> tuple:
         """(space, test function, volume measure, weight) a deformation-heating source is assembled against."""

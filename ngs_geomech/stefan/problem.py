@@ -39,7 +39,7 @@ from ..heat.problem import initial_temperature, pressure_coefficients, region_me
 from ..heat.run import temperature_figures
 from ..io.meshdata import mesh_arrays, vertex_values
 from ..linalg.iterative import choose_solver
-from ..parts import Part, Step
+from ..parts import Step, ThermalPart
 from ..scene.expressions import short
 from ..scene.model import Scene
 from ..scene.units import YEAR
@@ -128,7 +128,7 @@ def _nodal(mesh, cf) -> np.ndarray:
     return np.asarray(cf(mips), dtype=float).ravel()
 
 
-class StefanRun(Part):
+class StefanRun(ThermalPart):
     """The Stefan problem of a run (a :class:`~ngs_geomech.parts.Part`): forms, solver, output fields and the
     histories a summary and a checkpoint need. ``regions`` are the phase-change regions (scene order). The Newton
     steps are solved by GMRES on a distributed mesh and, serially, when ``solver.linear`` chooses "iterative"
@@ -136,7 +136,6 @@ class StefanRun(Part):
     BDDC distributed, h1amg serial) is then their preconditioner (:mod:`ngs_geomech.stefan.krylov_jacobian`)."""
 
     key = "stefan"
-    probes_every_step = True
 
     def __init__(self, scene: Scene, mesh, geo: GeometryModel | None = None, krylov_preconditioner: str | None = None):
         super().__init__()
@@ -182,31 +181,11 @@ class StefanRun(Part):
     def start(self, t0: float, where: str) -> None:
         self.set_initial(t0)
 
-    def begin_step(self, step: Step) -> None:
-        """Nothing to set up: :meth:`step` takes the times."""
-
     def solve_step(self, step: Step, heating=None):
         """One step (:meth:`step`) with the nodal load of ``heating`` (a :class:`DeformationHeating`) when given."""
         if heating is None:
             return self.step(step.a, step.b, step.where)
         return self.step(step.a, step.b, step.where, heating.load())
-
-    def finish_step(self, info) -> None:
-        """Keep a step's Newton iterations (of its last half when it was halved)."""
-        self.newton_iterations.append(info.iterations)
-
-    def advance(self, step: Step) -> None:
-        self.finish_step(self.solve_step(step))
-
-    def temperature_values(self) -> np.ndarray:
-        return self.forms.gf_temperature.vec.FV().NumPy().copy()
-
-    def set_pressure(self, pressure):
-        """Give the conductivities kappa(T, p) the mean pressure ``pressure`` (Pa); returns the (min, max)
-        conductivity factors, or None without pressure-dependent conductivities."""
-        if self.forms.gf_pressure is None:
-            return None
-        return self.forms.set_pressure(pressure)
 
     def heating_target(self) -> tuple:
         """(space, test function, volume measure, weight) a deformation-heating source is assembled against: the
