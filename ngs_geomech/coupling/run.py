@@ -18,8 +18,9 @@ from .problem import KELVIN, DeformationHeating, relative_change
 
 class CouplingRun(Part):
     """The coupling of a thermal part (:class:`~ngs_geomech.parts.ThermalPart`: heat or Stefan) and a mechanics
-    part (:class:`~ngs_geomech.mechanics.run.MechanicsPart`: static, dynamic or viscous). The run advances this part instead of the
-    two: its :meth:`advance` is their coupled step; the mechanics is then kept at every step."""
+    part (:class:`~ngs_geomech.mechanics.run.MechanicsPart`: static, dynamic or viscous). The run advances this
+    part instead of the two: its :meth:`advance` is their coupled step; the mechanics is then kept at every
+    step."""
 
     key = "coupling"
 
