@@ -34,6 +34,18 @@ class SceneError(GeomechError):
         super().__init__("\n".join(lines))
 
 
+class MaterialError(ValueError):
+    """Invalid material data. ``key`` is the material key at fault (``""`` when no single key is, e.g. no elastic
+    constants at all; nested keys use dots and list items brackets: ``orthotropic.E[1]``) and ``detail`` what is
+    wrong with it; the message starts with the key, e.g. ``youngs_modulus must be positive, got -1e+09 Pa``, so
+    that a caller can report ``materials.<region>.<key>``."""
+
+    def __init__(self, key: str, message: str):
+        self.key = key
+        self.detail = message
+        super().__init__(message if not key else f"{key}{'' if message.startswith(':') else ' '}{message}")
+
+
 class SolverError(GeomechError):
     """A solve failed (divergence, stagnation, NaN); the message says which solve, where and what to change."""
 

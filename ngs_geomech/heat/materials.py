@@ -4,6 +4,11 @@ Problem (P) of the seed allows an anisotropic conductivity kappa_ij per body (2.
 symmetric positive definite. A temperature-dependent conductivity kappa_ij(T) = kappa_ij f(T) with
 f(T) = 1 + b (T - T_ref) is handled through the Kirchhoff transform Theta(T) = int_{T_ref}^T f(s) ds
 (seed, before (2.39)), so that the flux is -kappa_ij dTheta/dx_j.
+
+The ranges of single keys (a positive heat capacity, a latent heat >= 0, ...) are declared with the keys
+(:class:`~ngs_geomech.scene.model.Material`) and checked from there (:func:`check_declared`); the rules that join
+several keys or the entries of a tensor (one of two ways to give a datum, a positive definite conductivity) are
+checked here.
 """
 
 from __future__ import annotations
@@ -13,7 +18,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import MaterialError
 from ..scene.model import Material
+from ..scene.schema import first_problem
+
+
+def check_declared(m: Material, keys: tuple[str, ...]) -> None:
+    """Raise :class:`~ngs_geomech.errors.MaterialError` for the first of the material's ``keys`` whose value does
+    not meet its declaration (type and range, :class:`~ngs_geomech.scene.model.Material`)."""
+    problem = first_problem(m, keys)
+    if problem is not None:
+        raise MaterialError(problem.item, problem.message)
 
 
 @dataclass(frozen=True)
@@ -48,11 +63,13 @@ def rotation_matrix(angle, dim: int) -> np.ndarray:
 
 
 def conductivity_tensor(m: Material, dim: int) -> np.ndarray:
-    """The conductivity tensor of a material; raises ValueError naming the key at fault."""
+    """The conductivity tensor of a material; raises ValueError naming the key at fault (a
+    :class:`~ngs_geomech.errors.MaterialError` for a value outside its declared range)."""
     given = [k for k in ("conductivity", "conductivity_principal") if getattr(m, k) is not None]
     if len(given) != 1:
         raise ValueError("give exactly one of 'conductivity' or 'conductivity_principal'"
                          + (" (both given)" if len(given) == 2 else " (none given)"))
+    check_declared(m, ("conductivity", "conductivity_principal", "conductivity_angle"))
     if m.conductivity is not None:
         if m.conductivity_angle is not None:
             raise ValueError("'conductivity_angle' goes with 'conductivity_principal', not 'conductivity'")
@@ -80,21 +97,19 @@ def conductivity_tensor(m: Material, dim: int) -> np.ndarray:
 def volumetric_heat_capacity(m: Material) -> float | None:
     """rho*c in J/(m^3 K), from 'rho_c' or 'density' * 'specific_heat'; None when not given.
 
-    'density' alone is allowed (gravity needs it); 'specific_heat' needs 'density'.
+    'density' alone is allowed (gravity needs it); 'specific_heat' needs 'density'. Each is positive (declared).
     """
     if m.rho_c is not None:
         if m.specific_heat is not None:
             raise ValueError("give either 'rho_c' or 'density' and 'specific_heat', not both")
-        value = m.rho_c
-    elif m.specific_heat is not None:
+        check_declared(m, ("rho_c",))
+        return float(m.rho_c)
+    if m.specific_heat is not None:
         if m.density is None:
             raise ValueError("'specific_heat' needs 'density'")
-        value = m.density * m.specific_heat
-    else:
-        return None
-    if value <= 0:
-        raise ValueError(f"rho*c = {value:g} J/(m^3 K) must be positive")
-    return float(value)
+        check_declared(m, ("density", "specific_heat"))
+        return float(m.density * m.specific_heat)
+    return None
 
 
 def thermal_properties(m: Material, dim: int) -> ThermalProperties:
@@ -138,16 +153,15 @@ def isotropic_conductivity(m: Material, dim: int) -> float:
 
 
 def phase_change_problems(m: Material) -> list[tuple[str, str]]:
-    """Every problem of a material's phase-change keys as (key, message); empty when they are consistent
-    (also when the material has no phase change and sets none of them)."""
+    """Every problem of how a material's phase-change keys go together as (key, message); empty when they are
+    consistent (also when the material has no phase change and sets none of them). The range of each key is
+    declared with it (:class:`~ngs_geomech.scene.model.Material`; :func:`check_declared`)."""
     out: list[tuple[str, str]] = []
     if not has_phase_change(m):
         for key in PHASE_CHANGE_KEYS:
             if getattr(m, key) is not None:
                 out.append((key, "applies to a phase-change material: set phase_change_temperature (degC or K)"))
         return out
-    if not math.isfinite(m.phase_change_temperature):
-        out.append(("phase_change_temperature", f"must be finite, got {m.phase_change_temperature}"))
     per_kg, per_m3 = m.latent_heat, m.latent_heat_volumetric
     if per_kg is not None and per_m3 is not None:
         out.append(("latent_heat", "give either latent_heat (J/kg, with density) or latent_heat_volumetric "
@@ -155,10 +169,6 @@ def phase_change_problems(m: Material) -> list[tuple[str, str]]:
     elif per_kg is None and per_m3 is None:
         out.append(("latent_heat", "a phase change needs latent_heat (J/kg, with density) or "
                                    "latent_heat_volumetric (J/m^3)"))
-    for key, unit in (("latent_heat", "J/kg"), ("latent_heat_volumetric", "J/m^3")):
-        v = getattr(m, key)
-        if v is not None and not (v >= 0 and math.isfinite(v)):
-            out.append((key, f"must be >= 0 {unit}, got {v:g}"))
     if per_kg is not None and per_m3 is None and m.density is None:
         out.append(("density", "latent_heat is per kg (J/kg): give the density (kg/m^3), or give "
                                "latent_heat_volumetric (J/m^3) instead"))
@@ -169,25 +179,19 @@ def phase_change_problems(m: Material) -> list[tuple[str, str]]:
     elif c_l is None and c_l_kg is None:
         out.append(("rho_c_liquid", "a phase change needs the liquid's heat capacity: rho_c_liquid (J/(m^3 K)) or "
                                     "specific_heat_liquid (J/(kg K), with density)"))
-    for key, unit in (("rho_c_liquid", "J/(m^3 K)"), ("specific_heat_liquid", "J/(kg K)")):
-        v = getattr(m, key)
-        if v is not None and not (v > 0 and math.isfinite(v)):
-            out.append((key, f"must be positive, got {v:g} {unit}"))
     if c_l_kg is not None and c_l is None and m.density is None:
         out.append(("density", "specific_heat_liquid is per kg: give the density (kg/m^3), or rho_c_liquid"))
-    k_l = m.conductivity_liquid
-    if k_l is None:
+    if m.conductivity_liquid is None:
         out.append(("conductivity_liquid", "a phase change needs the liquid's conductivity (W/(m K))"))
-    elif not (k_l > 0 and math.isfinite(k_l)):
-        out.append(("conductivity_liquid", f"must be positive, got {k_l:g} W/(m K)"))
     return out
 
 
 def phase_change_properties(m: Material, dim: int) -> PhaseChangeProperties | None:
     """The phase change of a material (None without phase_change_temperature); ValueError naming the key at
-    fault when the keys are inconsistent (see :func:`phase_change_problems`)."""
+    fault when a key is outside its declared range or the keys are inconsistent (see :func:`phase_change_problems`)."""
     if not has_phase_change(m):
         return None
+    check_declared(m, ("phase_change_temperature",) + PHASE_CHANGE_KEYS)
     problems = phase_change_problems(m)
     if problems:
         raise ValueError("; ".join(f"{k}: {msg}" for k, msg in problems))

@@ -21,8 +21,11 @@ or the hoop direction theta (axisymmetric, with x = r and y = z).
 
 Nonlinear (power-law) elasticity (2.1)-(2.5): see :class:`ElasticProperties`.
 
-Errors in scene data raise :class:`MaterialError` (a ValueError) whose ``key`` names the material key at
-fault and whose message starts with that key, so that a caller can report ``materials.<region>.<key>``.
+Errors in scene data raise :class:`~ngs_geomech.errors.MaterialError` (a ValueError) whose ``key`` names the
+material key at fault and whose message starts with that key, so that a caller can report
+``materials.<region>.<key>``. The ranges of single keys (a positive modulus, a Poisson ratio in (-1, 0.5), ...) are
+declared with the keys (:class:`~ngs_geomech.scene.model.Material`) and checked from there; the rules that join
+several keys (a positive bulk modulus, a positive definite stiffness) are checked here.
 """
 
 from __future__ import annotations
@@ -33,7 +36,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..heat.materials import rotation_matrix
+from ..errors import MaterialError
+from ..heat.materials import check_declared, rotation_matrix
 from ..scene.model import Material
 
 # Voigt index of each tensor component (i, j), and the (i, j) of each Voigt index
@@ -43,17 +47,6 @@ _IN_PLANE = [0, 1, 5]          # xx, yy, xy
 _OUT_OF_PLANE = [2, 3, 4]      # zz, yz, xz
 _AXISYMMETRIC = [0, 1, 2, 5]   # rr, zz, theta-theta, rz  (x = r, y = z, third axis = theta)
 _TORSION = [3, 4]              # z-theta, r-theta
-
-
-class MaterialError(ValueError):
-    """Invalid elastic material data. ``key`` is the material key at fault (``""`` when no single key is,
-    e.g. no elastic constants at all); the message starts with it, e.g.
-    ``youngs_modulus = -1e+09 Pa must be positive``. Nested keys use dots: ``orthotropic.E``."""
-
-    def __init__(self, key: str, message: str):
-        self.key = key
-        self.detail = message
-        super().__init__(message if not key else f"{key}{'' if message.startswith(':') else ' '}{message}")
 
 
 # ---------------------------------------------------------------------------------------------- Voigt helpers
@@ -443,23 +436,6 @@ _GROUPS = (("youngs_modulus", "poisson_ratio"), ("lame_lambda", "lame_mu"), ("or
 _GROUP_NAMES = " | ".join(" + ".join(g) for g in _GROUPS)
 
 
-def _positive(key: str, value, unit: str = "") -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise MaterialError(key, f"= {value!r} must be a number") from None
-    if not (math.isfinite(v) and v > 0):
-        raise MaterialError(key, f"= {v:g}{' ' + unit if unit else ''} must be positive")
-    return v
-
-
-def _positive_list(key: str, values, unit: str) -> None:
-    if len(values) != 3:
-        raise MaterialError(key, f"needs 3 values, got {len(values)}")
-    if not all(math.isfinite(float(v)) and float(v) > 0 for v in values):
-        raise MaterialError(key, f"= [{', '.join(f'{float(v):g}' for v in values)}] {unit}: all must be positive")
-
-
 def _stiffness(m: Material) -> tuple[np.ndarray, str]:
     """The stiffness in the material axes and the key it comes from."""
     given = [g for g in _GROUPS if any(getattr(m, k) is not None for k in g)]
@@ -473,25 +449,17 @@ def _stiffness(m: Material) -> tuple[np.ndarray, str]:
     missing = [k for k in group if getattr(m, k) is None]
     if missing:
         raise MaterialError(missing[0], f"missing: {' and '.join(group)} go together")
+    check_declared(m, group)
     if group[0] == "youngs_modulus":
-        E = _positive("youngs_modulus", m.youngs_modulus, "Pa")
-        nu = float(m.poisson_ratio)
-        if not (-1.0 < nu < 0.5):
-            raise MaterialError("poisson_ratio", f"= {nu:g} must be in (-1, 0.5)")
-        return isotropic(E, nu), "youngs_modulus"
+        return isotropic(float(m.youngs_modulus), float(m.poisson_ratio)), "youngs_modulus"
     if group[0] == "lame_lambda":
-        mu = _positive("lame_mu", m.lame_mu, "Pa")
-        lam = float(m.lame_lambda)
-        if not (math.isfinite(lam) and 3.0 * lam + 2.0 * mu > 0):
+        lam, mu = float(m.lame_lambda), float(m.lame_mu)
+        if not 3.0 * lam + 2.0 * mu > 0:
             raise MaterialError("lame_lambda", f"= {lam:g} Pa gives a bulk modulus lambda + 2 mu/3 = "
                                                f"{lam + 2.0 * mu / 3.0:.4g} Pa that is not positive")
         return from_lame(lam, mu), "lame_lambda"
     if group[0] == "orthotropic":
         o = m.orthotropic
-        _positive_list("orthotropic.E", o.E, "Pa")
-        _positive_list("orthotropic.G", o.G, "Pa")
-        if len(o.nu) != 3 or not all(math.isfinite(float(v)) for v in o.nu):
-            raise MaterialError("orthotropic.nu", f"= {list(o.nu)}: must be 3 finite numbers")
         try:
             c = orthotropic(o.E, o.nu, o.G)
         except np.linalg.LinAlgError:
@@ -500,13 +468,6 @@ def _stiffness(m: Material) -> tuple[np.ndarray, str]:
         return check_positive_definite(c, "orthotropic"), "orthotropic"
     if group[0] == "transversely_isotropic":
         t = m.transversely_isotropic
-        for k in ("E_plane", "E_axis", "G_axis"):
-            _positive(f"transversely_isotropic.{k}", getattr(t, k), "Pa")
-        for k in ("nu_plane", "nu_axis"):
-            if not math.isfinite(float(getattr(t, k))):
-                raise MaterialError(f"transversely_isotropic.{k}", "must be finite")
-        if not t.nu_plane > -1.0:
-            raise MaterialError("transversely_isotropic.nu_plane", f"= {float(t.nu_plane):g} must be > -1")
         try:
             c = transversely_isotropic(t.E_plane, t.E_axis, t.nu_plane, t.nu_axis, t.G_axis)
         except np.linalg.LinAlgError:
@@ -524,6 +485,8 @@ def elastic_properties(m: Material, dim: int) -> ElasticProperties:
     turns it, and a tensor ``thermal_expansion``, into the global axes. Raises :class:`MaterialError` naming
     the key at fault."""
     C, source = _stiffness(m)
+    check_declared(m, ("thermal_expansion", "elastic_rotation", "density", "rheology_lambda", "reference_strain",
+                       "stress_free_temperature"))
     alpha = expansion_tensor(m.thermal_expansion if m.thermal_expansion is not None else 0.0)
     if m.elastic_rotation is not None:
         try:
@@ -534,14 +497,10 @@ def elastic_properties(m: Material, dim: int) -> ElasticProperties:
         alpha = R @ alpha @ R.T
         alpha = 0.5 * (alpha + alpha.T)
     C = np.array(check_positive_definite(C, source))
-    density = None if m.density is None else _positive("density", m.density, "kg/m^3")
-    lam = _positive("rheology_lambda", m.rheology_lambda)
-    eps_ref = _positive("reference_strain", m.reference_strain)
-    T0 = float(m.stress_free_temperature)
-    if not math.isfinite(T0):
-        raise MaterialError("stress_free_temperature", "must be finite")
     alpha = np.array(alpha)
     beta = thermal_stress_tensor(C, alpha)
     for a in (C, alpha, beta):
         a.setflags(write=False)
-    return ElasticProperties(C=C, alpha=alpha, beta=beta, T0=T0, density=density, lam=lam, eps_ref=eps_ref)
+    density = None if m.density is None else float(m.density)
+    return ElasticProperties(C=C, alpha=alpha, beta=beta, T0=float(m.stress_free_temperature), density=density,
+                             lam=float(m.rheology_lambda), eps_ref=float(m.reference_strain))

@@ -206,35 +206,37 @@ class Foundation(ContactMechanics):
     normal: list = field(list_of(number), doc="the foundation's outward normal (pointing towards the body)")
 
 
-conductivity_value = either(number, matrix, what="a number or a symmetric matrix [[kxx, kxy], [kxy, kyy]]")
+number_or_matrix = either(number, matrix, what="a number or a symmetric matrix [[kxx, kxy], [kxy, kyy]]")
+conductivity_value = either(positive(number, "W/(m K)"), matrix,
+                            what="a positive number or a symmetric positive definite matrix [[kxx, kxy], [kxy, kyy]]")
 
 
 @dataclass(frozen=True, kw_only=True)
 class PronyTerm:
     """One Maxwell branch of a material's Prony series."""
 
-    modulus_ratio: float = field(number, doc="C_k / C (> 0)")
-    relaxation_time: float = field(time, doc="tau_k, s (> 0)")
+    modulus_ratio: float = field(positive(number), doc="C_k / C")
+    relaxation_time: float = field(positive(time, "s"), doc="tau_k, s")
 
 
 @dataclass(frozen=True, kw_only=True)
 class Orthotropic:
     """Orthotropic engineering constants in the material axes 1, 2, 3 (Pa); nu_ij = -eps_j / eps_i."""
 
-    E: list = field(list_of(modulus, 3), doc="[E1, E2, E3], Pa")
+    E: list = field(list_of(positive(modulus, "Pa"), 3), doc="[E1, E2, E3], Pa")
     nu: list = field(list_of(number, 3), doc="[nu12, nu13, nu23]")
-    G: list = field(list_of(modulus, 3), doc="[G12, G13, G23], Pa")
+    G: list = field(list_of(positive(modulus, "Pa"), 3), doc="[G12, G13, G23], Pa")
 
 
 @dataclass(frozen=True, kw_only=True)
 class TransverselyIsotropic:
     """Transversely isotropic constants: isotropic in the 1-2 plane, axis 3 (e.g. bedding normal)."""
 
-    E_plane: float = field(modulus, doc="Young's modulus in the plane of isotropy, Pa")
-    E_axis: float = field(modulus, doc="Young's modulus along the axis, Pa")
-    nu_plane: float = field(number, doc="Poisson ratio in the plane (nu12)")
+    E_plane: float = field(positive(modulus, "Pa"), doc="Young's modulus in the plane of isotropy, Pa")
+    E_axis: float = field(positive(modulus, "Pa"), doc="Young's modulus along the axis, Pa")
+    nu_plane: float = field(bounded(number, -1, lo_open=True), doc="Poisson ratio in the plane (nu12)")
     nu_axis: float = field(number, doc="Poisson ratio nu31 = -eps_1/eps_3 under axial load")
-    G_axis: float = field(modulus, doc="shear modulus in planes containing the axis (G13), Pa")
+    G_axis: float = field(positive(modulus, "Pa"), doc="shear modulus in planes containing the axis (G13), Pa")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -253,7 +255,7 @@ class Material:
 
     conductivity: object = field(optional(conductivity_value), None,
                                  doc="thermal conductivity kappa_ij, W/(m K): scalar or full symmetric tensor")
-    conductivity_principal: list | None = field(optional(point), None,
+    conductivity_principal: list | None = field(optional(list_of(positive(number, "W/(m K)"))), None,
                                                 doc="principal conductivities, W/(m K) (with conductivity_angle)")
     conductivity_angle: object = field(optional(either(number, point, what="an angle or 3 angles")), None,
                                        doc="rotation of the principal axes, degrees: one angle in 2D "
@@ -261,7 +263,7 @@ class Material:
     conductivity_temperature_coefficient: float = field(number, 0.0,
                                                         doc="b in kappa(T) = kappa (1 + b (T - T_ref)), 1/K")
     reference_temperature: float = field(number, 0.0, doc="T_ref of the conductivity law, degC or K")
-    viscosity_time: float | None = field(optional(time), None,
+    viscosity_time: float | None = field(optional(positive(time, "s")), None,
                                          doc="Kelvin-Voigt viscosity C^v = viscosity_time * C (s; dynamic or viscous "
                                              "mechanics)")
     prony: list = field(list_of(nested(PronyTerm)), [],
@@ -272,13 +274,19 @@ class Material:
                                                          "mean pressure (compression > 0) of the mechanics; needs "
                                                          "physics.coupling (the pressure of the last mechanics "
                                                          "solve enters each heat step)")
-    rho_c: float | None = field(optional(number), None, doc="volumetric heat capacity rho*c, J/(m^3 K)")
-    density: float | None = field(optional(number), None, doc="rho, kg/m^3 (with specific_heat)")
-    specific_heat: float | None = field(optional(number), None, doc="c, J/(kg K) (with density)")
-    youngs_modulus: float | None = field(optional(modulus), None, doc="E, Pa (isotropic, with poisson_ratio)")
-    poisson_ratio: float | None = field(optional(number), None, doc="nu in (-1, 0.5) (isotropic)")
-    lame_lambda: float | None = field(optional(modulus), None, doc="Lame lambda, Pa (with lame_mu)")
-    lame_mu: float | None = field(optional(modulus), None, doc="shear modulus mu, Pa (with lame_lambda)")
+    rho_c: float | None = field(optional(positive(number, "J/(m^3 K)")), None,
+                                doc="volumetric heat capacity rho*c, J/(m^3 K)")
+    density: float | None = field(optional(positive(number, "kg/m^3")), None, doc="rho, kg/m^3 (with specific_heat)")
+    specific_heat: float | None = field(optional(positive(number, "J/(kg K)")), None,
+                                        doc="c, J/(kg K) (with density)")
+    youngs_modulus: float | None = field(optional(positive(modulus, "Pa")), None,
+                                         doc="E, Pa (isotropic, with poisson_ratio)")
+    poisson_ratio: float | None = field(optional(bounded(number, -1, 0.5, lo_open=True, hi_open=True)), None,
+                                        doc="nu (isotropic)")
+    lame_lambda: float | None = field(optional(modulus), None,
+                                      doc="Lame lambda, Pa (with lame_mu; the bulk modulus lambda + 2 mu / 3 > 0)")
+    lame_mu: float | None = field(optional(positive(modulus, "Pa")), None,
+                                  doc="shear modulus mu, Pa (with lame_lambda)")
     orthotropic: Orthotropic | None = field(optional(nested(Orthotropic)), None, doc="orthotropic constants")
     transversely_isotropic: TransverselyIsotropic | None = field(optional(nested(TransverselyIsotropic)), None,
                                                                  doc="transversely isotropic constants")
@@ -287,35 +295,36 @@ class Material:
                                              "(engineering shear strains), Pa; symmetric positive definite (2.38)")
     elastic_rotation: object = field(optional(either(number, point, what="an angle or 3 angles")), None,
                                      doc="rotation of the material axes, degrees: about z (2D), Z-Y-X Euler (3D)")
-    thermal_expansion: object = field(optional(conductivity_value), None,
+    thermal_expansion: object = field(optional(number_or_matrix), None,
                                       doc="linear thermal expansion alpha, 1/K: scalar or symmetric 3x3 tensor "
                                           "(beta_ij = c_ijkl alpha_kl, (2.18))")
     stress_free_temperature: float = field(number, 0.0, doc="T0 of the thermal stress -beta (T - T0), degC or K")
-    rheology_lambda: float = field(at_most(10.0), 1.0,
+    rheology_lambda: float = field(positive(at_most(10.0)), 1.0,
                                    doc="lambda of W = A1^lambda (2.1): <1 softening, 1 linear, >1 hardening (at most "
                                        "10: the secant stiffness scales with (A1/A_ref)^(lambda-1), which overflows "
                                        "for larger exponents)")
-    reference_strain: float = field(number, 1e-3, doc="strain scale of the lambda law: c* = lambda (A1/A_ref)^"
-                                                      "(lambda-1) c with A_ref the A1 of this uniaxial strain")
+    reference_strain: float = field(positive(number), 1e-3,
+                                    doc="strain scale of the lambda law: c* = lambda (A1/A_ref)^(lambda-1) c with "
+                                        "A_ref the A1 of this uniaxial strain")
     phase_change_temperature: float | None = field(
         optional(number), None,
         doc="Theta_R of (2.46)-(2.48), degC or K: the region melts (freezes) at this temperature; the Stefan problem "
             "in enthalpy form (2.49)-(2.51), (2.55) replaces the heat equation (physics.thermal = 'transient'). "
             "rho_c (or density * specific_heat) and conductivity are then the solid's (conductivity isotropic)")
-    latent_heat: float | None = field(optional(number), None,
-                                      doc="latent heat of fusion L per unit mass, J/kg (>= 0), with density: the "
+    latent_heat: float | None = field(optional(bounded(number, 0, unit="J/kg")), None,
+                                      doc="latent heat of fusion L per unit mass, J/kg, with density: the "
                                           "volumetric latent heat of (2.48) is density * latent_heat")
-    latent_heat_volumetric: float | None = field(optional(number), None,
-                                                 doc="rho L, J/m^3 (>= 0), instead of latent_heat (e.g. ice content "
+    latent_heat_volumetric: float | None = field(optional(bounded(number, 0, unit="J/m^3")), None,
+                                                 doc="rho L, J/m^3, instead of latent_heat (e.g. ice content "
                                                      "of a frozen soil: porosity * 917 kg/m^3 * 334 kJ/kg)")
-    rho_c_liquid: float | None = field(optional(number), None,
-                                       doc="volumetric heat capacity of the liquid phase, J/(m^3 K) (> 0)")
-    specific_heat_liquid: float | None = field(optional(number), None,
-                                               doc="specific heat of the liquid phase, J/(kg K) (> 0), with density "
+    rho_c_liquid: float | None = field(optional(positive(number, "J/(m^3 K)")), None,
+                                       doc="volumetric heat capacity of the liquid phase, J/(m^3 K)")
+    specific_heat_liquid: float | None = field(optional(positive(number, "J/(kg K)")), None,
+                                               doc="specific heat of the liquid phase, J/(kg K), with density "
                                                    "(instead of rho_c_liquid; the density is that of both phases)")
-    conductivity_liquid: float | None = field(optional(number), None,
-                                              doc="thermal conductivity of the liquid phase, W/(m K) (> 0, "
-                                                  "isotropic); the Kirchhoff variable (2.50) is piecewise linear")
+    conductivity_liquid: float | None = field(optional(positive(number, "W/(m K)")), None,
+                                              doc="thermal conductivity of the liquid phase, W/(m K) (isotropic); "
+                                                  "the Kirchhoff variable (2.50) is piecewise linear")
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -104,15 +104,17 @@ def at_most(limit: float, unit: str = "") -> Conv:
 
 
 def bounded(conv: Conv, lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
-            hi_open: bool = False, note: str = "") -> Conv:
+            hi_open: bool = False, unit: str = "", note: str = "") -> Conv:
     """``conv`` (a number, integer or time) restricted to a range declared with the key: at least ``lo`` (above it
-    when ``lo_open``), at most ``hi`` (below it when ``hi_open``); ``note`` says why, after the range."""
+    when ``lo_open``), at most ``hi`` (below it when ``hi_open``), in ``unit`` ('' dimensionless; the message gives
+    the value and the bounds in it); ``note`` says why, after the range."""
+    u = f" {unit}" if unit else ""
     if lo is not None and hi is not None:
-        rule = f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+        rule = f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}{u}"
     elif lo is not None:
-        rule = "positive" if lo == 0 and lo_open else f"{'>' if lo_open else '>='} {lo:g}"
+        rule = "positive" if lo == 0 and lo_open else f"{'>' if lo_open else '>='} {lo:g}{u}"
     else:
-        rule = f"{'<' if hi_open else '<='} {hi:g}"
+        rule = f"{'<' if hi_open else '<='} {hi:g}{u}"
     suffix = f" {note}" if note else ""
 
     def c(v, path, problems):
@@ -120,14 +122,14 @@ def bounded(conv: Conv, lo: float | None = None, hi: float | None = None, *, lo_
         low = lo is not None and (x <= lo if lo_open else x < lo)
         high = hi is not None and (x >= hi if hi_open else x > hi)
         if (low or high) and _RANGES.get():
-            raise OutOfRange(f"must be {rule}{suffix}, got {x:g}")
+            raise OutOfRange(f"must be {rule}{suffix}, got {x:g}{u}")
         return x
-    return _label(c, f"{conv.what}, {rule}")
+    return _label(c, f"{conv.what}, {f'> 0{u}' if rule == 'positive' and unit else rule}")
 
 
-def positive(conv: Conv) -> Conv:
-    """``conv`` above zero."""
-    return bounded(conv, 0, lo_open=True)
+def positive(conv: Conv, unit: str = "") -> Conv:
+    """``conv`` above zero (in ``unit``, for the message)."""
+    return bounded(conv, 0, lo_open=True, unit=unit)
 
 
 RELATIVE_TOLERANCE = {"lo": 0, "hi": 1, "lo_open": True, "hi_open": True,
@@ -313,19 +315,36 @@ def recheck(obj: Any, path: str, problems: list[Problem]) -> None:
     """Apply the declared converters again to the values of a schema object, appending problems: a scene built
     in Python from the dataclasses (not read from TOML by :func:`read`) meets the same declared types and ranges."""
     for f in dataclasses.fields(obj):
-        value, p = getattr(obj, f.name), _join(path, f.name)
-        if value is None:
-            continue
-        if dataclasses.is_dataclass(value):
-            recheck(value, p, problems)
-        elif isinstance(value, list) and value and all(dataclasses.is_dataclass(v) for v in value):
-            for i, v in enumerate(value):
-                recheck(v, f"{p}[{i}]", problems)
-        elif isinstance(value, dict) and value and all(dataclasses.is_dataclass(v) for v in value.values()):
-            for k, v in value.items():
-                recheck(v, f"{p}.{k}", problems)
-        else:
-            convert(f.metadata["conv"], value, p, problems)
+        _recheck_field(obj, f, path, problems)
+
+
+def first_problem(obj: Any, names: tuple[str, ...]) -> Problem | None:
+    """The first problem of :func:`recheck` among the fields ``names`` of a schema object, its item relative to
+    the object (e.g. ``youngs_modulus``, ``orthotropic.E[1]``); None when their values meet their declarations. The
+    physics reads a schema object through it, so that data given in Python meets the declared types and ranges."""
+    problems: list[Problem] = []
+    fields = {f.name: f for f in dataclasses.fields(obj)}
+    for name in names:
+        _recheck_field(obj, fields[name], "", problems)
+        if problems:
+            return problems[0]
+    return None
+
+
+def _recheck_field(obj: Any, f: dataclasses.Field, path: str, problems: list[Problem]) -> None:
+    value, p = getattr(obj, f.name), _join(path, f.name)
+    if value is None:
+        return
+    if dataclasses.is_dataclass(value):
+        recheck(value, p, problems)
+    elif isinstance(value, list) and value and all(dataclasses.is_dataclass(v) for v in value):
+        for i, v in enumerate(value):
+            recheck(v, f"{p}[{i}]", problems)
+    elif isinstance(value, dict) and value and all(dataclasses.is_dataclass(v) for v in value.values()):
+        for k, v in value.items():
+            recheck(v, f"{p}.{k}", problems)
+    else:
+        convert(f.metadata["conv"], value, p, problems)
 
 
 def _join(path: str, key: str) -> str:
