@@ -11,9 +11,10 @@ import numpy as np
 from . import parallel
 from .errors import Problem, SceneError
 from .geometry.isolines import first_crossing
-from .scene.model import Probe
+from .scene.model import PROBE_THERMAL, Probe
 
-THERMAL = ("temperature", "liquid_fraction", "front")
+THERMAL = PROBE_THERMAL
+"""The probe quantities recorded at every step (declared with the key ``output.probes.quantity``)."""
 FRONT_LEVEL = 0.5
 MAX_LINE_SAMPLES = 20000
 

@@ -37,7 +37,7 @@ class HeatSolver:
         residual ``tol``, at most ``maxit`` iterations; :mod:`~ngs_geomech.linalg.iterative`) or "auto"
         (iterative above ``iterative.AUTO_DOFS`` dofs). Only the linear problem without contact interfaces (an SPD
         step matrix) is solved iteratively; k(T) Newton and the mortar saddle point stay direct.
-        ``preconditioner``: of CG, one of ``iterative.PRECONDITIONERS``."""
+        ``preconditioner``: of CG, one of :data:`~ngs_geomech.linalg.choices.PRECONDITIONERS`."""
         self.f = forms
         self.preconditioner = preconditioner
         self.distributed = forms.mesh.comm.size > 1

@@ -46,14 +46,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ..errors import SolverError
-
-SOLVERS = ("auto", "direct", "iterative")
-"""Values of the ``solver`` argument of :class:`HeatSolver` and :class:`ElasticSolver`."""
-
-PRECONDITIONERS = ("auto", "bddc")
-"""Values of their ``preconditioner`` argument: "auto" the choice of the module docstring, "bddc" NGSolve's BDDC
-with the vertex wirebasket and its vertex problem factored directly for every order >= 2 (what distributed meshes
-use; the serial default before the two-level preconditioner, kept for comparison: ``studies/scaling``)."""
+from .choices import PRECONDITIONERS, SOLVERS
 
 AUTO_DOFS = {2: 1_000_000, 3: 60_000}
 """Dofs above which ``solver="auto"`` takes preconditioned CG (per mesh dimension, per system). Measured

@@ -48,10 +48,10 @@ import scipy.sparse as sp
 
 from .. import parallel
 from ..fem.coefficients import TimeFunction, regions_regex
+from .choices import FORMULATIONS
 from .materials import ElasticProperties, axisymmetric, plane_strain, plane_stress, to_voigt_stress
 
 MODELS = ("plane_strain", "plane_stress", "axisymmetric", "3d")
-FORMULATIONS = ("displacement", "mixed", "auto")
 MIXED_POISSON = 0.45
 """Poisson ratio above which ``formulation = "auto"`` solves an isotropic linear region with the mixed
 formulation (see :func:`mixed_regions`; the measurements are in tests/test_incompressible.py)."""

@@ -48,6 +48,7 @@ from ..errors import SolverError
 from ..fem.coefficients import regions_regex
 from ..linalg.direct import check_finite, inverse, solve_watched
 from ..linalg.iterative import DEFAULT_TOL, PCG, Preconditioned, choose_solver
+from .choices import NONLINEAR_SOLVERS
 from .forms import ElasticForms
 
 _SINGULAR_HINT = ("a body without enough displacement or symmetry conditions has a rigid motion; with "
@@ -93,8 +94,8 @@ class ElasticSolver:
         (X = V: no oblique symmetry multipliers, no mixed pressures) and for the secant systems and the exact Newton
         Hessian; the primal-dual Newton tangent (unsymmetric) stays direct. Contact
         (:mod:`~ngs_geomech.mechanics.contact`) keeps its direct saddle-point solver. ``preconditioner``: of
-        CG, one of ``iterative.PRECONDITIONERS``."""
-        if method not in ("newton", "secant"):
+        CG, one of :data:`~ngs_geomech.linalg.choices.PRECONDITIONERS`."""
+        if method not in NONLINEAR_SOLVERS:
             raise ValueError(f"unknown nonlinear solver {method!r}")
         if start not in ("linear", "current"):
             raise ValueError(f"start must be 'linear' or 'current', got {start!r}")

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 from ..contact.choices import LAWS as CONTACT_LAWS
 from ..contact.choices import METHODS as CONTACT_METHODS
+from ..linalg.choices import PRECONDITIONERS, SOLVERS
+from ..mechanics.choices import FORMULATIONS, NONLINEAR_SOLVERS
 from .schema import (
     RELATIVE_TOLERANCE,
     at_most,
@@ -390,14 +392,14 @@ class MechanicsSettings:
     """``[mechanics]``: loads and nonlinear solver of the elastic problem."""
 
     gravity: list | None = field(optional(point), None, doc="gravitational acceleration vector, m/s^2")
-    formulation: str = field(one_of("auto", "displacement", "mixed"), "auto",
+    formulation: str = field(one_of(*FORMULATIONS), "auto",
                              doc="'displacement', 'mixed' (displacement-pressure: Taylor-Hood for order >= 2, "
                                  "stabilized P1-P1; isotropic linear regions, for Poisson ratios near 1/2) or "
                                  "'auto' (mixed in the isotropic regions with nu > 0.45 when the law is linear)")
 
     initial_stress: list | None = field(optional(list_of(list_of(expr))), None,
                                         doc="initial (e.g. lithostatic) stress tensor sigma0, Pa (expressions)")
-    nonlinear_solver: str = field(one_of("newton", "secant"), "newton",
+    nonlinear_solver: str = field(one_of(*NONLINEAR_SOLVERS), "newton",
                                   doc="for rheology_lambda != 1: Newton on W (line search) or the secant modules "
                                       "method (2.32)-(2.34)")
     secant_relaxation: float | None = field(optional(bounded(number, 0, 2, lo_open=True)), None,
@@ -426,7 +428,7 @@ class SolverSettings:
     h1amg, :mod:`ngs_geomech.stefan.solver`); the mortar heat coupling, dynamic contact and the mixed formulation
     always solve directly."""
 
-    linear: str = field(one_of("auto", "direct", "iterative"), "auto",
+    linear: str = field(one_of(*SOLVERS), "auto",
                         doc="'direct' (sparse Cholesky / UMFPACK), 'iterative' (CG with BDDC for order >= 2, two-level "
                             "AMG for 3D P2 elasticity, AMG for P1; contact Newton steps by GMRES with an augmented-"
                             "Lagrangian AMG preconditioner) or 'auto' (iterative above 60k unknowns per system in 3D, "
@@ -435,7 +437,7 @@ class SolverSettings:
     tolerance: float = field(bounded(number, **RELATIVE_TOLERANCE), 1e-10,
                              doc="relative residual of the iterative solver")
     max_iterations: int = field(bounded(integer, 1), 2000, doc="iteration limit of the iterative solver")
-    preconditioner: str = field(one_of("auto", "bddc"), "auto",
+    preconditioner: str = field(one_of(*PRECONDITIONERS), "auto",
                                 doc="of the iterative solver: 'auto' (two-level AMG for 3D P2 elasticity, BDDC with an "
                                     "AMG vertex problem for 3D P2 heat, BDDC for order >= 2 otherwise, AMG for P1) or "
                                     "'bddc' (BDDC with the vertex problem factored directly, order >= 2; what "
@@ -459,13 +461,22 @@ class TimeSettings:
                                    "at the start excites and Crank-Nicolson never damps; 2-4 typical)")
 
 
+PROBE_THERMAL = ("temperature", "liquid_fraction", "front")
+"""Probe quantities of the heat (Stefan) problem, recorded at every step."""
+PROBE_PHASE = ("liquid_fraction", "front")
+"""Probe quantities of a phase change."""
+PROBE_MECHANICAL = ("displacement_x", "displacement_y", "displacement_z", "von_mises", "mean_stress", "sigma_1",
+                    "sigma_3")
+"""Probe quantities of the mechanics, recorded when it is solved."""
+PROBE_QUANTITIES = PROBE_THERMAL + PROBE_MECHANICAL
+
+
 @dataclass(frozen=True, kw_only=True)
 class Probe:
     """``[[output.probes]]``: a value recorded at each output time."""
 
     name: str = field(string, doc="probe name (key in summary.json)")
-    quantity: str = field(one_of("temperature", "liquid_fraction", "front", "displacement_x", "displacement_y",
-                                 "displacement_z", "von_mises", "mean_stress", "sigma_1", "sigma_3"), "temperature",
+    quantity: str = field(one_of(*PROBE_QUANTITIES), "temperature",
                           doc="field to sample; with phase change also 'liquid_fraction' (0 solid .. 1 liquid, "
                               "at a point or over a region) and 'front' (with line: the distance in m from the "
                               "line's first point to the first crossing of liquid_fraction = 0.5 along it, "
