@@ -1,6 +1,11 @@
 """The choice lists of contact: laws, methods and the Newton steps' linear algebra, declared once (the scene's keys
-and the solvers' options validate against them). No imports: the scene model reads them without loading the
-solvers."""
+and the solvers' options validate against them), and the one reading of the contacts' ``method`` keys
+(:func:`contact_methods`). No package imports: the scene model reads them without loading the solvers."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
 
 LAWS = ("frictionless", "tresca", "coulomb")
 """Contact laws: Signorini without friction, Tresca (given slip bound g_c), Coulomb (slip bound F_c p)."""
@@ -10,3 +15,45 @@ algorithm (the seed's reference method for friction)."""
 LINEAR_SOLVERS = ("auto", "direct", "iterative", "condensed")
 """The Newton steps' linear algebra: "auto" (condensed in 2D with PARDISO, else direct), sparse direct
 factorizations, GMRES (Krylov), the problem condensed onto the contact surface."""
+
+
+class MethodChoice(NamedTuple):
+    """What the ``method`` keys of a scene's contacts ask for: ``solver`` the method of the scene's one contact
+    solver (a key of :data:`.factory.SOLVERS`); ``penalty`` per contact whether it keeps its penalty rows to the end
+    (:attr:`.laws.ContactLaw.penalty`); ``problems`` (contact name, why) for methods that cannot be solved so."""
+
+    solver: str
+    penalty: tuple[bool, ...]
+    problems: tuple[tuple[str, str], ...]
+
+
+def contact_methods(methods: Sequence[str], names: Sequence[str], *, dim: int, mechanics: str) -> MethodChoice:
+    """The one reading of the ``method`` keys ``methods`` of a scene's contacts (``names`` name them in messages) in
+    a ``dim``-dimensional scene with ``physics.mechanics = mechanics`` ('static', or 'dynamic' and 'viscous', whose
+    contacts advance every time step).
+
+    'penalty' marks its own contact: that contact keeps its penalty rows, the others their exact constraints, in one
+    semi-smooth Newton solve ('ssn'); in dynamic and viscous mechanics a scene whose contacts all ask for 'penalty'
+    is solved by the penalty solver (static mechanics keeps the semi-smooth Newton solver there, with the penalty
+    rows of every contact: the same equations). 'uzawa' is the seed's reference algorithm, which solves all
+    contacts of a scene at once, in 2D static mechanics: there it must be on every contact or on none."""
+    uzawa = [n for n, m in zip(names, methods) if m == "uzawa"]
+    problems: list[tuple[str, str]] = []
+    if mechanics != "static":
+        problems += [(n, f"'uzawa' is not available with physics.mechanics = {mechanics!r}: use 'ssn' or 'penalty'")
+                     for n in uzawa]
+    if uzawa and len(uzawa) != len(methods):
+        other = next(n for n, m in zip(names, methods) if m != "uzawa")
+        problems.append((other, f"the Uzawa reference method ({uzawa[0]}) solves all contacts of a scene at once: "
+                                "use method = 'uzawa' on every contact or on none"))
+    if dim == 3:
+        problems += [(n, "the Uzawa reference method is implemented in 2D only: use 'ssn' or 'penalty' in 3D")
+                     for n in uzawa]
+    penalty = tuple(m == "penalty" for m in methods)
+    if uzawa:
+        solver = "uzawa"
+    elif mechanics != "static" and penalty and all(penalty):
+        solver = "penalty"
+    else:
+        solver = "ssn"
+    return MethodChoice(solver, penalty, tuple(problems))

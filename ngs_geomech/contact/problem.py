@@ -27,6 +27,7 @@ from ..geometry.assemble import GeometryModel
 from ..linalg.iterative import choose_solver
 from ..scene import expressions
 from ..scene.model import ContactMechanics, Scene
+from .choices import MethodChoice, contact_methods
 from .forms import ContactOperator, contact_operator_2d
 from .forms3d import contact_operator_3d
 from .krylov import AUTO_DOFS
@@ -51,8 +52,9 @@ class ContactSpec:
     cells: np.ndarray               # S's boundary cells as node indices (output): (k, 2) segments, 3D (k, 3) triangles
 
 
-def contact_law(c: ContactMechanics, coords: np.ndarray) -> ContactLaw:
-    """The solver's law from the scene keys; an expression slip bound is evaluated at the nodes (m x dim)."""
+def contact_law(c: ContactMechanics, coords: np.ndarray, penalty: bool) -> ContactLaw:
+    """The solver's law from the scene keys; an expression slip bound is evaluated at the nodes (m x dim);
+    ``penalty``: the contact keeps its penalty rows (:func:`.choices.contact_methods`)."""
     g = None
     if c.law == "tresca":
         if isinstance(c.slip_bound, str):
@@ -62,23 +64,27 @@ def contact_law(c: ContactMechanics, coords: np.ndarray) -> ContactLaw:
         else:
             g = float(c.slip_bound)
     kind = "frictionless" if c.law == "coulomb" and c.friction == 0 else c.law     # F_c = 0: no friction
-    return ContactLaw(kind, slip_bound=g, friction=c.friction or 0.0, augmentation=c.augmentation,
-                      penalty=c.method == "penalty")
+    return ContactLaw(kind, slip_bound=g, friction=c.friction or 0.0, augmentation=c.augmentation, penalty=penalty)
+
+
+def method_choice(settings: list[ContactMechanics], names: list[str], dim: int, mechanics: str) -> MethodChoice:
+    """The contact methods of a scene's contacts (their keys ``settings``): :func:`.choices.contact_methods`."""
+    return contact_methods([c.method for c in settings], names, dim=dim, mechanics=mechanics)
 
 
 def contact_options(scene: Scene, specs: list[ContactSpec], forms, *, dynamic: bool = False) -> ContactOptions:
     """The solver options of a scene's contacts (the one reading of its contact keys; the solver itself comes from
-    :func:`.factory.build_contact_solver`). Static mechanics: ``method`` 'uzawa' on the contacts (validated: then
-    on all) selects Uzawa's solver with their ``uzawa_step`` and ``mechanics.uzawa_max_steps``; otherwise the
-    semi-smooth Newton solver, whose 'penalty' contacts keep their penalty rows (:attr:`ContactLaw.penalty`), and
-    whose Newton steps follow ``solver.linear`` (GMRES above :data:`.krylov.AUTO_DOFS` with 'auto'; a direct solve
-    is condensed onto the contact surface where that applies; the mixed formulation, X not V, stays direct).
-    Dynamic and viscous mechanics (``dynamic``; Uzawa is refused there): the penalty method when every contact
-    asks for it, else the semi-smooth Newton one, on the default linear algebra."""
+    :func:`.factory.build_contact_solver`). The solver's method is that of :func:`.choices.contact_methods`: Uzawa's
+    solver with the contacts' ``uzawa_step`` and ``mechanics.uzawa_max_steps``, or the semi-smooth Newton (penalty)
+    solver, whose Newton steps in static mechanics follow ``solver.linear`` (GMRES above
+    :data:`.krylov.AUTO_DOFS` with 'auto'; a direct solve is condensed onto the contact surface where that applies;
+    the mixed formulation, X not V, stays direct) and in dynamic and viscous mechanics (``dynamic``) take the
+    default linear algebra."""
+    mechanics = scene.physics.mechanics if dynamic else "static"
+    method = method_choice([c.settings for c in specs], [c.name for c in specs], forms.mesh.dim, mechanics).solver
     if dynamic:
-        penalty = bool(specs) and all(c.law.penalty for c in specs)
-        return ContactOptions(method="penalty" if penalty else "ssn")
-    if any(c.settings.method == "uzawa" for c in specs):
+        return ContactOptions(method=method)
+    if method == "uzawa":
         keys = [f"interfaces.{c.name}" if c.kind == "interface" else f"boundary_conditions.{c.name}.foundation"
                 for c in specs]
         return ContactOptions(method="uzawa", uzawa_step=[c.settings.uzawa_step for c in specs],
@@ -89,7 +95,7 @@ def contact_options(scene: Scene, specs: list[ContactSpec], forms, *, dynamic: b
     linear = choose_solver(sv.linear, forms.X.ndof, forms.mesh.dim, spd=spd, auto_dofs=AUTO_DOFS)
     if linear == "direct" and spd:
         linear = "auto"        # a direct solve: condensed onto the contact surface where it applies
-    return ContactOptions(linear=linear, linear_tol=sv.tolerance, linear_maxit=sv.max_iterations)
+    return ContactOptions(method=method, linear=linear, linear_tol=sv.tolerance, linear_maxit=sv.max_iterations)
 
 
 def _cells(mesh, side: str, op: ContactOperator) -> np.ndarray:
@@ -125,20 +131,20 @@ def contact_specs(scene: Scene, geo: GeometryModel, mesh, V) -> list[ContactSpec
                                    search_distance=search_distance)
 
     byname = {i.name: i for i in scene.interfaces}
+    foundations = {n: bc.foundation for n, bc in scene.boundary_conditions.items() if bc.foundation is not None}
+    settings = [byname[name] for name in geo.contacts] + list(foundations.values())
+    penalty = iter(method_choice(settings, [*geo.contacts, *foundations], mesh.dim, scene.physics.mechanics).penalty)
     out = []
     for name, cs in geo.contacts.items():
         itf = byname[name]
         op = operator(name, cs.master, cs.minion, None, itf.search_distance)
-        out.append(ContactSpec(name, "interface", op, contact_law(itf, op.coords), itf,
+        out.append(ContactSpec(name, "interface", op, contact_law(itf, op.coords, next(penalty)), itf,
                                (cs.master_block, cs.minion_block), _cells(mesh, cs.master, op)))
-    for bname, bc in scene.boundary_conditions.items():
-        fd = bc.foundation
-        if fd is None:
-            continue
+    for bname, fd in foundations.items():
         op = operator(bname, bname, None, (tuple(fd.point), tuple(fd.normal)), fd.search_distance)
         blocks = sorted({el.mat for el in _volume_neighbours(mesh, bname)})
-        out.append(ContactSpec(bname, "foundation", op, contact_law(fd, op.coords), fd, (tuple(blocks), None),
-                               _cells(mesh, bname, op)))
+        out.append(ContactSpec(bname, "foundation", op, contact_law(fd, op.coords, next(penalty)), fd,
+                               (tuple(blocks), None), _cells(mesh, bname, op)))
     return out
 
 

@@ -36,6 +36,9 @@ from .schema import (
 )
 
 DIMENSIONS = ("plane", "axisymmetric", "3d")
+MECHANICS = ("static", "dynamic", "viscous")
+RATE_MECHANICS = ("dynamic", "viscous")
+"""The mechanics advanced every time step with inertia and/or viscosity (the global model (2.6)-(2.16))."""
 SHAPES_2D = ("rectangle", "polygon", "circle", "profile")
 SHAPES_3D = ("box", "cylinder")
 SELECTORS = ("all", "xmin", "xmax", "ymin", "ymax", "zmin", "zmax", "top", "bottom", "lateral")
@@ -62,7 +65,7 @@ class Physics:
 
     thermal: str | None = field(optional(one_of("steady", "transient")), None,
                                 doc="heat conduction (2.17) steady or transient (2.43)")
-    mechanics: str | None = field(optional(one_of("static", "dynamic", "viscous")), None,
+    mechanics: str | None = field(optional(one_of(*MECHANICS)), None,
                                   doc="'static': (quasi-)static elasticity (2.17)-(2.18), with thermal stresses "
                                       "when thermal is on, solved at the output times; 'dynamic': the global model "
                                       "(2.6)-(2.16) with inertia (density), Kelvin-Voigt viscosity "

@@ -1,0 +1,142 @@
+"""Validation of the materials of a scene: the data each switched-on physics reads from them (conductivity, heat
+capacity, elastic constants, through the physics' own reading), the phase changes and what the Stefan solver
+supports, and a temperature-dependent conductivity that stays positive. The range of each single key is declared
+with it (:class:`~ngs_geomech.scene.model.Material`) and checked by :func:`~ngs_geomech.scene.schema.recheck`."""
+
+from __future__ import annotations
+
+from ..errors import MaterialError, Problem
+from ..geometry.assemble import GeometryModel, scene_dim
+from ..heat.materials import (
+    conductivity_tensor,
+    has_phase_change,
+    isotropic_conductivity,
+    phase_change_problems,
+    volumetric_heat_capacity,
+)
+from ..mechanics.materials import axisymmetric, elastic_properties
+from .expression_values import value_range
+from .model import Scene
+
+
+def stefan_scene(scene: Scene) -> bool:
+    """Whether the scene is solved as a Stefan problem: some material has a phase change and the thermal
+    problem is transient (the enthalpy solver replaces the heat solver)."""
+    return scene.physics.thermal == "transient" and any(has_phase_change(m) for m in scene.materials.values())
+
+
+def check_materials(scene: Scene, problems: list[Problem]) -> None:
+    dim = scene_dim(scene)
+    for name, mat in scene.materials.items():
+        if scene.physics.thermal is not None:
+            # conductivity and heat capacity are checked separately so that both are reported, each under
+            # the key at fault (e.g. materials.granite.rho_c)
+            key = "conductivity_principal" if mat.conductivity_principal is not None else "conductivity"
+            if mat.conductivity is None and mat.conductivity_principal is None:
+                key = ""
+            try:
+                conductivity_tensor(mat, dim)
+            except MaterialError as exc:
+                problems.append(Problem(f"materials.{name}.{exc.key}", exc.detail))
+            except ValueError as exc:
+                problems.append(Problem(f"materials.{name}" + (f".{key}" if key else ""), str(exc)))
+        key = "rho_c" if mat.rho_c is not None else "density" if mat.density is not None else "specific_heat"
+        try:
+            rho_c = volumetric_heat_capacity(mat)
+        except MaterialError as exc:
+            problems.append(Problem(f"materials.{name}.{exc.key}", exc.detail))
+            rho_c = 0.0
+        except ValueError as exc:
+            problems.append(Problem(f"materials.{name}.{key}", str(exc)))
+            rho_c = 0.0
+        if scene.physics.thermal == "transient" and rho_c is None:
+            problems.append(Problem(f"materials.{name}", "a transient thermal scene needs rho_c "
+                                                         "(or density and specific_heat)"))
+        if scene.physics.mechanics is not None:
+            try:
+                props = elastic_properties(mat, dim)
+                if scene.scene.dimension == "axisymmetric":
+                    axisymmetric(props.C, props.beta)
+            except MaterialError as exc:
+                problems.append(Problem(f"materials.{name}.{exc.key}" if exc.key else f"materials.{name}",
+                                        exc.detail if exc.key else str(exc)))
+            except ValueError as exc:
+                problems.append(Problem(f"materials.{name}", str(exc)))
+            if scene.mechanics.gravity is not None and mat.density is None:
+                problems.append(Problem(f"materials.{name}.density", "gravity is on: every region needs a density"))
+
+
+def check_phase_change(scene: Scene, problems: list[Problem]) -> None:
+    """Phase-change keys of each material, and what the Stefan solver supports (seed (2.46)-(2.51), (2.55): P1,
+    lumped, backward Euler, isotropic conductivity per phase (constant or k (1 + b (T - T_ref))), no Robin
+    condition, plane or 3D)."""
+    pcm = [n for n, m in scene.materials.items() if has_phase_change(m)]
+    for name, mat in scene.materials.items():
+        for key, msg in phase_change_problems(mat):
+            problems.append(Problem(f"materials.{name}.{key}", msg))
+    if not pcm:
+        return
+    ph = scene.physics
+    if ph.thermal is None:
+        problems.append(Problem(f"materials.{pcm[0]}.phase_change_temperature", "a phase change needs "
+                                "physics.thermal = 'transient' (the Stefan problem), but physics.thermal is off"))
+        return
+    if ph.thermal == "steady":
+        problems.append(Problem("physics.thermal", f"'steady' with a phase change in {pcm}: the Stefan problem is "
+                                "time-dependent (the phase boundary moves); use thermal = 'transient' with [time], "
+                                "or remove phase_change_temperature"))
+        return
+    why = f"the Stefan (phase change) solver, used because of the phase change in {pcm},"
+    if scene.scene.dimension == "axisymmetric":
+        problems.append(Problem("scene.dimension", f"'axisymmetric': {why} has no axisymmetric (r-weighted) form; "
+                                "use a plane or 3d scene"))
+    if scene.mesh.order != 1:
+        problems.append(Problem("mesh.order", f"{scene.mesh.order}: {why} uses lumped P1 elements; set "
+                                "mesh.order = 1 (refine with mesh.maxh instead)"))
+    if scene.time is not None and scene.time.scheme != "backward_euler":
+        problems.append(Problem("time.scheme", f"{scene.time.scheme!r}: {why} steps with backward Euler (seed "
+                                "(2.55)); set time.scheme = 'backward_euler'"))
+    for name, bc in scene.boundary_conditions.items():
+        if bc.heat_transfer_coefficient is not None:
+            problems.append(Problem(f"boundary_conditions.{name}.heat_transfer_coefficient", f"{why} does not "
+                                    "take a heat transfer (Robin) condition; give a temperature or a flux"))
+    dim = scene_dim(scene)
+    for name, mat in scene.materials.items():
+        # conductivity_temperature_coefficient: k(T) = k (1 + b (T - T_ref)) in both phases (the Kirchhoff
+        # variable is then piecewise quadratic); that k stays positive is checked at the temperatures reached
+        try:
+            conductivity_tensor(mat, dim)
+        except ValueError:
+            continue                    # reported by check_materials
+        try:
+            isotropic_conductivity(mat, dim)
+        except ValueError as exc:
+            key = "conductivity_principal" if mat.conductivity_principal is not None else "conductivity"
+            problems.append(Problem(f"materials.{name}.{key}", str(exc)))
+
+
+def check_conductivity_range(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
+    """k(T) = k (1 + b (T - T_ref)) must be positive at the temperatures a region surely takes: its initial
+    temperature and the prescribed temperatures on its block's boundaries."""
+    if scene.physics.thermal is None:
+        return
+    for name, mat in scene.materials.items():
+        b, t_ref = mat.conductivity_temperature_coefficient, mat.reference_temperature
+        if b == 0.0 or name not in geo.regions:
+            continue
+        data = [(f"initial.regions.{name}" if name in scene.initial.regions else "initial.temperature",
+                 scene.initial.regions.get(name, scene.initial.temperature), ("region", (name,)))]
+        if scene.physics.thermal == "steady":
+            data = []
+        data += [(f"boundary_conditions.{n}.temperature", bc.temperature, ("boundary", (n,)))
+                 for n, bc in scene.boundary_conditions.items()
+                 if bc.temperature is not None and n in geo.block_boundaries.get(name, ())]
+        for key, value, target in data:
+            r = value_range(geo, value, target)
+            bad = [T for T in (r or ()) if not 1 + b * (T - t_ref) > 0]
+            if bad:
+                problems.append(Problem(f"materials.{name}.conductivity_temperature_coefficient", f"k(T) = k (1 + b "
+                                        f"(T - T_ref)) with b = {b:g} 1/K, T_ref = {t_ref:g} is not positive at "
+                                        f"T = {bad[0]:g} given by {key} (positive only for T "
+                                        f"{'>' if b > 0 else '<'} {t_ref - 1 / b:.6g})"))
+                break
