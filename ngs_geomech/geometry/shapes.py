@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from netgen import occ
 
-from ..scene.model import Block
+from ..scene.model import SHAPES_2D, SHAPES_3D, Block
 
 
 def sides(shape, dim: int):
@@ -28,95 +28,11 @@ def make_block(block: Block, dim: int):
     Returns the shape; raises ValueError naming the missing or wrong data.
     """
     s = block.shape
-    if dim == 2 and s not in ("rectangle", "polygon", "circle", "profile"):
-        raise ValueError(f"shape {s!r} is a 3D shape; 2D shapes are rectangle, polygon, circle, profile")
-    if dim == 3 and s not in ("box", "cylinder"):
-        raise ValueError(f"shape {s!r} is a 2D shape; 3D shapes are box, cylinder")
-    if s == "rectangle":
-        _need(block, "origin", 2)
-        _need(block, "size", 2)
-        if min(block.size) <= 0:
-            raise ValueError(f"size {block.size} must be positive")
-        (x0, y0), (w, h) = block.origin, block.size
-        shape = occ.WorkPlane().MoveTo(x0, y0).Rectangle(w, h).Face()
-        if not shape.edges:
-            # netgen's WorkPlane.Rectangle returns an unbounded face without edges for sides above about
-            # 5.3e5 m; the same outline point by point is bounded
-            shape = occ.WorkPlane().MoveTo(x0, y0).LineTo(x0 + w, y0).LineTo(x0 + w, y0 + h).LineTo(x0, y0 + h) \
-                .Close().Face()
-    elif s == "circle":
-        _need(block, "center", 2)
-        if block.radius is None or block.radius <= 0:
-            raise ValueError(f"radius must be given and positive, got {block.radius}")
-        shape = occ.WorkPlane().Circle(*block.center, block.radius).Face()
-    elif s == "polygon":
-        pts = block.points or []
-        if len(pts) < 3 or any(len(p) != 2 for p in pts):
-            raise ValueError("points must hold at least 3 points [x, y]")
-        names = block.edges or [""] * len(pts)
-        if len(names) != len(pts):
-            raise ValueError(f"edges names {len(names)} sides but the polygon has {len(pts)}")
-        xy = np.asarray(pts, dtype=float)
-        why = polygon_problem(xy)
-        if why is not None:
-            raise ValueError(why)
-        area2 = float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
-        if area2 < 0:           # clockwise: the same polygon counterclockwise (a clockwise face has negative area)
-            pts = [pts[0]] + list(pts[:0:-1])
-            names = list(names[::-1])
-        wp = occ.WorkPlane().MoveTo(*pts[0])
-        for p, name in zip(pts[1:], names[:-1]):
-            wp.LineTo(*p, name=name or None)
-        wp.Close(name=names[-1] or None)
-        shape = wp.Face()
-    elif s == "profile":
-        _need(block, "start", 2)
-        segs = block.segments or []
-        if not segs:
-            raise ValueError("a profile needs segments")
-        wp = occ.WorkPlane().MoveTo(*block.start)
-        pos = np.array(block.start, float)
-        for i, seg in enumerate(segs):
-            if (seg.line is None) == (seg.spline is None):
-                raise ValueError(f"segments[{i}] must have exactly one of 'line' or 'spline'")
-            if seg.line is not None and len(seg.line) != 2:
-                raise ValueError(f"segments[{i}].line must be an end point [x, y]")
-            if seg.spline is not None and (not seg.spline or any(len(p) != 2 for p in seg.spline)):
-                raise ValueError(f"segments[{i}].spline must hold at least one point [x, y] (the last is its end)")
-            if seg.line is not None:
-                end = np.array(seg.line, float)
-                wp.LineTo(*end, name=seg.name or None)
-            else:
-                pts = [occ.gp_Pnt2d(*p) for p in seg.spline]
-                end = np.array(seg.spline[-1], float)
-                wp.Spline(pts, name=seg.name or None)
-            pos = end
-        scale = max(1.0, float(np.abs(np.array(block.start)).max()))
-        if np.linalg.norm(pos - np.array(block.start)) > 1e-9 * scale:
-            raise ValueError(f"profile is not closed: ends at {pos.tolist()}, starts at {block.start}")
-        shape = wp.Face()
-        span = np.ptp(np.array([[v.p.x, v.p.y] for v in shape.vertices]), axis=0)
-        if abs(shape.mass) <= 1e-12 * float(np.max(span)) ** 2:
-            raise ValueError("the profile encloses no area (its outline runs back on itself)")
-        if shape.mass < 0:
-            raise ValueError("the profile runs clockwise: list its segments counterclockwise (the region on the "
-                             "left of the direction of travel)")
-    elif s == "box":
-        _need(block, "origin", 3)
-        _need(block, "size", 3)
-        if min(block.size) <= 0:
-            raise ValueError(f"size {block.size} must be positive")
-        p0 = occ.Pnt(*block.origin)
-        p1 = occ.Pnt(*(np.array(block.origin) + np.array(block.size)))
-        shape = occ.Box(p0, p1)
-    else:  # cylinder
-        _need(block, "center", 3)
-        if block.radius is None or block.radius <= 0 or block.height is None or block.height <= 0:
-            raise ValueError("cylinder needs positive radius and height")
-        axis = [0.0, 0.0, 1.0] if block.axis is None else block.axis
-        if len(axis) != 3 or not np.linalg.norm(np.asarray(axis, float)) > 0:
-            raise ValueError(f"'axis' must be a direction of 3 numbers, not the zero vector, got {axis}")
-        shape = occ.Cylinder(occ.Pnt(*block.center), occ.Dir(*axis), block.radius, block.height)
+    if dim == 2 and s not in SHAPES_2D:
+        raise ValueError(f"shape {s!r} is a 3D shape; 2D shapes are {', '.join(SHAPES_2D)}")
+    if dim == 3 and s not in SHAPES_3D:
+        raise ValueError(f"shape {s!r} is a 2D shape; 3D shapes are {', '.join(SHAPES_3D)}")
+    shape = BUILDERS[s](block)
     box = declared_extent(block, dim)
     if box is not None and not 0 < abs(shape.mass) <= 1.01 * float(np.prod(box[1] - box[0])):
         raise ValueError(f"the geometry kernel built a {'face' if dim == 2 else 'solid'} of measure "
@@ -127,6 +43,111 @@ def make_block(block: Block, dim: int):
         cells(shape, dim).maxh = block.maxh
     _name_sides(shape, block, dim)
     return shape
+
+
+def _rectangle(block: Block):
+    _need(block, "origin", 2)
+    _need(block, "size", 2)
+    if min(block.size) <= 0:
+        raise ValueError(f"size {block.size} must be positive")
+    (x0, y0), (w, h) = block.origin, block.size
+    shape = occ.WorkPlane().MoveTo(x0, y0).Rectangle(w, h).Face()
+    if not shape.edges:
+        # netgen's WorkPlane.Rectangle returns an unbounded face without edges for sides above about
+        # 5.3e5 m; the same outline point by point is bounded
+        shape = occ.WorkPlane().MoveTo(x0, y0).LineTo(x0 + w, y0).LineTo(x0 + w, y0 + h).LineTo(x0, y0 + h) \
+            .Close().Face()
+    return shape
+
+
+def _circle(block: Block):
+    _need(block, "center", 2)
+    if block.radius is None or block.radius <= 0:
+        raise ValueError(f"radius must be given and positive, got {block.radius}")
+    return occ.WorkPlane().Circle(*block.center, block.radius).Face()
+
+
+def _polygon(block: Block):
+    pts = block.points or []
+    if len(pts) < 3 or any(len(p) != 2 for p in pts):
+        raise ValueError("points must hold at least 3 points [x, y]")
+    names = block.edges or [""] * len(pts)
+    if len(names) != len(pts):
+        raise ValueError(f"edges names {len(names)} sides but the polygon has {len(pts)}")
+    xy = np.asarray(pts, dtype=float)
+    why = polygon_problem(xy)
+    if why is not None:
+        raise ValueError(why)
+    area2 = float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
+    if area2 < 0:           # clockwise: the same polygon counterclockwise (a clockwise face has negative area)
+        pts = [pts[0]] + list(pts[:0:-1])
+        names = list(names[::-1])
+    wp = occ.WorkPlane().MoveTo(*pts[0])
+    for p, name in zip(pts[1:], names[:-1]):
+        wp.LineTo(*p, name=name or None)
+    wp.Close(name=names[-1] or None)
+    return wp.Face()
+
+
+def _profile(block: Block):
+    _need(block, "start", 2)
+    segs = block.segments or []
+    if not segs:
+        raise ValueError("a profile needs segments")
+    wp = occ.WorkPlane().MoveTo(*block.start)
+    pos = np.array(block.start, float)
+    for i, seg in enumerate(segs):
+        if (seg.line is None) == (seg.spline is None):
+            raise ValueError(f"segments[{i}] must have exactly one of 'line' or 'spline'")
+        if seg.line is not None and len(seg.line) != 2:
+            raise ValueError(f"segments[{i}].line must be an end point [x, y]")
+        if seg.spline is not None and (not seg.spline or any(len(p) != 2 for p in seg.spline)):
+            raise ValueError(f"segments[{i}].spline must hold at least one point [x, y] (the last is its end)")
+        if seg.line is not None:
+            end = np.array(seg.line, float)
+            wp.LineTo(*end, name=seg.name or None)
+        else:
+            pts = [occ.gp_Pnt2d(*p) for p in seg.spline]
+            end = np.array(seg.spline[-1], float)
+            wp.Spline(pts, name=seg.name or None)
+        pos = end
+    scale = max(1.0, float(np.abs(np.array(block.start)).max()))
+    if np.linalg.norm(pos - np.array(block.start)) > 1e-9 * scale:
+        raise ValueError(f"profile is not closed: ends at {pos.tolist()}, starts at {block.start}")
+    shape = wp.Face()
+    span = np.ptp(np.array([[v.p.x, v.p.y] for v in shape.vertices]), axis=0)
+    if abs(shape.mass) <= 1e-12 * float(np.max(span)) ** 2:
+        raise ValueError("the profile encloses no area (its outline runs back on itself)")
+    if shape.mass < 0:
+        raise ValueError("the profile runs clockwise: list its segments counterclockwise (the region on the "
+                         "left of the direction of travel)")
+    return shape
+
+
+def _box(block: Block):
+    _need(block, "origin", 3)
+    _need(block, "size", 3)
+    if min(block.size) <= 0:
+        raise ValueError(f"size {block.size} must be positive")
+    p0 = occ.Pnt(*block.origin)
+    p1 = occ.Pnt(*(np.array(block.origin) + np.array(block.size)))
+    return occ.Box(p0, p1)
+
+
+def _cylinder(block: Block):
+    _need(block, "center", 3)
+    if block.radius is None or block.radius <= 0 or block.height is None or block.height <= 0:
+        raise ValueError("cylinder needs positive radius and height")
+    axis = [0.0, 0.0, 1.0] if block.axis is None else block.axis
+    if len(axis) != 3 or not np.linalg.norm(np.asarray(axis, float)) > 0:
+        raise ValueError(f"'axis' must be a direction of 3 numbers, not the zero vector, got {axis}")
+    return occ.Cylinder(occ.Pnt(*block.center), occ.Dir(*axis), block.radius, block.height)
+
+
+BUILDERS = {"rectangle": _rectangle, "circle": _circle, "polygon": _polygon, "profile": _profile, "box": _box,
+            "cylinder": _cylinder}
+"""The OCC shape of a block from its data, by ``Block.shape`` (:data:`~ngs_geomech.scene.model.SHAPES_2D`,
+:data:`~ngs_geomech.scene.model.SHAPES_3D`); each raises ValueError naming missing or wrong data."""
 
 
 def polygon_problem(xy: np.ndarray) -> str | None:
