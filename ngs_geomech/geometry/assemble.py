@@ -116,8 +116,35 @@ def _same(a: tuple, b: tuple, tol: float) -> bool:
 
 
 def build_geometry(scene: Scene) -> GeometryModel:
-    """Build the geometry of a scene. Raises SceneError listing every geometric problem."""
+    """Build the geometry of a scene. Raises SceneError listing every geometric problem: blocks that cannot be
+    built or are covered, blocks across the axis, interfaces between blocks that do not touch (or touching blocks
+    without one), contacts between blocks also glued together."""
     dim = scene_dim(scene)
+    names = [b.name for b in scene.blocks]
+    raw = _raw_blocks(scene, dim)
+    parts = _Parts.glue(_carve_all(raw, names, dim), names, dim)
+    problems = _axis_problems(scene, raw, parts)
+    found = _Interfaces()
+    for k, itf in enumerate(scene.interfaces):
+        found.declare(itf, f"interfaces[{k}] ({itf.name})", parts, problems)
+    for pair in parts.touching:
+        if pair not in found.declared:
+            a, b = sorted(pair)
+            problems.append(Problem("interfaces", f"blocks {a!r} and {b!r} touch but no interface is declared "
+                                                  "for them (add [[interfaces]] with type 'glued' or 'contact')"))
+    if problems:
+        raise SceneError(problems, source="geometry")
+    groups = _glued_groups(names, found)
+    model = GeometryModel(shape=None, dim=dim, regions=names, boundaries=set(), bounding_box=(parts.lo, parts.hi))
+    contact_keys = _contact_sides(model, found, parts)
+    final = _group_shapes(model, groups, contact_keys, parts)
+    _finish(scene, model, final, parts.tol)
+    return model
+
+
+def _raw_blocks(scene: Scene, dim: int) -> dict:
+    """The OCC shape of every block by name (:func:`make_block`); raises SceneError for blocks too thin for the
+    geometry kernel or that cannot be built."""
     problems: list[Problem] = []
     small = _too_small(scene, dim, problems)
     raw = {}
@@ -133,7 +160,13 @@ def build_geometry(scene: Scene) -> GeometryModel:
                                     f"block ({exc}): check its data"))
     if problems:
         raise SceneError(problems, source="geometry")
-    names = [b.name for b in scene.blocks]
+    return raw
+
+
+def _carve_all(raw: dict, names: list[str], dim: int) -> dict:
+    """Every block with the blocks declared after it cut out (:func:`_carve`); raises SceneError when one is
+    covered or the geometry kernel failed."""
+    problems: list[Problem] = []
     carved = {}
     for i, name in enumerate(names):
         shape = _carve(raw, names, i, dim, problems)
@@ -141,100 +174,140 @@ def build_geometry(scene: Scene) -> GeometryModel:
             carved[name] = shape
     if problems:
         raise SceneError(problems, source="geometry")
-    try:
-        glued_all = occ.Glue([carved[n] for n in names]) if len(names) > 1 else carved[names[0]]
-    except RuntimeError as exc:
-        raise SceneError([Problem("blocks", f"the geometry kernel (OCC) could not join the blocks ({exc})")],
-                         source="geometry") from None
-    bb = glued_all.bounding_box
-    lo, hi = np.array([bb[0].x, bb[0].y, bb[0].z]), np.array([bb[1].x, bb[1].y, bb[1].z])
-    size = float(np.max(hi - lo))
-    tol = 1e-8 * max(size, 1e-30)
+    return carved
+
+
+@dataclass
+class _Parts:
+    """The carved blocks glued into one shape: each block's cells, the sides blocks share (by pair of blocks),
+    the bounding box (lo, hi), the tolerance of coordinate comparisons (m) and the keys (:func:`_key`) of all shared
+    sides."""
+
+    dim: int
+    names: list[str]
+    block_cells: dict[str, list]
+    touching: dict[frozenset, list]
+    lo: np.ndarray
+    hi: np.ndarray
+    tol: float
+    shared_keys: list = field(default_factory=list)
+
+    def __post_init__(self):
+        self.shared_keys = [_key(s) for shared in self.touching.values() for s in shared]
+
+    @classmethod
+    def glue(cls, carved: dict, names: list[str], dim: int) -> _Parts:
+        try:
+            glued_all = occ.Glue([carved[n] for n in names]) if len(names) > 1 else carved[names[0]]
+        except RuntimeError as exc:
+            raise SceneError([Problem("blocks", f"the geometry kernel (OCC) could not join the blocks ({exc})")],
+                             source="geometry") from None
+        bb = glued_all.bounding_box
+        lo, hi = np.array([bb[0].x, bb[0].y, bb[0].z]), np.array([bb[1].x, bb[1].y, bb[1].z])
+        size = float(np.max(hi - lo))
+        block_cells = {n: list(cells(glued_all, dim)[n]) for n in names}
+        touching: dict[frozenset, list] = {}       # which blocks touch, and along which sides
+        for i, a in enumerate(names):
+            for b in names[i + 1:]:
+                shared = []
+                for ca in block_cells[a]:
+                    for cb in block_cells[b]:
+                        shared += list(sides(ca, dim) * sides(cb, dim))
+                if shared:
+                    touching[frozenset((a, b))] = shared
+        return cls(dim, names, block_cells, touching, lo, hi, 1e-8 * max(size, 1e-30))
+
+    def outer_sides(self, block: str, name: str | None) -> list:
+        """The sides of ``block`` called ``name`` (any name: None) that it shares with no other block."""
+        return [s for c in self.block_cells[block] for s in sides(c, self.dim)
+                if (name is None or s.name == name) and not any(_same(_key(s), k, self.tol)
+                                                                for k in self.shared_keys)]
+
+
+def _axis_problems(scene: Scene, raw: dict, parts: _Parts) -> list[Problem]:
+    """Blocks of an axisymmetric scene that reach x = r < 0."""
     # OCC pads bounding boxes by its absolute precision (1e-7 m): allow for that on the axis
-    axis_tol = max(tol, 1e-6)
-    if scene.scene.dimension == "axisymmetric" and lo[0] < -axis_tol:
+    axis_tol = max(parts.tol, 1e-6)
+    problems = []
+    if scene.scene.dimension == "axisymmetric" and parts.lo[0] < -axis_tol:
         for i, b in enumerate(scene.blocks):
             xmin = raw[b.name].bounding_box[0].x
             if xmin < -axis_tol:
                 problems.append(Problem(f"blocks[{i}] ({b.name})", f"axisymmetric scenes need r = x >= 0; this "
                                                                    f"block reaches x = {xmin:.6g}"))
-    block_cells = {n: list(cells(glued_all, dim)[n]) for n in names}
-    # which blocks touch, and along which sides
-    touching: dict[frozenset, list] = {}
-    for i, a in enumerate(names):
-        for b in names[i + 1:]:
-            shared = []
-            for ca in block_cells[a]:
-                for cb in block_cells[b]:
-                    shared += list(sides(ca, dim) * sides(cb, dim))
-            if shared:
-                touching[frozenset((a, b))] = shared
-    shared_keys = [_key(s) for shared in touching.values() for s in shared]
+    return problems
 
-    def outer_sides(block: str, name: str | None) -> list:
-        """The sides of ``block`` called ``name`` (any name: None) that it shares with no other block."""
-        return [s for c in block_cells[block] for s in sides(c, dim)
-                if (name is None or s.name == name) and not any(_same(_key(s), k, tol) for k in shared_keys)]
-    # interfaces
-    declared = {}
-    paths = {}
-    gap_sides: dict[str, tuple[list, list]] = {}
-    masters_taken: dict[str, str] = {}
-    for k, itf in enumerate(scene.interfaces):
-        path = f"interfaces[{k}] ({itf.name})"
+
+@dataclass
+class _Interfaces:
+    """The interfaces declared so far: by pair of blocks, the scene path of each (by name), the sides of each
+    contact with an initial gap (by name) and the interface whose master side each named side is."""
+
+    declared: dict[frozenset, object] = field(default_factory=dict)
+    paths: dict[str, str] = field(default_factory=dict)
+    gap_sides: dict[str, tuple[list, list]] = field(default_factory=dict)
+    masters_taken: dict[str, str] = field(default_factory=dict)
+
+    def declare(self, itf, path: str, parts: _Parts, problems: list[Problem]) -> None:
+        """Declare interface ``itf`` (scene path ``path``) between two blocks that touch, or across an initial
+        gap (``sides``), or add the Problems why it cannot be."""
+        names = parts.names
         unknown = [b for b in itf.blocks if b not in names]
         if unknown:
             problems.append(Problem(path, f"unknown block(s) {unknown}; blocks are {names}"))
-            continue
+            return
         if itf.blocks[0] == itf.blocks[1]:
             problems.append(Problem(path, "an interface needs two different blocks"))
-            continue
+            return
         pair = frozenset(itf.blocks)
-        if pair in declared:
-            problems.append(Problem(path, f"blocks {itf.blocks} already have interface {declared[pair].name!r}"))
-            continue
+        if pair in self.declared:
+            problems.append(Problem(path, f"blocks {itf.blocks} already have interface {self.declared[pair].name!r}"))
+            return
         if itf.master is not None and itf.master not in itf.blocks:
             problems.append(Problem(f"{path}.master", f"{itf.master!r} is not one of {itf.blocks}"))
-            continue
+            return
         if itf.sides is not None:
-            if itf.type != "contact":
-                problems.append(Problem(f"{path}.sides", "applies to type = 'contact' only (a contact with an "
-                                                         "initial gap between blocks that do not touch)"))
-            elif pair in touching:
-                problems.append(Problem(f"{path}.sides", f"blocks {itf.blocks[0]!r} and {itf.blocks[1]!r} touch: "
-                                        "their shared side is the contact side (found automatically); 'sides' "
-                                        "is for blocks that do not touch (an initial gap): remove it"))
-            if itf.type != "contact" or pair in touching:
-                if pair in touching:      # declared all the same (no second 'touch but no interface' problem)
-                    declared[pair], paths[itf.name] = itf, path
-                continue
-            found = _gap_sides(itf, path, names, outer_sides, problems)
-            if found is None:
-                continue
-            master = itf.master or itf.blocks[0]
-            mside = itf.sides[itf.blocks.index(master)]
-            if mside in masters_taken:
-                problems.append(Problem(f"{path}.sides", f"{mside!r} is already the contact side (master) of "
-                                        f"interface {masters_taken[mside]!r}: a side carries one interface's "
-                                        "multipliers; name another side or swap master"))
-                continue
-            masters_taken[mside] = itf.name
-            gap_sides[itf.name] = found
-        elif pair not in touching:
+            if not self._across_gap(itf, path, pair, parts, problems):
+                return
+        elif pair not in parts.touching:
             hint = (f" (for a contact with an initial gap name the two sides: sides = [boundary on "
                     f"{itf.blocks[0]!r}, boundary on {itf.blocks[1]!r}])" if itf.type == "contact" else "")
             problems.append(Problem(path, f"blocks {itf.blocks[0]!r} and {itf.blocks[1]!r} do not touch{hint}"))
-            continue
-        declared[pair] = itf
-        paths[itf.name] = path
-    for pair in touching:
-        if pair not in declared:
-            a, b = sorted(pair)
-            problems.append(Problem("interfaces", f"blocks {a!r} and {b!r} touch but no interface is declared "
-                                                  "for them (add [[interfaces]] with type 'glued' or 'contact')"))
-    if problems:
-        raise SceneError(problems, source="geometry")
-    # groups of glued blocks
+            return
+        self.declared[pair] = itf
+        self.paths[itf.name] = path
+
+    def _across_gap(self, itf, path: str, pair: frozenset, parts: _Parts, problems: list[Problem]) -> bool:
+        """A contact across an initial gap between the sides ``itf.sides`` names; whether it is declared so."""
+        if itf.type != "contact":
+            problems.append(Problem(f"{path}.sides", "applies to type = 'contact' only (a contact with an "
+                                                     "initial gap between blocks that do not touch)"))
+        elif pair in parts.touching:
+            problems.append(Problem(f"{path}.sides", f"blocks {itf.blocks[0]!r} and {itf.blocks[1]!r} touch: "
+                                    "their shared side is the contact side (found automatically); 'sides' "
+                                    "is for blocks that do not touch (an initial gap): remove it"))
+        if itf.type != "contact" or pair in parts.touching:
+            if pair in parts.touching:      # declared all the same (no second 'touch but no interface' problem)
+                self.declared[pair], self.paths[itf.name] = itf, path
+            return False
+        found = _gap_sides(itf, path, parts.names, parts.outer_sides, problems)
+        if found is None:
+            return False
+        master = itf.master or itf.blocks[0]
+        mside = itf.sides[itf.blocks.index(master)]
+        if mside in self.masters_taken:
+            problems.append(Problem(f"{path}.sides", f"{mside!r} is already the contact side (master) of "
+                                    f"interface {self.masters_taken[mside]!r}: a side carries one interface's "
+                                    "multipliers; name another side or swap master"))
+            return False
+        self.masters_taken[mside] = itf.name
+        self.gap_sides[itf.name] = found
+        return True
+
+
+def _glued_groups(names: list[str], found: _Interfaces) -> list[list[str]]:
+    """The groups of blocks joined by glued interfaces (one mesh each); raises SceneError for a contact interface
+    inside a group."""
     parent = {n: n for n in names}
 
     def find(n):
@@ -242,44 +315,54 @@ def build_geometry(scene: Scene) -> GeometryModel:
             parent[n] = parent[parent[n]]
             n = parent[n]
         return n
-    for pair, itf in declared.items():
+    for pair, itf in found.declared.items():
         if itf.type == "glued":
             a, b = tuple(pair)
             parent[find(a)] = find(b)
-    for itf in declared.values():
-        if itf.type == "contact" and find(itf.blocks[0]) == find(itf.blocks[1]):
-            problems.append(Problem(paths[itf.name], "a contact interface between blocks that are also joined "
-                                    "through glued interfaces is not supported"))
+    problems = [Problem(found.paths[itf.name], "a contact interface between blocks that are also joined through "
+                        "glued interfaces is not supported")
+                for itf in found.declared.values()
+                if itf.type == "contact" and find(itf.blocks[0]) == find(itf.blocks[1])]
     if problems:
         raise SceneError(problems, source="geometry")
-    model = GeometryModel(shape=None, dim=dim, regions=names, boundaries=set(), bounding_box=(lo, hi))
+    groups: dict[str, list[str]] = {}
+    for n in names:
+        groups.setdefault(find(n), []).append(n)
+    return list(groups.values())
+
+
+def _contact_sides(model: GeometryModel, found: _Interfaces, parts: _Parts) -> dict[str, list]:
+    """Name the glued interfaces' shared sides and enter every interface into ``model``; returns the keys
+    (:func:`_key`) of the shared sides of each contact between touching blocks."""
     contact_keys = {}
-    for pair, itf in declared.items():
-        shared = touching.get(pair, [])
+    for pair, itf in found.declared.items():
+        shared = parts.touching.get(pair, [])
         if itf.type == "glued":
             for s in shared:
                 s.name = itf.name
             model.glued[itf.name] = tuple(itf.blocks)
-        elif itf.name in gap_sides:
-            master = itf.master or itf.blocks[0]
-            minion = [b for b in itf.blocks if b != master][0]
+            continue
+        master = itf.master or itf.blocks[0]
+        minion = [b for b in itf.blocks if b != master][0]
+        if itf.name in found.gap_sides:
             by_block = dict(zip(itf.blocks, itf.sides))
-            a, b = gap_sides[itf.name]
+            a, b = found.gap_sides[itf.name]
             gap = min(float(sa.Distance(sb)) for sa in a for sb in b)
             model.contacts[itf.name] = ContactSide(itf.name, master, minion, (by_block[master], by_block[minion]),
                                                    gap)
         else:
-            master = itf.master or itf.blocks[0]
-            minion = [b for b in itf.blocks if b != master][0]
-            cs = ContactSide(itf.name, master, minion)
-            model.contacts[itf.name] = cs
+            model.contacts[itf.name] = ContactSide(itf.name, master, minion)
             contact_keys[itf.name] = [_key(s) for s in shared]
-    groups: dict[str, list[str]] = {}
-    for n in names:
-        groups.setdefault(find(n), []).append(n)
+    return contact_keys
+
+
+def _group_shapes(model: GeometryModel, groups: list[list[str]], contact_keys: dict[str, list], parts: _Parts):
+    """One shape of all groups of glued blocks: each group after the first an independent copy on its own
+    mesh-size layer, the two copies of each contact side named ``<interface>__<block>``."""
+    dim = parts.dim
     group_shapes = []
-    for gi, members in enumerate(groups.values()):
-        gshape = occ.Compound([c for m in members for c in block_cells[m]])
+    for gi, members in enumerate(groups):
+        gshape = occ.Compound([c for m in members for c in parts.block_cells[m]])
         if gi > 0:
             gshape = gshape.Move((0, 0, 0))  # an independent copy: its sides are not shared with others
             # its own mesh-size layer: netgen's size field is otherwise global, so a finer maxh on one side
@@ -297,9 +380,15 @@ def build_geometry(scene: Scene) -> GeometryModel:
                     continue
                 for c in cells(gshape, dim)[block]:
                     for s in sides(c, dim):
-                        if any(_same(_key(s), k, tol) for k in contact_keys[cs.name]):
+                        if any(_same(_key(s), k, parts.tol) for k in contact_keys[cs.name]):
                             s.name = bname
-    final = group_shapes[0][1] if len(group_shapes) == 1 else occ.Compound([g for _, g in group_shapes])
+    return group_shapes[0][1] if len(group_shapes) == 1 else occ.Compound([g for _, g in group_shapes])
+
+
+def _finish(scene: Scene, model: GeometryModel, final, tol: float) -> None:
+    """The mesh sizes of blocks and boundaries on the final shape, the sides on the axis of an axisymmetric scene
+    named :data:`AXIS`, and the model's shape and boundary names."""
+    dim = model.dim
     for cell in cells(final, dim):
         b = next(bl for bl in scene.blocks if bl.name == cell.name)
         if b.maxh is not None:
@@ -319,7 +408,6 @@ def build_geometry(scene: Scene) -> GeometryModel:
     model.boundaries = {s.name or DEFAULT for s in sides(final, dim)}
     for cell in cells(final, dim):
         model.block_boundaries.setdefault(cell.name, set()).update(s.name or DEFAULT for s in sides(cell, dim))
-    return model
 
 
 def _too_small(scene: Scene, dim: int, problems: list[Problem]) -> set[str]:
