@@ -211,21 +211,9 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
             spacing = _estimate_spacing(xy, m)
         scale = 0.9 * spacing / smax if smax > 0 else 0.0
 
-    from matplotlib.lines import Line2D
-    from matplotlib.offsetbox import AnchoredOffsetbox, AuxTransformBox, HPacker, TextArea
-
     fig, ax = new_figure((7.5, 6.2))
     if background is not None:
-        values = np.asarray(background, dtype=float)
-        vmin = vmax = None
-        if window is not None:
-            inside = ((m.points[:, 0] >= window[0]) & (m.points[:, 0] <= window[1])
-                      & (m.points[:, 1] >= window[2]) & (m.points[:, 1] <= window[3]))
-            if inside.any():
-                vmin, vmax = float(values[inside].min()), float(values[inside].max())
-        pc = ax.tripcolor(_triangulation(m), values, shading="gouraud", cmap=cmap or _light_greys(),
-                          vmin=vmin, vmax=vmax)
-        fig.colorbar(pc, ax=ax, label=background_label or "", shrink=0.85)
+        _background(fig, ax, m, background, window, cmap, background_label)
     ax.add_collection(line_collection(m.outline, colors="k", linewidths=0.9))
 
     segs, s = cross_segments(xy, s1, s2, theta1, scale)
@@ -233,7 +221,28 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
     colours = np.where(s < 0, COMPRESSION_COLOR, EXTENSION_COLOR)
     ax.add_collection(line_collection(segs[drawn], colors=colours[drawn], linewidths=linewidth,
                                      capstyle="butt", zorder=3))
+    _frame(ax, m, window, axis_labels, title)
+    _legend(ax, smax, scale, stress_unit, linewidth)
+    fig.tight_layout()
+    save_figure(fig, path)
 
+
+def _background(fig, ax, m: MeshArrays, background, window, cmap, label) -> None:
+    """The vertex values ``background`` as a filled field with a colorbar, its colour range that of ``window``."""
+    values = np.asarray(background, dtype=float)
+    vmin = vmax = None
+    if window is not None:
+        inside = ((m.points[:, 0] >= window[0]) & (m.points[:, 0] <= window[1])
+                  & (m.points[:, 1] >= window[2]) & (m.points[:, 1] <= window[3]))
+        if inside.any():
+            vmin, vmax = float(values[inside].min()), float(values[inside].max())
+    pc = ax.tripcolor(_triangulation(m), values, shading="gouraud", cmap=cmap or _light_greys(),
+                      vmin=vmin, vmax=vmax)
+    fig.colorbar(pc, ax=ax, label=label or "", shrink=0.85)
+
+
+def _frame(ax, m: MeshArrays, window, axis_labels, title: str) -> None:
+    """The view (``window``, else the mesh with a 2 % margin), equal axes, labels and title."""
     if window is not None:
         ax.set_xlim(window[0], window[1])
         ax.set_ylim(window[2], window[3])
@@ -246,6 +255,13 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
     ax.set_xlabel(axis_labels[0])
     ax.set_ylabel(axis_labels[1])
     ax.set_title(title)
+
+
+def _legend(ax, smax: float, scale: float, stress_unit, linewidth: float) -> None:
+    """The colours of compression and extension, and a reference bar of a round stress (``stress_unit`` =
+    (name, Pa per unit)) below the axes."""
+    from matplotlib.lines import Line2D
+    from matplotlib.offsetbox import AnchoredOffsetbox, AuxTransformBox, HPacker, TextArea
 
     unit_name, unit = stress_unit
     handles = [Line2D([], [], color=COMPRESSION_COLOR, lw=2 * linewidth, label="compression (σ < 0)"),
@@ -263,5 +279,4 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
                                      bbox_to_anchor=(1.0, -0.09), bbox_transform=ax.transAxes)
         anchored.set_in_layout(True)
         ax.add_artist(anchored)
-    fig.tight_layout()
-    save_figure(fig, path)
+
