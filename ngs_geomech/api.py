@@ -7,7 +7,7 @@ from pathlib import Path
 from .run import RunResult, run_scene
 from .scene.model import Scene
 from .scene.parse import builtin_scenes, load_scene
-from .scene.validate import validate
+from .validation.validate import validate
 
 
 def list_builtin() -> dict[str, Path]:

@@ -14,7 +14,7 @@ from ngs_geomech.errors import ResumeError, SceneError
 from ngs_geomech.run import run_scene
 from ngs_geomech.scene.parse import load_scene, scene_from_dict
 from ngs_geomech.scene.schema import to_dict
-from ngs_geomech.scene.validate import validate
+from ngs_geomech.validation.validate import validate
 from ngs_geomech.verification.contact_following import hertz_growing
 
 pytestmark = pytest.mark.usefixtures("one_thread")

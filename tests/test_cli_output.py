@@ -296,7 +296,7 @@ def test_fault2d_runs(tmp_path):
 def test_fault2d_meshes_differ_on_the_two_sides_of_the_fault():
     from ngs_geomech.geometry.mesh import make_mesh
     from ngs_geomech.scene.parse import load_scene
-    from ngs_geomech.scene.validate import validate
+    from ngs_geomech.validation.validate import validate
     sc = load_scene("fault2d")
     geo = validate(sc)
     mesh = make_mesh(geo, sc.mesh)

@@ -17,7 +17,7 @@ from ngs_geomech.heat.forms import HeatForms
 from ngs_geomech.heat.problem import heat_setup
 from ngs_geomech.heat.solver import HeatSolver
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.scene.validate import validate
+from ngs_geomech.validation.validate import validate
 
 
 def solve(scene_dict, exact: str, q: str | None):

@@ -13,7 +13,7 @@ import pytest
 from ngs_geomech.errors import SceneError, SolverError
 from ngs_geomech.run import run_scene
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.scene.validate import validate
+from ngs_geomech.validation.validate import validate
 from ngs_geomech.verification.contact_scenes import heated_bar, heated_bar_scene
 
 

@@ -13,7 +13,7 @@ from ngs_geomech.errors import SceneError, SolverError
 from ngs_geomech.io.lines_vtk import polyline_vtp
 from ngs_geomech.run import run_scene
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.scene.validate import validate
+from ngs_geomech.validation.validate import validate
 from ngs_geomech.verification.contact_scenes import heated_bar_3d, heated_bar_3d_pressure, heated_bar_3d_scene
 
 pytestmark = pytest.mark.usefixtures("one_thread")

@@ -13,7 +13,7 @@ from ngs_geomech.api import run
 from ngs_geomech.errors import SceneError, SolverError
 from ngs_geomech.scene import expressions
 from ngs_geomech.scene.parse import load_scene, scene_from_dict
-from ngs_geomech.scene.validate import validate
+from ngs_geomech.validation.validate import validate
 
 BAD = Path(__file__).parent / "scenes" / "bad"
 

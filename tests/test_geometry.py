@@ -360,7 +360,7 @@ def test_clockwise_polygon_is_taken_counterclockwise_with_its_edge_names():
     area); it is now the same polygon counterclockwise, each edge keeping its name."""
     from ngs_geomech.geometry.mesh import make_mesh
     from ngs_geomech.scene.parse import scene_from_dict
-    from ngs_geomech.scene.validate import validate
+    from ngs_geomech.validation.validate import validate
 
     def scene(points, edges):
         return scene_from_dict({"scene": {"name": "cw"}, "physics": {"thermal": "steady"}, "mesh": {"maxh": 0.25},

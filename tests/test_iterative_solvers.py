@@ -25,7 +25,7 @@ from ngs_geomech.mechanics.forms import ElasticForms
 from ngs_geomech.mechanics.problem import elastic_setup
 from ngs_geomech.mechanics.solver import ElasticSolver
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.scene.validate import validate
+from ngs_geomech.validation.validate import validate
 from ngs_geomech.verification.scaling import box_scene, make_box_mesh, max_rel_difference, thermoelastic_box
 
 pytestmark = pytest.mark.usefixtures("one_thread")

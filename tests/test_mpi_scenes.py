@@ -231,7 +231,7 @@ def test_contact_scene_refused_before_any_output(tmp_path):
 def test_distributed_problems_name_the_keys():
     """What a distributed run refuses, checked in-process (no MPI needed)."""
     from ngs_geomech.scene.parse import load_scene
-    from ngs_geomech.scene.validate import distributed_problems
+    from ngs_geomech.validation.validate import distributed_problems
 
     assert distributed_problems(load_scene("heated_rock")) == []
     assert distributed_problems(load_scene("melting_block")) == []

@@ -261,7 +261,7 @@ def test_nested_iteration_newton_at_lam_half():
 ])
 def test_nested_iteration_bad_settings_are_named(change, text):
     from ngs_geomech.errors import SceneError
-    from ngs_geomech.scene.validate import validate
+    from ngs_geomech.validation.validate import validate
     d = nl.plate_scene(0.5, 0.1)
     d["mechanics"].update({"nested_levels": 2, **change})
     with pytest.raises(SceneError) as info:

@@ -20,8 +20,8 @@ from ngs_geomech.mechanics.run import StaticMechanicsRun
 from ngs_geomech.parts import Part, Step
 from ngs_geomech.run.model import Model, mesh_policy
 from ngs_geomech.scene.parse import load_scene
-from ngs_geomech.scene.validate import validate
 from ngs_geomech.stefan.problem import StefanRun
+from ngs_geomech.validation.validate import validate
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 

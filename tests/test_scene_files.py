@@ -19,7 +19,7 @@ from ngs_geomech.io.lines_vtk import LineSeries
 from ngs_geomech.io.vtk import VtkSeries
 from ngs_geomech.scene.names import name_problem
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.scene.validate import validate
+from ngs_geomech.validation.validate import validate
 
 BAD = Path(__file__).parent / "scenes" / "bad"
 

@@ -19,7 +19,7 @@ import pytest
 from ngs_geomech import cli
 from ngs_geomech.errors import SceneError
 from ngs_geomech.scene.parse import load_scene, scene_from_dict
-from ngs_geomech.scene.validate import validate
+from ngs_geomech.validation.validate import validate
 
 BAD = Path(__file__).parent / "scenes" / "bad"
 SCRIPT = Path(sys.executable).with_name("ngs-geomech")     # the installed console script

@@ -15,10 +15,10 @@ import pytest
 
 from ngs_geomech.geometry.mesh import make_mesh
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.scene.validate import validate
 from ngs_geomech.stefan.forms import DEFAULT_INTERFACE_PENALTY, StefanForms, StefanSetup
 from ngs_geomech.stefan.materials import PhaseChangeMaterial, PlainThermalMaterial
 from ngs_geomech.stefan.solver import StefanSolver
+from ngs_geomech.validation.validate import validate
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
 pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_stefan_interfaces")]

@@ -25,8 +25,8 @@ from ngs_geomech.errors import SceneError, SolverError
 from ngs_geomech.geometry.isolines import first_crossing, iso_segments
 from ngs_geomech.io.checkpoint import load_checkpoint
 from ngs_geomech.scene.parse import scene_from_dict
-from ngs_geomech.scene.validate import validate
 from ngs_geomech.stefan.solver import StefanSolver
+from ngs_geomech.validation.validate import validate
 from ngs_geomech.verification import stefan as st
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker

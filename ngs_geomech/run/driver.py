@@ -20,7 +20,7 @@ command line's ``--resume``) continues it from its last checkpoint and commits `
 
 Distributed runs (``mpiexec -n N``, N >= 2; :mod:`ngs_geomech.parallel`): every rank runs this module on its part
 of the mesh (rank 0 meshes and distributes, keeping no elements); what a distributed run cannot do is refused first
-(:func:`~ngs_geomech.scene.validate.distributed_problems`). Rank 0 creates, commits or removes the staging
+(:func:`~ngs_geomech.validation.validate.distributed_problems`). Rank 0 creates, commits or removes the staging
 directory, prints the progress and writes summary.json, figures and line series; every rank with elements writes
 its VTK parts; values that need the whole mesh (probes, mesh counts, figure data) are gathered collectively, so
 every rank takes every output branch. No checkpoints are written.
@@ -51,7 +51,7 @@ from ..probes import THERMAL
 from ..scene.model import Scene
 from ..scene.schema import to_dict
 from ..scene.units import format_time
-from ..scene.validate import distributed_problems, validate
+from ..validation.validate import distributed_problems, validate
 from .checkpoint import Checkpointer, Plan, RunState, check_scene, plan_steps
 from .checkpoint import where as checkpoint_where
 from .model import Model, mesh_policy

@@ -17,8 +17,8 @@ from ..heat.run import HeatRun
 from ..mechanics.run import StaticMechanicsRun
 from ..parts import Step
 from ..scene.model import Scene
-from ..scene.validate import stefan_scene
 from ..stefan.problem import StefanRun
+from ..validation.validate import stefan_scene
 
 
 class Model:

@@ -3,7 +3,7 @@ it: the enthalpy solver, the output fields, the phase boundary, the melted volum
 phase-change region at the output times, the energy balance, the Newton iterations, and its checkpoint state.
 
 A scene is solved as a Stefan problem when a material has ``phase_change_temperature`` and physics.thermal is
-'transient' (:func:`ngs_geomech.scene.validate.stefan_scene`): then :class:`StefanSolver` (nodal enthalpy,
+'transient' (:func:`ngs_geomech.validation.validate.stefan_scene`): then :class:`StefanSolver` (nodal enthalpy,
 lumped P1, backward Euler, semi-smooth Newton) replaces the heat solver. Boundary data: temperature and flux
 conditions, sources; unnamed boundaries are insulated; contact interfaces between touching blocks pass heat by a
 penalty on the temperature jump (``thermal_penalty``; :mod:`ngs_geomech.stefan.forms`). A material's

@@ -34,7 +34,7 @@ from ..io.summary import json_safe
 from ..io.uncertainty_figures import distribution_figure, ranges_figure, scatter_figure
 from ..scene.names import name_problem
 from ..scene.parse import apply_overrides, read_toml, resolve, scene_from_dict
-from ..scene.validate import validate
+from ..validation.validate import validate
 from . import stochastic, worst
 from .executors import Runner
 from .parameters import ParameterSpace

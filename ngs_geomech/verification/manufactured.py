@@ -39,7 +39,7 @@ from ..heat.forms import HeatForms
 from ..heat.problem import heat_setup
 from ..heat.solver import HeatSolver
 from ..scene.parse import scene_from_dict
-from ..scene.validate import validate
+from ..validation.validate import validate
 from .study import observed_order  # noqa: F401  (re-exported: studies and tests use it from here)
 
 K_LEFT = ((2.0, 0.5), (0.5, 1.0))

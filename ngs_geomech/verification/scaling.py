@@ -27,7 +27,7 @@ from ..mechanics.forms import ElasticForms
 from ..mechanics.problem import elastic_setup
 from ..mechanics.solver import ElasticSolver
 from ..scene.parse import scene_from_dict
-from ..scene.validate import validate
+from ..validation.validate import validate
 
 ROCK = {"conductivity": 3.0, "rho_c": 2.2e6, "youngs_modulus": 60e9, "poisson_ratio": 0.25,
         "thermal_expansion": 8e-6, "stress_free_temperature": 0.0}

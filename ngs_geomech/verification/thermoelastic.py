@@ -47,7 +47,7 @@ from ..mechanics.materials import plane_strain, rotate_voigt, rotation, transver
 from ..mechanics.problem import elastic_setup
 from ..mechanics.solver import ElasticSolver
 from ..scene.parse import scene_from_dict
-from ..scene.validate import validate
+from ..validation.validate import validate
 from .elastic_closed_forms import cylinder_pressure_stresses, cylinder_thermal_stresses
 from .manufactured import observed_order
 

@@ -39,8 +39,8 @@ def solve(comm=None, preconditioner: str = "bddc") -> dict:
     from ngs_geomech.geometry.mesh import make_mesh
     from ngs_geomech.io.meshdata import vertex_values
     from ngs_geomech.scene.parse import load_scene
-    from ngs_geomech.scene.validate import validate
     from ngs_geomech.stefan.problem import StefanRun
+    from ngs_geomech.validation.validate import validate
 
     scene = load_scene("melting_block", OVERRIDES)
     geo = validate(scene)
@@ -121,8 +121,8 @@ def refused(comm) -> str:
     penalty) is refused on a distributed mesh ("" when it is not)."""
     from ngs_geomech.geometry.mesh import make_mesh
     from ngs_geomech.scene.parse import load_scene
-    from ngs_geomech.scene.validate import validate
     from ngs_geomech.stefan.problem import StefanRun
+    from ngs_geomech.validation.validate import validate
 
     scene = load_scene("contact_melting", ["mesh.maxh=0.5"])
     geo = validate(scene)

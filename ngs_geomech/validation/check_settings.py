@@ -13,10 +13,10 @@ from ..contact.choices import contact_methods
 from ..errors import Problem
 from ..fem.timesteps import schedule
 from ..geometry.assemble import scene_dim
-from . import expressions
+from ..scene import expressions
+from ..scene.model import RATE_MECHANICS, BoundaryCondition, ContactMechanics, Scene
+from ..scene.units import KELVIN
 from .check_adaptivity import check_adaptivity
-from .model import RATE_MECHANICS, BoundaryCondition, ContactMechanics, Scene
-from .units import KELVIN
 
 MAX_STEPS = 1_000_000
 """The most time steps a scene may take: far beyond any scene's need (each step solves at least one system), and

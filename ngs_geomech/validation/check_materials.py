@@ -15,8 +15,8 @@ from ..heat.materials import (
     volumetric_heat_capacity,
 )
 from ..mechanics.materials import axisymmetric, elastic_properties
+from ..scene.model import Scene
 from .expression_values import value_range
-from .model import Scene
 
 
 def stefan_scene(scene: Scene) -> bool:

@@ -7,8 +7,8 @@ from __future__ import annotations
 import math
 
 from ..errors import Problem
+from ..scene.model import Scene
 from .check_materials import stefan_scene
-from .model import Scene
 
 
 def check_adaptivity(scene: Scene, problems: list[Problem]) -> None:

@@ -20,8 +20,8 @@ from netgen import occ
 from ..errors import Problem
 from ..geometry.assemble import GeometryModel
 from ..geometry.shapes import cells, sides
-from . import expressions
-from .schema import Expression
+from ..scene import expressions
+from ..scene.schema import Expression
 
 GRID = {2: 9, 3: 5}
 """Grid points per axis over a target's bounding box (2D, 3D)."""

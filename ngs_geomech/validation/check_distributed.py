@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..errors import Problem
-from .model import RATE_MECHANICS, Scene
+from ..scene.model import RATE_MECHANICS, Scene
 
 
 def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:

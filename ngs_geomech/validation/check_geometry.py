@@ -14,8 +14,8 @@ from ..errors import Problem
 from ..geometry.assemble import GeometryModel
 from ..geometry.shapes import cells, sides
 from ..heat.materials import has_phase_change
+from ..scene.model import PROBE_PHASE, PROBE_THERMAL, Probe, Scene
 from .check_materials import stefan_scene
-from .model import PROBE_PHASE, PROBE_THERMAL, Probe, Scene
 
 
 def check_references(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:

@@ -6,9 +6,9 @@ from __future__ import annotations
 import re
 
 from ..errors import Problem
-from .model import Scene
-from .names import name_problem
-from .units import KELVIN
+from ..scene.model import Scene
+from ..scene.names import name_problem
+from ..scene.units import KELVIN
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 """An identifier: a letter first, then letters, digits and underscores."""

@@ -13,14 +13,14 @@ from __future__ import annotations
 
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel, build_geometry
+from ..scene.model import Scene
+from ..scene.schema import recheck
 from .check_distributed import distributed_problems
 from .check_geometry import check_mesh_size, check_references
 from .check_materials import check_conductivity_range, check_materials, check_phase_change, stefan_scene
 from .check_settings import check_settings
 from .check_values import check_names, check_temperatures
 from .expression_values import check_expression_values
-from .model import Scene
-from .schema import recheck
 
 __all__ = ["distributed_problems", "stefan_scene", "validate"]
 
