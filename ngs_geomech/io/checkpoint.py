@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import ResumeError
 from .atomic import OutputDir, is_locked, staging_dirs
 
-FORMAT = "ngs-geomech checkpoint 1"
+FORMAT = "ngs-geomech checkpoint 2"
 DIRNAME = OutputDir.SCRATCH
 CURRENT = "checkpoint.npz"
 PREVIOUS = "previous.npz"
