@@ -513,8 +513,10 @@ class Output:
                                              "of the steps and at least every 5 minutes of wall time")
     figures: bool = field(boolean, True, doc="write PNG figures")
     subdivision: int = field(bounded(integer, 0, 6, note="(each level splits every element into 2^dim cells)"), 0,
-                             doc="VTK subdivision of each element (for order > 1); 6 levels already write 4096 (2D) "
-                                 "or 262144 (3D) cells per element")
+                             doc="VTK subdivision of each element (for order > 1; 0 writes every field at the "
+                                 "element vertices, > 0 draws curved and high-order fields on subdivided cells "
+                                 "through NGSolve's slower VTKOutput); 6 levels already write 4096 (2D) or 262144 "
+                                 "(3D) cells per element")
     figure_window: list | None = field(optional(list_of(number, 4)), None,
                                        doc="[xmin, xmax, ymin, ymax] of an extra zoomed field figure, m")
     probes: list = field(list_of(nested(Probe)), [], doc="probes recorded over time")
