@@ -261,3 +261,26 @@ def test_transient_newton_is_quadratic_and_the_time_order_holds(scheme, order_mi
     assert res["order"] >= order_min
     assert res["newton_order_min"] >= 1.8
     assert res["iterations_max"] <= 6
+
+
+@pytest.mark.parametrize("law", ["x", "xT"])
+def test_estimators_take_the_varying_conductivity(law):
+    """ZZ and residual effectivities on the steady manufactured solution stay bounded and do not drift with h
+    (the residual holds the derivatives of kappa(x, T); measured: ZZ 0.98-1.10, residual 1.4-2.6)."""
+    from ngs_geomech.adapt import estimators as est
+
+    kappa = {"x": vh.KAPPA_X, "xT": vh.KAPPA_XT}[law]
+    for order in (1, 2):
+        eff = []
+        for h in (0.1, 0.05):
+            mesh, forms, solver = vh.prepare(vh.square_scene(h, order, kappa, vh.T_STEADY), vh.T_STEADY, kappa,
+                                              None)
+            forms.t_new.Set(0.0)
+            solver.solve("estimator check")
+            T = expression_function(vh.T_STEADY)(forms.t_new)
+            err = est.heat_energy_error(forms, {"square": ngs.CoefficientFunction((T.Diff(ngs.x), T.Diff(ngs.y)))})
+            estimates = (est.zz_heat(forms), est.residual_heat(forms))
+            eff.append([float(np.sqrt(np.sum(e.eta ** 2))) / err for e in estimates])
+        print(f"\nkappa({law}) P{order}: effectivities (ZZ, residual) at h = 0.1, 0.05: {np.round(eff, 3).tolist()}")
+        for k in range(2):
+            assert 0.8 < eff[0][k] < 3.0 and abs(eff[1][k] / eff[0][k] - 1) < 0.1

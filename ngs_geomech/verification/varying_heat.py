@@ -86,7 +86,8 @@ def exact_source(exact: str, conductivity: str, rho_c: str | None, t):
     return -div if rho_c is None else material_cf(rho_c, T) * T.Diff(t) - div
 
 
-def _prepare(scene, exact: str, conductivity: str, rho_c: str | None):
+def prepare(scene, exact: str, conductivity: str, rho_c: str | None):
+    """Mesh, forms (with the manufactured source) and solver of a square scene."""
     geo = validate(scene)
     mesh = make_mesh(geo, scene.mesh)
     setup = heat_setup(scene, geo, mesh)
@@ -112,7 +113,7 @@ def steady_convergence(order: int, hs, law: str = "x") -> dict:
     out = {"order": order, "law": law, "conductivity": conductivity, "h": [], "ndofs": [], "l2": [], "h1": [],
            "newton_iterations": []}
     for h in hs:
-        mesh, forms, solver = _prepare(square_scene(h, order, conductivity, T_STEADY), T_STEADY, conductivity, None)
+        mesh, forms, solver = prepare(square_scene(h, order, conductivity, T_STEADY), T_STEADY, conductivity, None)
         forms.t_new.Set(0.0)
         info = solver.solve(f"steady manufactured solution, kappa({law})")
         e0, e1 = _errors(mesh, forms.temperature(), T_STEADY, forms.t_new, order)
@@ -139,7 +140,7 @@ def transient_run(scheme: str, dt: float, *, order: int = 2, maxh: float = 0.25,
     the Newton ``residuals`` (relative) and ``iterations``, and ``newton_order_last``: per step the observed order
     of the last triple of residuals above :data:`NOISE` (None for steps with too few)."""
     scene = square_scene(maxh, order, KAPPA_T, T_TRANSIENT, rho_c=RHO_C_T, scheme=scheme, dt=dt, t_end=t_end)
-    mesh, forms, solver = _prepare(scene, T_TRANSIENT, KAPPA_T, RHO_C_T)
+    mesh, forms, solver = prepare(scene, T_TRANSIENT, KAPPA_T, RHO_C_T)
     T = forms.temperature()
     forms.t_new.Set(0.0)
     T.Set(expression_function(T_TRANSIENT)(forms.t_new))
