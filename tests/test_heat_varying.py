@@ -284,3 +284,37 @@ def test_estimators_take_the_varying_conductivity(law):
         print(f"\nkappa({law}) P{order}: effectivities (ZZ, residual) at h = 0.1, 0.05: {np.round(eff, 3).tolist()}")
         for k in range(2):
             assert 0.8 < eff[0][k] < 3.0 and abs(eff[1][k] / eff[0][k] - 1) < 0.1
+
+
+@pytest.mark.parametrize("dimension", ["3d", "axisymmetric"])
+def test_scenes_with_depth_and_temperature_tables_run(dimension):
+    """A conductivity table in depth times a table in T (Newton through interp's IfPos pieces), a heat capacity
+    of depth, in a 3D box and an axisymmetric section: the runs converge, and the temperatures match the 1D closed
+    form G(T(d)) = G(100) A(d) / A(1), G = int g(T) dT, A = int dd / a(d) (within 0.5 K at h = 0.2 m, P1)."""
+    depth = "-z" if dimension == "3d" else "-y"
+    block = ({"name": "rock", "shape": "box", "origin": [0.0, 0.0, -1.0], "size": [0.5, 0.5, 1.0],
+              "boundaries": {"top": "zmax", "bottom": "zmin"}} if dimension == "3d" else
+             {"name": "rock", "shape": "rectangle", "origin": [0.0, -1.0], "size": [0.5, 1.0],
+              "boundaries": {"top": "ymax", "bottom": "ymin"}})
+    data = {"scene": {"name": "tables", "dimension": dimension}, "physics": {"thermal": "steady"},
+            "mesh": {"maxh": 0.2}, "blocks": [block],
+            "materials": {"rock": {"conductivity": f"interp({depth}, [0, 0.5, 1], [1.0, 2.0, 4.0])"
+                                                  "*interp(T, [0, 50, 100], [3, 2.5, 2])",
+                                   "rho_c": f"2e6 + 1e5*{depth}"}},
+            "boundary_conditions": {"top": {"temperature": 0.0}, "bottom": {"temperature": 100.0}},
+            "output": {"vtk": False, "figures": False,
+                       "probes": [{"name": f"p{k}", "point": [0.25, 0.25, -0.25 * k] if dimension == "3d"
+                                   else [0.25, -0.25 * k]} for k in (1, 2, 3)]}}
+    summary = run(scene_from_dict(data), None, progress=False, threads=1).summary
+    values = [summary["probes"][f"p{k}"]["final"] for k in (1, 2, 3)]
+    print(f"\n{dimension}: T at depths 0.25, 0.5, 0.75 m: {values}; Newton iterations "
+          f"{summary['newton_iterations_max']}")
+    d = np.linspace(0.0, 1.0, 200001)
+    a, temps = np.interp(d, [0, 0.5, 1], [1.0, 2.0, 4.0]), np.linspace(0.0, 100.0, 200001)
+    g = np.interp(temps, [0, 50, 100], [3.0, 2.5, 2.0])
+    A = np.concatenate([[0.0], np.cumsum((1 / a[1:] + 1 / a[:-1]) / 2 * np.diff(d))])
+    G = np.concatenate([[0.0], np.cumsum((g[1:] + g[:-1]) / 2 * np.diff(temps))])
+    exact = [float(np.interp(G[-1] * np.interp(0.25 * k, d, A) / A[-1], G, temps)) for k in (1, 2, 3)]
+    print(f"  closed form {exact}")
+    assert np.max(np.abs(np.array(values) - exact)) < 0.5
+    assert summary["newton_iterations_max"] <= 10
