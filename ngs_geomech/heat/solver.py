@@ -311,9 +311,10 @@ class HeatSolver:
                 if len(bad):
                     i = bad[0]
                     at = ", ".join(f"{c}={x:.6g}" for c, x in zip("xyz", pts[i]))
-                    key = "conductivity" if what == "conductivity" else "rho_c (or density, specific_heat)"
+                    key, value = ("conductivity (or conductivity_principal)", "smallest eigenvalue") \
+                        if what == "conductivity" else ("rho_c (or density, specific_heat)", "value")
                     return (f"the {what} of material {name!r} is not positive at {at} where T = "
-                            f"{values[verts[i]]:.6g} (value {v[i]:.4g}). Check materials.{name}.{key} and the "
+                            f"{values[verts[i]]:.6g} ({value} {v[i]:.4g}). Check materials.{name}.{key} and the "
                             "temperatures the scene reaches (boundary values, sources).")
         return None
 

@@ -99,14 +99,16 @@ def temperature_samples(scene: Scene, geo: GeometryModel, name: str) -> list[flo
 
 def check_material_values(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
     """Append a Problem for the first sample point of each material where a varying value is not finite, is out of
-    its declared range or is refused by a rule of :func:`pointwise_rules`."""
+    its declared range or is refused by a rule of :func:`pointwise_rules` (materials with a problem already are
+    left out)."""
     dim = scene_dim(scene)
     rules = pointwise_rules(scene)
     named = {p.item for p in problems}
     for name, m in scene.materials.items():
         keys = varying_keys(m)
-        if not keys or name not in geo.regions or any(f"materials.{name}.{k}" in named for k in keys):
-            continue
+        if not keys or name not in geo.regions or any(i == f"materials.{name}" or i.startswith(f"materials.{name}.")
+                                                         for i in named):
+            continue                    # a material with a problem already is reported once
         problem = _first_failure(scene, geo, name, m, keys, rules, dim)
         if problem is not None:
             problems.append(problem)
