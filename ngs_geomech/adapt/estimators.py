@@ -40,9 +40,11 @@ Estimators (``kind = "estimator"``) bound the discretization error in the energy
   h (T_amb - T), traction, pressure; unnamed boundaries are insulated / traction free; c_E = 1); none on
   Dirichlet boundaries (per component for elasticity) and on contact interface sides. h_T is the element's
   longest edge, h_E the facet's (m); k_T = trace(kappa)/dim (W/(m K)) or trace of the in-plane normal block of
-  D / dim (Pa) of the element's region. Jumps are computed with a facet space of the solution's order - 1
-  (exact on straight facets; the one-sided normal fluxes summed over the element boundaries, divided by the
-  facet mass).
+  D / dim (Pa) of the element's region. A conductivity that varies (an expression of x, y, z, T) enters R_T with
+  its derivatives (d_i kappa_ij + d kappa_ij/dT d_i T_h) d_j T_h, and the weights (k_T, the ZZ norm's kappa^-1)
+  with its mean over the region (an equivalent norm, within the contrast of kappa in the region). Jumps are
+  computed with a facet space of the solution's order - 1 (exact on straight facets; the one-sided normal fluxes
+  summed over the element boundaries, divided by the facet mass).
 
 Indicators (``kind = "indicator"``, values 1 on the flagged elements, 0 elsewhere; the loop refines them in
 addition to what the marker picks from the estimator):
@@ -72,6 +74,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contact.laws import slip_bound
+from ..fem.coefficients import tensor_cf
 from ..heat.forms import HeatForms
 from ..mechanics.forms import ElasticForms
 
@@ -438,9 +441,9 @@ def zz_heat(forms: HeatForms, *, recovery: str | None = None, recovery_order: in
     T, f, q = _heat_parts(forms)
     eta2 = np.zeros(mesh.ne)
     recovery = _recovery_kind(s.order, recovery)
-    for name, p in s.props.items():
+    for name in s.props:
         region = mesh.Materials(name)
-        kinv = np.linalg.inv(np.asarray(p.kappa, dtype=float))
+        kinv = np.linalg.inv(region_kappa(forms, name))
         if recovery == "spr":
             part = _spr_eta2(mesh, q, region, _spr_degree(s.order, recovery_order), forms.weight / f, kinv)
             if part is not None:
@@ -451,6 +454,41 @@ def zz_heat(forms: HeatForms, *, recovery: str | None = None, recovery_order: in
         d = qs - q
         eta2 += _element_integral(mesh, forms.weight / f * ngs.InnerProduct(cf_matrix(kinv) * d, d), region)
     return Estimate("zz", "estimator", np.sqrt(np.maximum(eta2, 0.0)))
+
+
+def region_kappa(forms: HeatForms, name: str) -> np.ndarray:
+    """The conductivity tensor of a region (W/(m K)): its constant, or for data that vary the mean of
+    kappa(x, T_h) over the region."""
+    p = forms.setup.props[name]
+    if p.kappa.dtype != object:
+        return np.asarray(p.kappa, dtype=float)
+    region, dim = forms.mesh.Materials(f"^{name}$"), forms.mesh.dim
+    k = tensor_cf(p.kappa, forms.temperature())
+    total = np.array(ngs.Integrate(k, forms.mesh, definedon=region), dtype=float).reshape(dim, dim)
+    return total / float(ngs.Integrate(ngs.CoefficientFunction(1.0), forms.mesh, definedon=region))
+
+
+def _varying_conductivity_terms(forms: HeatForms, T):
+    """(d_i kappa_ij + d kappa_ij/dT d_i T) d_j T in the regions whose conductivity varies, else None: what
+    div(kappa grad T) holds beyond kappa : hess T (NGSolve's Diff by a coordinate holds T_h fixed)."""
+    parts, g, dim = {}, ngs.grad(T), forms.mesh.dim
+    coords = (ngs.x, ngs.y, ngs.z)[:dim]
+    for name, p in forms.setup.props.items():
+        if p.kappa.dtype != object:
+            continue
+        k = tensor_cf(p.kappa, T)
+        term = ngs.CoefficientFunction(0.0)
+        for i in range(dim):
+            for j in range(dim):
+                dk = k[i, j].Diff(coords[i])
+                if p.conductivity_uses_temperature:
+                    dk = dk + k[i, j].Diff(T) * g[i]
+                term = term + dk * g[j]
+        parts[name] = term
+    if not parts:
+        return None
+    cf = forms.mesh.MaterialCF(parts, default=0.0)
+    return forms.pressure_factor * cf if forms.gf_pressure is not None else cf
 
 
 def _heat_sources(forms: HeatForms):
@@ -474,11 +512,14 @@ def residual_heat(forms: HeatForms, *, c_volume: float = C_VOLUME, c_jump: float
     if s.nonlinear:
         slope = mesh.MaterialCF({n: p.b for n, p in s.props.items()}, default=0.0)
         R = R + slope * ngs.InnerProduct(forms.kappa * ngs.grad(T), ngs.grad(T))
+    varying = _varying_conductivity_terms(forms, T)
+    if varying is not None:
+        R = R + f * varying
     if s.axisymmetric:
         R = R + q[0] / ngs.x
     if not s.steady:
         R = R - forms.rho_c * forms.inv_dt * (T - forms.temperature(forms.gf_old))
-    k = mesh.MaterialCF({n: float(np.trace(p.kappa)) / dim for n, p in s.props.items()}, default=1.0)
+    k = mesh.MaterialCF({n: float(np.trace(region_kappa(forms, n))) / dim for n in s.props}, default=1.0)
     p = s.order
     hT = _p0_field(mesh, element_sizes(mesh))
     eta2 = c_volume / p ** 2 * _element_integral(mesh, w * hT * hT / (k * f) * R * R)

@@ -11,7 +11,12 @@ plane and 3D scenes, w = r in axisymmetric ones; all integrals carry w):
     l(t; v) = (Q(t), v) + sum_flux <q0(t), v> + sum_Robin <h T_amb(t), v>,
 
 where f(T) = 1 + b (T - T_ref) per region (kappa f(T) grad T = kappa grad Theta(T), Theta the Kirchhoff
-transform). A steady solve drops the time terms (theta = 1). Units: T in K (or degC), kappa W/(m K),
+transform). The conductivity kappa(x, T) and the heat capacity rho c(x, T) may vary in space and with T
+(material values given as expressions): kappa(x, T) f(T) enters the theta terms with the temperature of each term
+(T and T0), and a rho c that depends on T enters as rho c(T_theta) (T - T0)/dt with T_theta = theta T +
+(1 - theta) T0 (second order for Crank-Nicolson); Newton's tangent (NGSolve's linearization of the integrand)
+then holds the terms d kappa/dT dT grad T . grad v and d(rho c)/dT theta dT (T - T0)/dt v, so the iteration
+stays exact (quadratic). A steady solve drops the time terms (theta = 1). Units: T in K (or degC), kappa W/(m K),
 rho c J/(m^3 K), Q W/m^3, q0 W/m^2, h W/(m^2 K).
 
 Contact interfaces are coupled by a mortar method: on the master side Gamma_m a multiplier lambda (the
@@ -34,7 +39,7 @@ from dataclasses import dataclass, field
 import ngsolve as ngs
 import numpy as np
 
-from ..fem.coefficients import Separable, TimeFunction, boundary_cf, region_cf, regions_regex
+from ..fem.coefficients import Separable, TimeFunction, boundary_cf, material_cf, region_cf, regions_regex, tensor_cf
 from ..fem.mortar import mortar_coupling_2d, mortar_coupling_3d
 from .materials import ThermalProperties
 
@@ -67,6 +72,14 @@ class HeatSetup:
     def nonlinear(self) -> bool:
         return any(p.nonlinear for p in self.props.values())
 
+    @property
+    def conductivity_uses_temperature(self) -> bool:
+        return any(p.conductivity_uses_temperature for p in self.props.values())
+
+    @property
+    def capacity_uses_temperature(self) -> bool:
+        return any(p.capacity_uses_temperature for p in self.props.values())
+
 
 def check_pressure_factors(mesh, gf_pressure, coefficients: dict, changed) -> tuple[float, float]:
     """Factors 1 + c_p p per element of the regions with c_p != 0: their (min, max); ValueError naming the
@@ -98,7 +111,6 @@ class HeatForms:
     def __init__(self, mesh, setup: HeatSetup):
         self.mesh = mesh
         self.setup = setup
-        dim = mesh.dim
         dir_names = regions_regex(setup.dirichlet)
         self.V = ngs.H1(mesh, order=setup.order, dirichlet=dir_names)
         self.multiplier_spaces = [ngs.H1(mesh, order=setup.order, definedon=mesh.Boundaries(m))
@@ -113,11 +125,10 @@ class HeatForms:
         self.t_load = ngs.Parameter(0.0)
         self.theta = ngs.Parameter(1.0 if setup.steady else setup.theta)
         self.weight = ngs.x if setup.axisymmetric else ngs.CoefficientFunction(1.0)
-        names = list(setup.props)
-        self.kappa = region_cf(mesh, {n: ngs.CoefficientFunction(tuple(setup.props[n].kappa.flatten()),
-                                                                 dims=(dim, dim)) for n in names},
-                               default=ngs.CoefficientFunction((0.0,) * dim * dim, dims=(dim, dim)))
-        self.rho_c = region_cf(mesh, {n: setup.props[n].rho_c or 0.0 for n in names})
+        self.kappa = self.conductivity(self.temperature())
+        """kappa(x, T) without f(T) (W/(m K)), T the current temperature when it depends on it."""
+        self.rho_c = self.capacity(self.temperature())
+        """rho c(x, T) (J/(m^3 K)), T the current temperature when it depends on it."""
         self.version = 0
         """Changes when the conductivity changes (:meth:`set_pressure`): the solver's cached matrices are stale."""
         self.gf_pressure = None
@@ -126,6 +137,7 @@ class HeatForms:
             self.pressure_factor = region_cf(mesh, {n: 1 + c * self.gf_pressure
                                                     for n, c in setup.pressure_coefficients.items()}, 1.0)
             self.kappa = self.pressure_factor * self.kappa
+            self._kappa_x = self.pressure_factor * self._kappa_x if self._kappa_x is not None else None
         self.extra_load = None
         """An assembled source vector over X (W) added to every right-hand side, e.g. the deformation heating
         of problem (P_c) (lagged, full weight also with theta < 1), or None."""
@@ -202,6 +214,29 @@ class HeatForms:
         self.version += 1
         self._matrices_assembled = False
 
+    def conductivity(self, T):
+        """kappa(x, T) per region, without f(T) (dim x dim CF, W/(m K); times the pressure factor when set): for
+        data that do not depend on T one CF built once (the number path: one constant per region)."""
+        kx = getattr(self, "_kappa_x", None)
+        if kx is not None:
+            return kx
+        dim, props = self.mesh.dim, self.setup.props
+        zero = ngs.CoefficientFunction((0.0,) * dim * dim, dims=(dim, dim))
+        k = region_cf(self.mesh, {n: tensor_cf(p.kappa, T) for n, p in props.items()}, default=zero)
+        if not self.setup.conductivity_uses_temperature:
+            self._kappa_x = k
+        elif getattr(self, "gf_pressure", None) is not None:
+            k = self.pressure_factor * k
+        return k
+
+    def capacity(self, T):
+        """The heat capacity rho c(x, T) per region (J/(m^3 K); 0 where not given)."""
+        props = self.setup.props
+        if not any(p.varying for p in props.values()):
+            return region_cf(self.mesh, {n: p.rho_c or 0.0 for n, p in props.items()})
+        return region_cf(self.mesh, {n: material_cf(p.rho_c, T) if p.rho_c is not None else 0.0
+                                     for n, p in props.items()})
+
     def conductivity_factor(self, T):
         """f(T) = 1 + b (T - T_ref) per region (dimensionless)."""
         if not self.setup.nonlinear:
@@ -215,7 +250,7 @@ class HeatForms:
 
     def heat_flux(self, T):
         """Heat flux vector q = -kappa f(T) grad T, W/m^2."""
-        return -self.conductivity_factor(T) * (self.kappa * ngs.grad(T))
+        return -self.conductivity_factor(T) * (self.conductivity(T) * ngs.grad(T))
 
     def _load_terms(self, v):
         """The load l(t; v) split by how it depends on time: a list of (integrand maker, kind, scale) with
@@ -300,10 +335,12 @@ class HeatForms:
             T, v = X.TnT()
         T_old = self.temperature(self.gf_old)
         th = self.theta
-        k_new = self.conductivity_factor(T) * (self.kappa * ngs.grad(T))
+        k_new = self.conductivity_factor(T) * (self.conductivity(T) * ngs.grad(T))
         lhs = ngs.BilinearForm(X)  # full storage: the solver copies it (with the mortar coupling)
         form = th * w * ngs.InnerProduct(k_new, ngs.grad(v)) * dx
-        if not s.steady:
+        if not s.steady and s.capacity_uses_temperature:
+            form += w * self.inv_dt * self.capacity(th * T + (1 - th) * T_old) * (T - T_old) * v * dx
+        elif not s.steady:
             form += w * self.inv_dt * self.rho_c * T * v * dx
         for name, (h, _) in s.robin.items():
             form += th * w * h * T * v * ngs.ds(definedon=self.mesh.Boundaries(name))
@@ -322,9 +359,11 @@ class HeatForms:
                 stiff += w * h * T * v * ngs.ds(definedon=self.mesh.Boundaries(name))
             self.stiffness += stiff
         elif not s.steady:
-            old = w * self.inv_dt * self.rho_c * T_old * v * dx
-            old += -(1 - th) * w * ngs.InnerProduct(self.conductivity_factor(T_old) * (self.kappa * ngs.grad(T_old)),
-                                                    ngs.grad(v)) * dx
+            old = -(1 - th) * w * ngs.InnerProduct(self.conductivity_factor(T_old) * (self.conductivity(T_old)
+                                                                                       * ngs.grad(T_old)),
+                                                   ngs.grad(v)) * dx
+            if not s.capacity_uses_temperature:        # else in lhs: rho c(T_theta) (T - T_old) / dt
+                old = w * self.inv_dt * self.rho_c * T_old * v * dx + old
             for name, (h, _) in s.robin.items():
                 old += -(1 - th) * w * h * T_old * v * ngs.ds(definedon=self.mesh.Boundaries(name))
             self.old_state = ngs.LinearForm(X)

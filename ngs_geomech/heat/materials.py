@@ -5,6 +5,13 @@ symmetric positive definite. A temperature-dependent conductivity kappa_ij(T) = 
 f(T) = 1 + b (T - T_ref) is handled through the Kirchhoff transform Theta(T) = int_{T_ref}^T f(s) ds
 (seed, before (2.39)), so that the flux is -kappa_ij dTheta/dx_j.
 
+A conductivity (the scalar, the tensor's entries, the principal values), a heat capacity rho c, a density and a
+specific heat may also be expressions of x, y, z, r and (not the density) of T
+(:func:`~ngs_geomech.scene.schema.material_value`): the tensor then holds :class:`~ngs_geomech.scene.schema.Expression`
+entries, and the checks that need values (positive definite, positive) are made by validation at sample points
+(:mod:`ngs_geomech.validation.material_values`, which calls these same functions on the material's values at a
+point) and by the heat solver at the mesh vertices (T-dependent data).
+
 The ranges of single keys (a positive heat capacity, a latent heat >= 0, ...) are declared with the keys
 (:class:`~ngs_geomech.scene.model.Material`) and checked from there (:func:`check_declared`); the rules that join
 several keys or the entries of a tensor (one of two ways to give a datum, a positive definite conductivity) are
@@ -19,8 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MaterialError
+from ..scene import expressions
 from ..scene.model import Material
-from ..scene.schema import first_problem
+from ..scene.schema import Expression, first_problem
 
 
 def check_declared(m: Material, keys: tuple[str, ...]) -> None:
@@ -34,16 +42,55 @@ def check_declared(m: Material, keys: tuple[str, ...]) -> None:
 @dataclass(frozen=True)
 class ThermalProperties:
     """Thermal data of one region: ``kappa`` (dim x dim, W/(m K)) at T_ref, ``rho_c`` (J/(m^3 K),
-    None when not given), ``b`` (1/K) and ``t_ref`` of f(T) = 1 + b (T - T_ref)."""
+    None when not given), ``b`` (1/K) and ``t_ref`` of f(T) = 1 + b (T - T_ref).
+
+    ``kappa`` is a float array for numbers; an object array of floats and expression strings (of x, y, z, r, T)
+    when an entry varies. ``rho_c`` is a float or an expression string."""
 
     kappa: np.ndarray
-    rho_c: float | None
+    rho_c: float | str | None
     b: float = 0.0
     t_ref: float = 0.0
 
     @property
+    def varying(self) -> bool:
+        """Whether a conductivity entry or the heat capacity is an expression."""
+        return self.kappa.dtype == object or isinstance(self.rho_c, str)
+
+    @property
+    def conductivity_uses_temperature(self) -> bool:
+        return self.kappa.dtype == object and any(uses_temperature(e) for e in self.kappa.flat)
+
+    @property
+    def capacity_uses_temperature(self) -> bool:
+        return uses_temperature(self.rho_c)
+
+    @property
     def nonlinear(self) -> bool:
-        return self.b != 0.0
+        """The law k(T) = k (1 + b (T - T_ref)) or a conductivity or heat capacity that depends on T."""
+        return self.b != 0.0 or self.conductivity_uses_temperature or self.capacity_uses_temperature
+
+
+def uses_temperature(value) -> bool:
+    """Whether a material value is an expression of the temperature T."""
+    return isinstance(value, str) and expressions.TEMPERATURE in expressions.uses(value)
+
+
+def is_expression(value) -> bool:
+    return isinstance(value, str)
+
+
+def _combination(terms: list[tuple[float, object]]):
+    """The sum c_k v_k of numbers and expressions: a float when every v_k with c_k != 0 is a number, else an
+    expression string (ValueError when it is too large for an expression)."""
+    terms = [(c, v) for c, v in terms if c != 0.0]
+    if all(not is_expression(v) for _, v in terms):
+        return float(sum(c * v for c, v in terms))
+    text = " + ".join(f"({v})" if c == 1.0 else f"{c!r}*({v})" for c, v in terms)
+    problems = expressions.check(text, expressions.ALL_VARIABLES)
+    if problems:
+        raise ValueError(f"the rotated tensor of the principal values is too large an expression ({problems[0]})")
+    return Expression(text)
 
 
 def rotation_matrix(angle, dim: int) -> np.ndarray:
@@ -74,48 +121,114 @@ def conductivity_tensor(m: Material, dim: int) -> np.ndarray:
         if m.conductivity_angle is not None:
             raise ValueError("'conductivity_angle' goes with 'conductivity_principal', not 'conductivity'")
         k = m.conductivity
+        if is_expression(k):
+            return _diagonal(k, dim)
         if isinstance(k, (int, float)):
             kappa = float(k) * np.eye(dim)
         else:
-            kappa = np.array(k, dtype=float)
-            if kappa.shape != (dim, dim):
-                raise ValueError(f"'conductivity' must be {dim}x{dim} in this scene, got shape {kappa.shape}")
-            if not np.allclose(kappa, kappa.T, rtol=1e-12, atol=0):
-                raise ValueError(f"'conductivity' tensor {kappa.tolist()} is not symmetric")
+            kappa = _tensor(k, dim)
+            if kappa.dtype == object:
+                return kappa
     else:
-        p = np.array(m.conductivity_principal, dtype=float)
-        if p.shape != (dim,):
+        p = list(m.conductivity_principal)
+        if len(p) != dim:
             raise ValueError(f"'conductivity_principal' needs {dim} values, got {len(p)}")
         rot = rotation_matrix(m.conductivity_angle or 0.0, dim)
-        kappa = rot @ np.diag(p) @ rot.T
+        if any(is_expression(v) for v in p):
+            return _rotated(rot, p)
+        kappa = rot @ np.diag(np.array(p, dtype=float)) @ rot.T
     ev = np.linalg.eigvalsh(kappa)
     if ev.min() <= 0:
         raise ValueError(f"conductivity {kappa.tolist()} is not positive definite (eigenvalues {ev.tolist()})")
     return kappa
 
 
-def volumetric_heat_capacity(m: Material) -> float | None:
+def _diagonal(k: str, dim: int) -> np.ndarray:
+    """The tensor k I of an expression k (object array)."""
+    kappa = np.zeros((dim, dim), dtype=object)
+    for i in range(dim):
+        kappa[i, i] = k
+    return kappa
+
+
+def _tensor(k: list, dim: int) -> np.ndarray:
+    """The 'conductivity' matrix: a float array, or an object array when an entry is an expression; ValueError when
+    it is not dim x dim or not symmetric (expressions: the two entries the same text)."""
+    if len(k) != dim or any(not isinstance(row, list) or len(row) != dim for row in k):
+        shape = (len(k), len(k[0]) if k and isinstance(k[0], list) else 0)
+        raise ValueError(f"'conductivity' must be {dim}x{dim} in this scene, got shape {shape}")
+    if not any(is_expression(v) for row in k for v in row):
+        kappa = np.array(k, dtype=float)
+        if not np.allclose(kappa, kappa.T, rtol=1e-12, atol=0):
+            raise ValueError(f"'conductivity' tensor {kappa.tolist()} is not symmetric")
+        return kappa
+    kappa = np.array([[v if is_expression(v) else float(v) for v in row] for row in k], dtype=object)
+    for i in range(dim):
+        for j in range(i):
+            a, b = kappa[i, j], kappa[j, i]
+            same = "".join(a.split()) == "".join(b.split()) if is_expression(a) and is_expression(b) else \
+                not is_expression(a) and not is_expression(b) and np.isclose(a, b, rtol=1e-12, atol=0)
+            if not same:
+                raise ValueError(f"'conductivity' tensor is not symmetric: entries [{i}][{j}] = {a!r} and "
+                                 f"[{j}][{i}] = {b!r} differ (give the same number or expression)")
+    return kappa
+
+
+def _rotated(rot: np.ndarray, p: list) -> np.ndarray:
+    """R diag(p) R^T of principal values of which some are expressions (object array)."""
+    dim = len(p)
+    kappa = np.zeros((dim, dim), dtype=object)
+    for i in range(dim):
+        for j in range(dim):
+            kappa[i, j] = _combination([(float(rot[i, k] * rot[j, k]), p[k]) for k in range(dim)])
+    return kappa
+
+
+def volumetric_heat_capacity(m: Material) -> float | str | None:
     """rho*c in J/(m^3 K), from 'rho_c' or 'density' * 'specific_heat'; None when not given.
 
     'density' alone is allowed (gravity needs it); 'specific_heat' needs 'density'. Each is positive (declared).
+    An expression (of x, y, z, r, T) is returned as such: rho_c itself, or the product ``(density)*(specific_heat)``.
     """
     if m.rho_c is not None:
         if m.specific_heat is not None:
             raise ValueError("give either 'rho_c' or 'density' and 'specific_heat', not both")
         check_declared(m, ("rho_c",))
-        return float(m.rho_c)
+        return m.rho_c if is_expression(m.rho_c) else float(m.rho_c)
     if m.specific_heat is not None:
         if m.density is None:
             raise ValueError("'specific_heat' needs 'density'")
         check_declared(m, ("density", "specific_heat"))
+        if is_expression(m.density) or is_expression(m.specific_heat):
+            return _combination_product(m.density, m.specific_heat)
         return float(m.density * m.specific_heat)
     return None
+
+
+def _combination_product(a, b) -> str:
+    """The expression ``(a)*(b)`` of a density and a specific heat; ValueError when it is too large."""
+    text = f"({a})*({b})"
+    problems = expressions.check(text, expressions.ALL_VARIABLES)
+    if problems:
+        raise ValueError(f"density * specific_heat is too large an expression ({problems[0]})")
+    return Expression(text)
 
 
 def thermal_properties(m: Material, dim: int) -> ThermalProperties:
     """All thermal data of a material (raises ValueError naming the key at fault)."""
     return ThermalProperties(kappa=conductivity_tensor(m, dim), rho_c=volumetric_heat_capacity(m),
                              b=m.conductivity_temperature_coefficient, t_ref=m.reference_temperature)
+
+
+VARYING_KEYS = ("conductivity", "conductivity_principal", "rho_c", "density", "specific_heat")
+"""The thermal keys that may be expressions (:func:`~ngs_geomech.scene.schema.material_value`)."""
+
+
+def expression_keys(m: Material) -> list[str]:
+    """The thermal keys of a material given as expressions (also an entry of a tensor or a list)."""
+    def varies(v) -> bool:
+        return is_expression(v) or isinstance(v, (list, tuple)) and any(varies(e) for e in v)
+    return [k for k in VARYING_KEYS if varies(getattr(m, k))]
 
 
 # -- phase change (the Stefan problem, seed (2.46)-(2.51)) -------------------------------------------------------
@@ -145,6 +258,9 @@ def isotropic_conductivity(m: Material, dim: int) -> float:
     """The scalar conductivity k (W/(m K)) of a material whose tensor is k I; ValueError otherwise (the Stefan
     forms take an isotropic conductivity per phase)."""
     kappa = conductivity_tensor(m, dim)
+    if kappa.dtype == object:
+        raise ValueError("an expression: the Stefan (phase change) solver of a scene with phase change takes "
+                         "constant material data in every region (a number per phase)")
     k = float(kappa[0, 0])
     if not np.allclose(kappa, k * np.eye(dim), rtol=1e-12, atol=1e-12 * abs(k)):
         raise ValueError(f"conductivity {kappa.tolist()} is anisotropic: the Stefan (phase change) solver of a "

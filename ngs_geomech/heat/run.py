@@ -52,7 +52,7 @@ class HeatRun(ThermalPart):
                                  preconditioner=sv.preconditioner)
         self.T = self.forms.temperature()
         self.fields = {"temperature": self.T, "heat_flux": self.forms.heat_flux(self.T)}
-        if setup.nonlinear:
+        if any(p.b != 0.0 for p in setup.props.values()):
             self.fields["kirchhoff_theta"] = self.forms.kirchhoff(self.T)
         self.probe_fields = {"temperature": self.T}
         self.flows: dict[str, list[float]] = {}

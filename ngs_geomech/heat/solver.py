@@ -11,7 +11,7 @@ import numpy as np
 
 from .. import parallel
 from ..errors import SolverError
-from ..fem.coefficients import regions_regex
+from ..fem.coefficients import material_cf, regions_regex, tensor_cf
 from ..linalg.direct import check_finite, inverse, not_finite, solve_watched
 from ..linalg.iterative import DEFAULT_TOL, PCG, Preconditioned, choose_solver
 from .forms import HeatForms
@@ -20,12 +20,14 @@ from .forms import HeatForms
 @dataclass
 class StepInfo:
     """What one solve did: Newton iterations (1 for linear solves) and the final relative residual;
-    ``cg_iterations`` the CG iterations of an iterative linear solve (0 for direct solves)."""
+    ``cg_iterations`` the CG iterations of an iterative linear solve (0 for direct solves); ``residuals`` the
+    relative residual before each Newton iteration and after the last (empty for linear solves)."""
 
     iterations: int
     residual: float
     factorized: bool
     cg_iterations: int = 0
+    residuals: tuple = ()
 
 
 class HeatSolver:
@@ -58,6 +60,7 @@ class HeatSolver:
         self.factorizations = 0
         self._free_mask = None
         self._region_vertices = None
+        self._vertex_temperature = None
         self.backward_euler_steps = 0
         """The next this many steps take theta = 1 whatever the scheme (a restart after the state was carried to
         a new mesh without the old interface multipliers: :mod:`ngs_geomech.adapt.contact_following`)."""
@@ -202,6 +205,7 @@ class HeatSolver:
         r0 = residual(gf.vec)
         scale = max(r0, float(ngs.Norm(rhs)), 1e-300)
         rel = r0 / scale
+        history = [rel]
         it = 0
         while rel > self.newton_tol:
             if it >= self.newton_maxit:
@@ -232,16 +236,18 @@ class HeatSolver:
                                   f"residual {rel:.3e}. Reduce the time step or check kappa(T) > 0.")
             gf.vec.data = trial
             rel = new_rel
+            history.append(rel)
             it += 1
         check_finite(gf.vec, f"heat solve at {where}")
         self.check_conductivity(where)
-        return StepInfo(max(it, 1), rel, True)
+        return StepInfo(max(it, 1), rel, True, residuals=tuple(history))
 
     def check_conductivity(self, where: str, state=None) -> None:
         """Raise SolverError naming the material and the temperature where f(T) = 1 + b (T - T_ref) of k(T) is
-        not positive at a vertex of its region (``state``: a state vector, default the solver's). The vertex
-        dofs of the H1 temperature hold its values at the vertices. On a distributed mesh raised on every rank
-        when a vertex of some rank fails."""
+        not positive at a vertex of its region, or where a conductivity or heat capacity given as an expression of
+        T is not positive (definite) there (``state``: a state vector, default the solver's). The vertex dofs of
+        the H1 temperature hold its values at the vertices. On a distributed mesh raised on every rank when a
+        vertex of some rank fails."""
         f = self.f
         if self._region_vertices is None:
             self._region_vertices = {n: np.unique([v.nr for el in f.mesh.Materials(f"^{n}$").Elements()
@@ -250,7 +256,8 @@ class HeatSolver:
         values = f.temperature().vec.FV().NumPy()
         if state is not None:                   # a compound state (contacts) holds the temperature first
             values = state.FV().NumPy()[:len(values)]
-        errors = [e for e in parallel.allgather(f.mesh, self._conductivity_error(values)) if e is not None]
+        error = self._conductivity_error(values) or self._temperature_law_error(values)
+        errors = [e for e in parallel.allgather(f.mesh, error) if e is not None]
         if errors:
             raise SolverError(f"heat solve at {where}: {errors[0]}")
 
@@ -258,6 +265,8 @@ class HeatSolver:
         """The message for the first region whose k(T) factor is not positive at a vertex (None: none)."""
         for name, verts in self._region_vertices.items():
             p = self.f.setup.props[name]
+            if p.b == 0.0:
+                continue
             temps = values[verts]
             factor = 1 + p.b * (temps - p.t_ref)
             bad = np.nonzero(~(factor > 0))[0]
@@ -268,6 +277,45 @@ class HeatSolver:
                         f"{'>' if p.b > 0 else '<'} {p.t_ref - 1 / p.b:.6g}). Check materials.{name}."
                         "conductivity_temperature_coefficient and the temperatures the scene reaches (boundary "
                         "values, sources).")
+        return None
+
+    def _temperature_law_error(self, values: np.ndarray) -> str | None:
+        """The message for the first region whose conductivity (smallest eigenvalue) or heat capacity, given as an
+        expression of T, is not positive at a vertex with the temperatures ``values`` (None: none)."""
+        f = self.f
+        laws = {n: p for n, p in f.setup.props.items()
+                if p.conductivity_uses_temperature or p.capacity_uses_temperature}
+        if not laws:
+            return None
+        if self._vertex_temperature is None:
+            self._vertex_temperature = ngs.GridFunction(f.V)
+        T = self._vertex_temperature
+        T.vec.FV().NumPy()[:] = values[:f.V.ndof]
+        for name, p in laws.items():
+            verts = self._region_vertices[name]
+            if len(verts) == 0:
+                continue
+            pts = np.array([f.mesh.vertices[int(v)].point for v in verts])
+            mips = f.mesh(*pts.T)
+            checks = []
+            if p.conductivity_uses_temperature:
+                k = np.asarray(tensor_cf(p.kappa, T)(mips), dtype=float).reshape(len(verts), f.mesh.dim, f.mesh.dim)
+                finite = np.isfinite(k).all(axis=(1, 2))
+                smallest = np.full(len(verts), np.nan)
+                smallest[finite] = np.linalg.eigvalsh(k[finite])[:, 0]
+                checks.append(("conductivity", smallest))
+            if p.capacity_uses_temperature:
+                checks.append(("heat capacity", np.asarray(material_cf(p.rho_c, T)(mips), dtype=float).ravel()))
+            for what, v in checks:
+                bad = np.nonzero(~(v > 0))[0]
+                if len(bad):
+                    i = bad[0]
+                    at = ", ".join(f"{c}={x:.6g}" for c, x in zip("xyz", pts[i]))
+                    key, value = ("conductivity (or conductivity_principal)", "smallest eigenvalue") \
+                        if what == "conductivity" else ("rho_c (or density, specific_heat)", "value")
+                    return (f"the {what} of material {name!r} is not positive at {at} where T = "
+                            f"{values[verts[i]]:.6g} ({value} {v[i]:.4g}). Check materials.{name}.{key} and the "
+                            "temperatures the scene reaches (boundary values, sources).")
         return None
 
     def _linearized_solve(self, state, res, du, where: str) -> None:

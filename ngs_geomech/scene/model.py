@@ -26,6 +26,7 @@ from .schema import (
     field,
     integer,
     list_of,
+    material_value,
     nested,
     number,
     one_of,
@@ -212,8 +213,11 @@ class Foundation(ContactMechanics):
 
 
 number_or_matrix = either(number, matrix, what="a number or a symmetric matrix [[kxx, kxy], [kxy, kyy]]")
-conductivity_value = either(positive(number, "W/(m K)"), matrix,
-                            what="a positive number or a symmetric positive definite matrix [[kxx, kxy], [kxy, kyy]]")
+conductivity_scalar = material_value(positive(number, "W/(m K)"), temperature=True)
+"""A conductivity, W/(m K): a positive number, or an expression of x, y, z, r and T (positive where it applies)."""
+conductivity_value = either(conductivity_scalar, list_of(list_of(material_value(number, temperature=True))),
+                            what="a positive number or a symmetric positive definite matrix [[kxx, kxy], [kxy, kyy]]; "
+                                 "the number and each entry may be an expression of x, y, z, r, T")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -259,9 +263,13 @@ class Material:
     """
 
     conductivity: object = field(optional(conductivity_value), None,
-                                 doc="thermal conductivity kappa_ij, W/(m K): scalar or full symmetric tensor")
-    conductivity_principal: list | None = field(optional(list_of(positive(number, "W/(m K)"))), None,
-                                                doc="principal conductivities, W/(m K) (with conductivity_angle)")
+                                 doc="thermal conductivity kappa_ij, W/(m K): scalar or full symmetric tensor; the "
+                                     "scalar and the entries may be expressions of x, y, z, r (m) and T (the "
+                                     "temperature, scene unit; the heat solver's Newton iteration takes "
+                                     "d kappa/dT): positive (definite) where they apply")
+    conductivity_principal: list | None = field(optional(list_of(conductivity_scalar)), None,
+                                                doc="principal conductivities, W/(m K) (with conductivity_angle); "
+                                                    "numbers or expressions of x, y, z, r, T")
     conductivity_angle: object = field(optional(either(number, point, what="an angle or 3 angles")), None,
                                        doc="rotation of the principal axes, degrees: one angle in 2D "
                                            "(from x), Z-Y-X Euler angles [a, b, c] in 3D")
@@ -279,11 +287,16 @@ class Material:
                                                          "mean pressure (compression > 0) of the mechanics; needs "
                                                          "physics.coupling (the pressure of the last mechanics "
                                                          "solve enters each heat step)")
-    rho_c: float | None = field(optional(positive(number, "J/(m^3 K)")), None,
-                                doc="volumetric heat capacity rho*c, J/(m^3 K)")
-    density: float | None = field(optional(positive(number, "kg/m^3")), None, doc="rho, kg/m^3 (with specific_heat)")
-    specific_heat: float | None = field(optional(positive(number, "J/(kg K)")), None,
-                                        doc="c, J/(kg K) (with density)")
+    rho_c: object = field(optional(material_value(positive(number, "J/(m^3 K)"), temperature=True)), None,
+                          doc="volumetric heat capacity rho*c, J/(m^3 K): a number or an expression of x, y, z, r "
+                              "and T (transient heat: the step takes rho c at theta T_new + (1 - theta) T_old; "
+                              "Newton takes d(rho c)/dT)")
+    density: object = field(optional(material_value(positive(number, "kg/m^3"))), None,
+                            doc="rho, kg/m^3 (with specific_heat; gravity, inertia): a number, or for the heat "
+                                "capacity density * specific_heat an expression of x, y, z, r (the mechanics takes "
+                                "a number)")
+    specific_heat: object = field(optional(material_value(positive(number, "J/(kg K)"), temperature=True)), None,
+                                  doc="c, J/(kg K) (with density): a number or an expression of x, y, z, r and T")
     youngs_modulus: float | None = field(optional(positive(modulus, "Pa")), None,
                                          doc="E, Pa (isotropic, with poisson_ratio)")
     poisson_ratio: float | None = field(optional(bounded(number, -1, 0.5, lo_open=True, hi_open=True)), None,

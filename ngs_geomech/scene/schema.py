@@ -198,6 +198,30 @@ def expr(v, path, problems):
 _label(expr, "number or expression")
 
 
+MATERIAL_VARIABLES = ("x", "y", "z", "r")
+"""The variables of a material value: the coordinates (m; r = x in axisymmetric scenes)."""
+
+
+def material_value(conv: Conv, *, temperature: bool = False) -> Conv:
+    """A material value: a number that ``conv`` accepts (with the range declared there), or an expression string
+    of x, y, z, r and, with ``temperature``, of the temperature T (degC or K, the scene's unit), read as
+    :class:`Expression`. The number path is the number path (nothing changes for a scene of numbers); an expression
+    becomes a CoefficientFunction per region (:func:`ngs_geomech.fem.coefficients.material_cf`) and validation
+    samples it over its region (and T over the temperatures the region takes) against the same declared range
+    (:mod:`ngs_geomech.validation.material_values`)."""
+    variables = MATERIAL_VARIABLES + ((expressions.TEMPERATURE,) if temperature else ())
+
+    def c(v, path, problems):
+        if isinstance(v, str):
+            msgs = expressions.check(v, variables)
+            if msgs:
+                raise Invalid("; ".join(msgs))
+            return Expression(v)
+        return conv(v, path, problems)
+    c.variables = variables
+    return _label(c, f"{conv.what}; or an expression of {', '.join(variables)}")
+
+
 def one_of(*choices: str) -> Conv:
     def conv(v, path, problems):
         if v not in choices:
@@ -211,6 +235,8 @@ def one_of(*choices: str) -> Conv:
 def optional(conv: Conv) -> Conv:
     def c(v, path, problems):
         return None if v is None else conv(v, path, problems)
+    if hasattr(conv, "variables"):
+        c.variables = conv.variables
     return _label(c, getattr(conv, "what", "?"), getattr(conv, "schema", None), getattr(conv, "item", None))
 
 

@@ -10,7 +10,8 @@ penalty on the temperature jump (``thermal_penalty``; :mod:`ngs_geomech.stefan.f
 ``conductivity_temperature_coefficient`` b and ``reference_temperature`` give k(T) = k (1 + b (T - T_ref)) in
 both phases (``conductivity`` and ``conductivity_liquid`` are the values at T_ref); a run stops with an error
 naming that key when k is not positive at a temperature reached. Validation refuses Robin conditions,
-anisotropic conductivities, axisymmetric scenes and P2.
+anisotropic conductivities, material values given as expressions (x- or T-dependent data), axisymmetric scenes
+and P2.
 
 Volumes are m^2 per metre of depth in plane scenes (m^3 in 3D), heats J per metre of depth (J in 3D).
 

@@ -5,10 +5,13 @@ with it (:class:`~ngs_geomech.scene.model.Material`) and checked by :func:`~ngs_
 
 from __future__ import annotations
 
+import dataclasses
+
 from ..errors import MaterialError, Problem
 from ..geometry.assemble import GeometryModel, scene_dim
 from ..heat.materials import (
     conductivity_tensor,
+    expression_keys,
     has_phase_change,
     isotropic_conductivity,
     phase_change_problems,
@@ -16,6 +19,7 @@ from ..heat.materials import (
 )
 from ..mechanics.materials import axisymmetric, elastic_properties
 from ..scene.model import Scene
+from ..scene.schema import Expression
 from .expression_values import value_range
 
 
@@ -53,6 +57,11 @@ def check_materials(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem(f"materials.{name}", "a transient thermal scene needs rho_c "
                                                          "(or density and specific_heat)"))
         if scene.physics.mechanics is not None:
+            if isinstance(mat.density, Expression):
+                problems.append(Problem(f"materials.{name}.density", "an expression: the mechanics (gravity, inertia) "
+                                        "takes the density as a number; an expression of x, y, z is read by the heat "
+                                        "capacity (density * specific_heat) only"))
+                mat = dataclasses.replace(mat, density=None)
             try:
                 props = elastic_properties(mat, dim)
                 if scene.scene.dimension == "axisymmetric":
@@ -102,6 +111,14 @@ def check_phase_change(scene: Scene, problems: list[Problem]) -> None:
                                     "take a heat transfer (Robin) condition; give a temperature or a flux"))
     dim = scene_dim(scene)
     for name, mat in scene.materials.items():
+        varying = expression_keys(mat)
+        for key in varying:
+            problems.append(Problem(f"materials.{name}.{key}", f"an expression: {why} takes constant material data "
+                                    "(a number per region and phase; its nodal enthalpy and Kirchhoff variable are "
+                                    "built from them); expressions of x, y, z, T are taken by the heat solver of "
+                                    "scenes without phase change"))
+        if varying:
+            continue
         # conductivity_temperature_coefficient: k(T) = k (1 + b (T - T_ref)) in both phases (the Kirchhoff
         # variable is then piecewise quadratic); that k stays positive is checked at the temperatures reached
         try:

@@ -71,6 +71,8 @@ def check_expression_values(scene, geo: GeometryModel, problems: list[Problem]) 
 def _target(scene, geo: GeometryModel, key: str) -> tuple | None:
     """What an expression applies to: ('boundary', names), ('region', names) or ('all',); None: not sampled."""
     parts = key.split(".")
+    if parts[0] == "materials":
+        return None                     # material values: validation.material_values
     if parts[0] == "boundary_conditions":
         return ("boundary", (parts[1],)) if parts[1] in geo.boundaries else None
     if key.startswith("initial.regions."):
@@ -84,6 +86,12 @@ def _target(scene, geo: GeometryModel, key: str) -> tuple | None:
         cs = geo.contacts.get(scene.interfaces[i].name)
         return None if cs is None else ("boundary", (cs.master, cs.minion))
     return ("all",)
+
+
+def sample_points(geo: GeometryModel, target: tuple) -> np.ndarray:
+    """Sample points (n x 3) of a target ('region', names), ('boundary', names) or ('all',): vertices, points along
+    edges and grid points inside (:data:`GRID` per axis of the bounding box)."""
+    return _points(geo, target)
 
 
 def _points(geo: GeometryModel, target: tuple) -> np.ndarray:

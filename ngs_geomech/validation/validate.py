@@ -5,8 +5,8 @@ material, unphysical values, inconsistent settings. The declared type and range 
 (:func:`~ngs_geomech.scene.schema.recheck`), then the rules that join keys, by subject: names and temperatures
 (:mod:`.check_values`), settings (:mod:`.check_settings`, :mod:`.check_adaptivity`), materials
 (:mod:`.check_materials`) and, on the geometry (built cheaply: OCC shapes, no mesh), the names it must hold
-(:mod:`.check_geometry`) and the values expressions take on it (:mod:`.expression_values`). What distributed runs
-cannot do is :mod:`.check_distributed`.
+(:mod:`.check_geometry`), the values expressions take on it (:mod:`.expression_values`) and the material values that
+vary over their regions (:mod:`.material_values`). What distributed runs cannot do is :mod:`.check_distributed`.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from .check_materials import check_conductivity_range, check_materials, check_ph
 from .check_settings import check_settings
 from .check_values import check_names, check_temperatures
 from .expression_values import check_expression_values
+from .material_values import check_material_values
 
 __all__ = ["distributed_problems", "stefan_scene", "validate"]
 
@@ -44,6 +45,7 @@ def validate(scene: Scene) -> GeometryModel:
         check_references(scene, geo, problems)
         check_mesh_size(scene, geo, problems)
         check_expression_values(scene, geo, problems)
+        check_material_values(scene, geo, problems)
         if not problems:
             check_conductivity_range(scene, geo, problems)
     if problems:

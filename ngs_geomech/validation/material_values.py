@@ -1,0 +1,184 @@
+"""Material values that vary (expressions of x, y, z, r and T, :func:`~ngs_geomech.scene.schema.material_value`),
+checked before meshing.
+
+Each material is taken at sample points of its region (the points of :mod:`.expression_values`: vertices, points
+along the edges, a grid inside) and, where a value depends on T, at the temperatures the region surely takes
+(:func:`temperature_samples`); there its values are numbers, and the material is read by the same functions that
+read numbers: the declared type and range of each key (:func:`~ngs_geomech.scene.schema.first_problem`) and the
+rules of the physics switched on (:func:`pointwise_rules`: a symmetric positive definite conductivity, a positive
+heat capacity, ...). The first point where a value is not finite or is refused is reported under the key, with the
+region, the point (and T) and the expression. The cost is bounded: at most :data:`BUDGET` expression-node
+evaluations per material (the points are thinned evenly beyond it).
+
+A physics that takes material values adds its reading to :func:`pointwise_rules`; nothing else is needed for its
+keys to be sampled.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from ..errors import MaterialError, Problem
+from ..geometry.assemble import GeometryModel, scene_dim
+from ..heat.materials import conductivity_tensor, volumetric_heat_capacity
+from ..scene import expressions
+from ..scene.model import Material, Scene
+from ..scene.schema import Expression, first_problem
+from .expression_values import sample_points, value_range
+
+BUDGET = 300_000
+"""Most expression-node evaluations per material (points x temperatures x nodes)."""
+TEMPERATURES = 3
+"""Temperatures sampled over the range a region takes (its ends and the middle)."""
+
+Rule = tuple[tuple[str, ...], Callable[[Material, int], object]]
+"""(the keys a reading depends on, the reading: raises MaterialError naming a key or ValueError)."""
+
+
+def pointwise_rules(scene: Scene) -> list[Rule]:
+    """The readings of a material that must succeed at every sample point, by the physics switched on."""
+    rules: list[Rule] = []
+    if scene.physics.thermal is not None:
+        rules.append((("conductivity", "conductivity_principal", "conductivity_angle"), conductivity_tensor))
+        rules.append((("rho_c", "density", "specific_heat"), lambda m, dim: volumetric_heat_capacity(m)))
+    return rules
+
+
+def varying_keys(m: Material) -> list[str]:
+    """The keys of a material whose value holds an expression (also an entry of a list or a matrix)."""
+    return [f.name for f in dataclasses.fields(m) if _holds_expression(getattr(m, f.name))]
+
+
+def _holds_expression(v) -> bool:
+    return isinstance(v, Expression) or isinstance(v, (list, tuple)) and any(_holds_expression(e) for e in v)
+
+
+def material_at(m: Material, keys: list[str], functions: dict, values: dict) -> Material:
+    """The material with the expressions of ``keys`` replaced by their values at ``values`` (x, y, z, r, T);
+    ``functions`` caches the compiled expressions. Raises ArithmeticError / ValueError where one has no value."""
+    def sub(v):
+        if isinstance(v, Expression):
+            f = functions.get(v)
+            if f is None:
+                f = functions[v] = expressions.float_function(v, expressions.ALL_VARIABLES)
+            r = f(**values)
+            if not math.isfinite(r):
+                raise ArithmeticError(f"value {r}")
+            return r
+        if isinstance(v, (list, tuple)):
+            return [sub(e) for e in v]
+        return v
+    return dataclasses.replace(m, **{k: sub(getattr(m, k)) for k in keys})
+
+
+def temperature_samples(scene: Scene, geo: GeometryModel, name: str) -> list[float]:
+    """Temperatures region ``name`` surely takes: the range of its initial temperature (transient scenes) and of
+    the prescribed temperatures on its block's boundaries, sampled at :data:`TEMPERATURES` points; without such data
+    the range of every prescribed temperature of the scene; without any, the material's reference_temperature."""
+    def ranges(data):
+        out = []
+        for value, target in data:
+            r = value_range(geo, value, target)
+            if r is not None:
+                out += list(r)
+        return out
+    dirichlet = [(n, bc.temperature) for n, bc in scene.boundary_conditions.items() if bc.temperature is not None]
+    own = [(v, ("boundary", (n,))) for n, v in dirichlet if n in geo.block_boundaries.get(name, ())]
+    if scene.physics.thermal == "transient":
+        own.append((scene.initial.regions.get(name, scene.initial.temperature), ("region", (name,))))
+    found = ranges(own) or ranges([(v, ("boundary", (n,))) for n, v in dirichlet if n in geo.boundaries])
+    if not found:
+        return [float(scene.materials[name].reference_temperature)]
+    lo, hi = min(found), max(found)
+    return sorted(set(np.linspace(lo, hi, TEMPERATURES).tolist())) if hi > lo else [lo]
+
+
+def check_material_values(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
+    """Append a Problem for the first sample point of each material where a varying value is not finite, is out of
+    its declared range or is refused by a rule of :func:`pointwise_rules` (materials with a problem already are
+    left out)."""
+    dim = scene_dim(scene)
+    rules = pointwise_rules(scene)
+    named = {p.item for p in problems}
+    for name, m in scene.materials.items():
+        keys = varying_keys(m)
+        if not keys or name not in geo.regions or any(i == f"materials.{name}" or i.startswith(f"materials.{name}.")
+                                                         for i in named):
+            continue                    # a material with a problem already is reported once
+        problem = _first_failure(scene, geo, name, m, keys, rules, dim)
+        if problem is not None:
+            problems.append(problem)
+
+
+def _first_failure(scene, geo, name: str, m: Material, keys: list[str], rules: list[Rule], dim: int):
+    """The Problem at the first sample point where material ``name`` fails (None when it never does)."""
+    texts = [e for k in keys for e in _expressions(getattr(m, k))]
+    with_t = any(expressions.TEMPERATURE in expressions.uses(e) for e in texts)
+    temps = temperature_samples(scene, geo, name) if with_t else [0.0]
+    pts = sample_points(geo, ("region", (name,)))
+    nodes = sum(expressions.node_count(e) for e in texts)
+    step = max(1, math.ceil(len(pts) * len(temps) * nodes / BUDGET))
+    functions: dict = {}
+    for T in temps:
+        for p in pts[::step]:
+            values = {"x": float(p[0]), "y": float(p[1]), "z": float(p[2]), "r": float(p[0]), "T": float(T)}
+            failure = _failure_at(m, keys, rules, functions, values, dim)
+            if failure is not None:
+                key, message = failure
+                texts = _texts_of(m, key)
+                at = ", ".join(f"{n}={values[n] + 0.0:.6g}" for n in ("x", "y", "z")[:dim])
+                if any(expressions.TEMPERATURE in expressions.uses(e) for e in texts):
+                    at += f" and T = {T:.6g}"
+                shown = ", ".join(repr(expressions.short(e)) for e in texts)
+                shown = f" (expression{'s' if len(texts) > 1 else ''} {shown})" if texts else ""
+                return Problem(f"materials.{name}.{key}", f"{message} at {at} of region {name!r}{shown}")
+    return None
+
+
+def _failure_at(m: Material, keys: list[str], rules: list[Rule], functions: dict, values: dict, dim: int):
+    """(key, message) of what fails at one point, or None."""
+    for key in keys:
+        try:
+            material_at(m, [key], functions, values)
+        except (ArithmeticError, ValueError) as exc:
+            why = "division by zero" if isinstance(exc, ZeroDivisionError) else "overflow" if isinstance(
+                exc, OverflowError) else "a function outside its domain" if "domain" in str(exc) else str(exc)
+            return key, f"is not finite ({why})"
+    mp = material_at(m, keys, functions, values)
+    problem = first_problem(mp, tuple(keys))
+    if problem is not None:
+        return problem.item, problem.message
+    for rule_keys, read in rules:
+        varying = [k for k in rule_keys if k in keys]
+        if not varying:
+            continue
+        try:
+            read(mp, dim)
+        except MaterialError as exc:
+            return exc.key or varying[0], exc.detail
+        except ValueError as exc:
+            return varying[0], str(exc)
+    return None
+
+
+def _expressions(v) -> list[str]:
+    if isinstance(v, Expression):
+        return [v]
+    if isinstance(v, (list, tuple)):
+        return [e for x in v for e in _expressions(x)]
+    return []
+
+
+def _texts_of(m: Material, key: str) -> list[str]:
+    """The distinct expressions of a key (a list or matrix may hold several); ``key`` may carry an index
+    (``conductivity_principal[1]``: that entry's)."""
+    base, _, rest = key.partition("[")
+    value = getattr(m, base, None)
+    if rest and isinstance(value, (list, tuple)) and rest.split("]")[0].isdigit():
+        index = int(rest.split("]")[0])
+        value = value[index] if index < len(value) else value
+    return list(dict.fromkeys(_expressions(value)))
