@@ -225,15 +225,16 @@ def observed_orders(h: list[float], err: list[float]) -> list[float]:
 def arc_profile(*, order: int = 2, sizes: tuple = (0.8, 0.4, 0.2, 0.1), r: float = 1.0, w: float = 0.6) -> dict:
     """The meshed area and roof length of :func:`arc_profile_scene` against the closed forms per mesh size:
     {"h", "area_error", "length_error" (relative), "area_orders", "length_orders", "occ_area_error" (the OCC
-    face's area against the closed form)}."""
+    face's area against the closed form), "dofs" (of P``order``)}."""
     exact_area, exact_len = tunnel_area(r, w), math.pi * r
-    out = {"h": list(sizes), "area_error": [], "length_error": []}
+    out = {"h": list(sizes), "area_error": [], "length_error": [], "dofs": []}
     for h in sizes:
         scene = scene_from_dict(arc_profile_scene(r=r, w=w, maxh=h, order=order))
         geo = build_geometry(scene)
         mesh = make_mesh(geo, scene.mesh)
         area = ngs.Integrate(ngs.CF(1.0), mesh)
         length = ngs.Integrate(ngs.CF(1.0), mesh, definedon=mesh.Boundaries("roof"))
+        out["dofs"].append(ngs.H1(mesh, order=order).ndof)
         out["area_error"].append(abs(area / exact_area - 1))
         out["length_error"].append(abs(length / exact_len - 1))
         out["occ_area_error"] = abs(float(sum(c.mass for c in cells(geo.shape, 2))) / exact_area - 1)
@@ -263,10 +264,11 @@ def arc_prism_scene(*, length: float = 2.0, axis: list | None = None, maxh: floa
 def arc_prism(*, length: float = 2.0, axis: list | None = None, sizes: tuple = (0.8, 0.4, 0.2), order: int = 2,
               r: float = 1.0, w: float = 0.6) -> dict:
     """The volume of :func:`arc_prism_scene` against area x length x |a . n| (n = -y, the x-z plane's normal):
-    {"exact", "occ_error" (the OCC solid), "h", "mesh_error" (relative, per size), "orders", "boundaries"}."""
+    {"exact", "occ_error" (the OCC solid), "h", "mesh_error" (relative, per size), "orders", "boundaries",
+    "dofs" (of P``order``)}."""
     a = np.array(axis or [0, 1, 0], float)
     exact = tunnel_area(r, w) * length * abs(a[1]) / np.linalg.norm(a)
-    out = {"exact": exact, "h": list(sizes), "mesh_error": []}
+    out = {"exact": exact, "h": list(sizes), "mesh_error": [], "dofs": []}
     for h in sizes:
         scene = scene_from_dict(arc_prism_scene(length=length, axis=axis, maxh=h, order=order, r=r, w=w))
         geo = build_geometry(scene)
@@ -274,5 +276,6 @@ def arc_prism(*, length: float = 2.0, axis: list | None = None, sizes: tuple = (
         out["boundaries"] = sorted(geo.boundaries)
         mesh = make_mesh(geo, scene.mesh)
         out["mesh_error"].append(abs(ngs.Integrate(ngs.CF(1.0), mesh) / exact - 1))
+        out["dofs"].append(ngs.H1(mesh, order=order).ndof)
     out["orders"] = observed_orders(out["h"], out["mesh_error"])
     return out
