@@ -154,8 +154,8 @@ class Block:
     length: float | None = field(optional(positive(number)), None,
                                  doc="prism: extrusion length along axis, m")
     file: str | None = field(optional(string), None,
-                             doc="import: a STEP (.step, .stp) or BREP (.brep) file, relative to the scene file; "
-                                 "read only")
+                             doc="import: a STEP (.step, .stp) or BREP (.brep) file, relative to the scene file "
+                                 "(a scene built in Python or a --set value: to the working directory); only read")
     length_unit: str = field(one_of("declared", *LENGTH_UNITS), "declared",
                              doc="import: the unit of the file's coordinates: 'declared' (the unit a STEP file "
                                  "declares, converted to m; BREP files declare none and are read in m) or one of "
