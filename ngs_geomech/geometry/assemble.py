@@ -8,7 +8,10 @@ Rules:
 - a ``contact`` interface between blocks that do not touch (an initial gap) names its two sides with
   ``sides = [name on the first block, name on the second block]``: boundary names of the blocks' own sides
   (selectors, polygon/profile edge names), each only on its block; they keep their names;
-- sides without a name are called ``default`` by netgen; they are insulated / traction free.
+- sides without a name are called ``default`` by netgen; they are insulated / traction free;
+- the regions are the blocks, an imported block's regions (its file's solids) and the parts ``[[cuts]]`` split
+  blocks into (:mod:`.cuts`), in the blocks' order; a cut face between two parts without a declared interface is
+  a glued interface named after the cut.
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ import numpy as np
 from netgen import occ
 
 from ..errors import Problem, SceneError
-from ..scene.model import Scene
+from ..scene.model import Interface, Scene
+from .cuts import Split, apply_cuts
 from .shapes import cells, declared_extent, make_block, sides
 
 DEFAULT = "default"
@@ -73,6 +77,7 @@ class GeometryModel:
     contacts: dict[str, ContactSide] = field(default_factory=dict)
     bounding_box: tuple = ()
     block_boundaries: dict[str, set[str]] = field(default_factory=dict)   # block -> names of its outer sides
+    split: dict[str, tuple[str, list[str]]] = field(default_factory=dict)  # block -> (cut, its parts) (.cuts)
 
     def occ_geometry(self):
         return occ.OCCGeometry(self.shape, dim=self.dim)
@@ -120,13 +125,15 @@ def build_geometry(scene: Scene) -> GeometryModel:
     built or are covered, blocks across the axis, interfaces between blocks that do not touch (or touching blocks
     without one), contacts between blocks also glued together."""
     dim = scene_dim(scene)
-    names = [b.name for b in scene.blocks]
     raw = _raw_blocks(scene, dim)
-    parts = _Parts.glue(_carve_all(raw, names, dim), names, dim)
+    split = _regions(scene, _carve_all(raw, [b.name for b in scene.blocks], dim), dim)
+    names = list(split.shapes)
+    parts = _Parts.glue(split.shapes, names, dim, split.replaced)
     problems = _axis_problems(scene, raw, parts)
     found = _Interfaces()
     for k, itf in enumerate(scene.interfaces):
         found.declare(itf, f"interfaces[{k}] ({itf.name})", parts, problems)
+    _declare_cut_faces(split, found, parts, problems)
     for pair in parts.touching:
         if pair not in found.declared:
             a, b = sorted(pair)
@@ -135,11 +142,66 @@ def build_geometry(scene: Scene) -> GeometryModel:
     if problems:
         raise SceneError(problems, source="geometry")
     groups = _glued_groups(names, found)
-    model = GeometryModel(shape=None, dim=dim, regions=names, boundaries=set(), bounding_box=(parts.lo, parts.hi))
+    model = GeometryModel(shape=None, dim=dim, regions=names, boundaries=set(), bounding_box=(parts.lo, parts.hi),
+                          split=split.replaced)
     contact_keys = _contact_sides(model, found, parts)
     final = _group_shapes(model, groups, contact_keys, parts)
-    _finish(scene, model, final, parts.tol)
+    _finish(scene, model, final, parts.tol, _region_maxh(scene, split))
     return model
+
+
+def _regions(scene: Scene, carved: dict, dim: int) -> Split:
+    """The regions of the carved blocks (an import's by its cells' names) split by the scene's cuts; raises
+    SceneError for a region name two blocks give and for the cuts' problems."""
+    shapes: dict[str, object] = {}
+    problems: list[Problem] = []
+    for i, b in enumerate(scene.blocks):
+        own = [b.name] if b.shape != "import" else list(dict.fromkeys(c.name for c in cells(carved[b.name], dim)))
+        for r in own:
+            if r in shapes:
+                problems.append(Problem(f"blocks[{i}] ({b.name})", f"region {r!r} is also another block's region: "
+                                        "give it a name of its own"))
+            elif b.shape != "import":
+                shapes[r] = carved[b.name]
+            else:
+                mine = list(cells(carved[b.name], dim)[r])
+                shapes[r] = mine[0] if len(mine) == 1 else occ.Compound(mine)
+    if problems:
+        raise SceneError(problems, source="geometry")
+    if not scene.cuts:
+        return Split(shapes)
+    lo = np.min([[c.bounding_box[0].x, c.bounding_box[0].y, c.bounding_box[0].z] for c in shapes.values()], axis=0)
+    hi = np.max([[c.bounding_box[1].x, c.bounding_box[1].y, c.bounding_box[1].z] for c in shapes.values()], axis=0)
+    split = apply_cuts(scene.cuts, shapes, dim, float(np.max(hi - lo)), problems)
+    if problems:
+        raise SceneError(problems, source="geometry")
+    return split
+
+
+def _region_maxh(scene: Scene, split: Split) -> dict[str, float | None]:
+    """The element size of each region, m: its block's maxh (parts of a cut block inherit it)."""
+    maxh: dict[str, float | None] = {b.name: b.maxh for b in scene.blocks}
+    for b in scene.blocks:
+        if b.shape == "import":
+            maxh.update({r: b.maxh for r in b.solids.values()})
+    for block, (_, parts) in split.replaced.items():
+        maxh.update({p: maxh.get(block) for p in parts})
+    return maxh
+
+
+def _declare_cut_faces(split: Split, found: _Interfaces, parts: _Parts, problems: list[Problem]) -> None:
+    """A glued interface named after the cut for each cut face between two parts the scene declares no
+    interface for."""
+    for a, b, name, path in split.pairs:
+        pair = frozenset((a, b))
+        if pair in found.declared or pair not in parts.touching:
+            continue
+        if name in found.paths:
+            problems.append(Problem(path, f"the cut face between {a!r} and {b!r} would be the glued interface "
+                                    f"{name!r}, but {found.paths[name]} has that name: declare the interface "
+                                    f"between {a!r} and {b!r} in [[interfaces]]"))
+            continue
+        found.declare(Interface(name=name, blocks=[a, b]), path, parts, problems)
 
 
 def _raw_blocks(scene: Scene, dim: int) -> dict:
@@ -190,13 +252,14 @@ class _Parts:
     lo: np.ndarray
     hi: np.ndarray
     tol: float
+    replaced: dict = field(default_factory=dict)       # block -> (cut, its parts): for messages
     shared_keys: list = field(default_factory=list)
 
     def __post_init__(self):
         self.shared_keys = [_key(s) for shared in self.touching.values() for s in shared]
 
     @classmethod
-    def glue(cls, carved: dict, names: list[str], dim: int) -> _Parts:
+    def glue(cls, carved: dict, names: list[str], dim: int, replaced: dict | None = None) -> _Parts:
         try:
             glued_all = occ.Glue([carved[n] for n in names]) if len(names) > 1 else carved[names[0]]
         except RuntimeError as exc:
@@ -215,7 +278,7 @@ class _Parts:
                         shared += list(sides(ca, dim) * sides(cb, dim))
                 if shared:
                     touching[frozenset((a, b))] = shared
-        return cls(dim, names, block_cells, touching, lo, hi, 1e-8 * max(size, 1e-30))
+        return cls(dim, names, block_cells, touching, lo, hi, 1e-8 * max(size, 1e-30), dict(replaced or {}))
 
     def outer_sides(self, block: str, name: str | None) -> list:
         """The sides of ``block`` called ``name`` (any name: None) that it shares with no other block."""
@@ -254,7 +317,9 @@ class _Interfaces:
         names = parts.names
         unknown = [b for b in itf.blocks if b not in names]
         if unknown:
-            problems.append(Problem(path, f"unknown block(s) {unknown}; blocks are {names}"))
+            cut = "".join(f" (cut {parts.replaced[b][0]!r} split {b!r} into {parts.replaced[b][1]}: name the parts)"
+                          for b in unknown if b in parts.replaced)
+            problems.append(Problem(path, f"unknown block(s) {unknown}; blocks are {names}{cut}"))
             return
         if itf.blocks[0] == itf.blocks[1]:
             problems.append(Problem(path, "an interface needs two different blocks"))
@@ -385,14 +450,14 @@ def _group_shapes(model: GeometryModel, groups: list[list[str]], contact_keys: d
     return group_shapes[0][1] if len(group_shapes) == 1 else occ.Compound([g for _, g in group_shapes])
 
 
-def _finish(scene: Scene, model: GeometryModel, final, tol: float) -> None:
-    """The mesh sizes of blocks and boundaries on the final shape, the sides on the axis of an axisymmetric scene
-    named :data:`AXIS`, and the model's shape and boundary names."""
+def _finish(scene: Scene, model: GeometryModel, final, tol: float, region_maxh: dict) -> None:
+    """The mesh sizes of regions (``region_maxh``, m) and boundaries on the final shape, the sides on the axis of an
+    axisymmetric scene named :data:`AXIS`, and the model's shape and boundary names."""
     dim = model.dim
     for cell in cells(final, dim):
-        b = next(bl for bl in scene.blocks if bl.name == cell.name)
-        if b.maxh is not None:
-            cell.maxh = b.maxh
+        h = region_maxh.get(cell.name)
+        if h is not None:
+            cell.maxh = h
     for s in sides(final, dim):
         h = scene.mesh.boundary_maxh.get(s.name)
         if h is not None:

@@ -281,9 +281,7 @@ class ElasticForms:
                  if names}
         self.fixed_names = comp_dirichlet
         self.V = ngs.VectorH1(mesh, order=setup.order, **flags)
-        dir_all = regions_regex({n for names in comp_dirichlet for n in names}) if any(comp_dirichlet) else ""
-        self.multiplier_spaces = [ngs.H1(mesh, order=setup.order, definedon=mesh.Boundaries(name),
-                                         dirichlet=dir_all) for name, _ in self.oblique]
+        self.multiplier_spaces = [self._multiplier_space(name, n) for name, n in self.oblique]
         self._material_matrices()
         # the mixed formulation: one pressure space per region, after V and the multipliers
         names, self.formulation_notes = mixed_regions(setup)
@@ -317,6 +315,20 @@ class ElasticForms:
         self._build()
 
     # -- material data in the model's reduced Voigt form ----------------------------------------------------
+    def _multiplier_space(self, name: str, nvec: np.ndarray):
+        """The multipliers of u.n = 0 on the oblique symmetry boundary ``name``: H1 on it, of the field order,
+        without the dofs where the component conditions already hold u.n = 0 (every component k with n_k != 0
+        prescribed there: the row of u.n would vanish). Where only some are (an oblique boundary meeting an
+        axis-aligned symmetry boundary or a one-component displacement) the multiplier holds the rest of u.n."""
+        Q = ngs.H1(self.mesh, order=self.setup.order, definedon=self.mesh.Boundaries(name))
+        ns = ngs.H1(self.mesh, order=self.setup.order).ndof     # component c of V: dofs c * ns + scalar dof
+        free_v, free_q = self.V.FreeDofs(), Q.FreeDofs()
+        comps = [k for k in range(self.dim) if abs(float(nvec[k])) > 1e-12]
+        for i in range(Q.ndof):
+            if free_q[i] and not any(free_v[k * ns + i] for k in comps):
+                free_q.Clear(i)         # in place: the compound space X, built afterwards, takes it over
+        return Q
+
     def _material_matrices(self):
         """Per region: the reduced stiffness D (Pa), thermal stress vector b (Pa/K) and, for plane strain,
         the sigma_zz row and its thermal coefficient (see :mod:`ngs_geomech.mechanics.materials`)."""

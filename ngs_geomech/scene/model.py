@@ -41,8 +41,10 @@ MECHANICS = ("static", "dynamic", "viscous")
 RATE_MECHANICS = ("dynamic", "viscous")
 """The mechanics advanced every time step with inertia and/or viscosity (the global model (2.6)-(2.16))."""
 SHAPES_2D = ("rectangle", "polygon", "circle", "profile")
-SHAPES_3D = ("box", "cylinder")
+SHAPES_3D = ("box", "cylinder", "prism", "import")
 SELECTORS = ("all", "xmin", "xmax", "ymin", "ymax", "zmin", "zmax", "top", "bottom", "lateral")
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "km": 1e3, "in": 0.0254, "ft": 0.3048}
+"""Length units an imported file's coordinates may be read in, in m."""
 point = list_of(number)
 matrix = list_of(list_of(number))
 segment_points = list_of(point, 2)
@@ -107,11 +109,16 @@ class MeshSettings:
 
 @dataclass(frozen=True, kw_only=True)
 class Segment:
-    """One piece of a ``profile`` block outline: a straight line or a spline to its last point."""
+    """One piece of a ``profile`` block outline (also of a ``prism``'s): a straight line, a spline or a circular
+    arc from the previous point to its end point."""
 
     line: list | None = field(optional(point), None, doc="end point [x, y] of a straight segment, m")
     spline: list | None = field(optional(list_of(point)), None,
                                 doc="points [[x, y], ...] the spline passes through; the last is its end")
+    arc: list | None = field(optional(list_of(point, 2)), None,
+                             doc="[[x, y] a point the arc passes through, [x, y] its end]: the circular arc from "
+                                 "the previous point through the first to the second (three points not on one "
+                                 "line), m")
     name: str = field(string, "", doc="boundary name of this segment")
 
 
@@ -120,22 +127,78 @@ class Block:
     """``[[blocks]]``: one body. Later blocks are cut out of earlier ones (painter's order)."""
 
     name: str = field(string, doc="region (material) name")
-    shape: str = field(one_of(*SHAPES_2D, *SHAPES_3D), doc="rectangle, polygon, circle, profile | box, cylinder")
-    origin: list | None = field(optional(point), None, doc="lower corner (rectangle, box), m")
+    shape: str = field(one_of(*SHAPES_2D, *SHAPES_3D),
+                       doc="rectangle, polygon, circle, profile | box, cylinder, prism (a polygon or profile "
+                           "extruded), import (a STEP or BREP file)")
+    origin: list | None = field(optional(point), None,
+                                doc="lower corner (rectangle, box); prism: the point of the profile's plane where "
+                                    "the outline's (0, 0) lies (default [0, 0, 0]), m")
     size: list | None = field(optional(point), None, doc="extent (rectangle, box), m")
-    points: list | None = field(optional(list_of(point)), None, doc="polygon corners in order, m")
+    points: list | None = field(optional(list_of(point)), None,
+                                doc="polygon corners in order (also a prism's outline), m")
     edges: list | None = field(optional(list_of(string)), None,
-                               doc="polygon: boundary name of each side (side i runs from point i to i+1)")
-    start: list | None = field(optional(point), None, doc="profile: start point, m")
-    segments: list | None = field(optional(list_of(nested(Segment))), None, doc="profile: outline pieces")
+                               doc="polygon: boundary name of each side (side i runs from point i to i+1); prism: "
+                                   "the name of the side face extruded from it")
+    start: list | None = field(optional(point), None, doc="profile (also a prism's outline): start point, m")
+    segments: list | None = field(optional(list_of(nested(Segment))), None,
+                                  doc="profile (also a prism's outline): outline pieces; a prism's side faces "
+                                      "take their names")
     center: list | None = field(optional(point), None, doc="circle centre, or cylinder base centre, m")
     radius: float | None = field(optional(number), None, doc="circle or cylinder radius, m")
     height: float | None = field(optional(number), None, doc="cylinder height, m")
-    axis: list | None = field(optional(point), None, doc="cylinder axis direction (default z)")
+    axis: list | None = field(optional(point), None,
+                              doc="cylinder axis direction (default z); prism: the extrusion direction (default "
+                                  "u x v, normal to the outline's plane)")
+    directions: list | None = field(optional(list_of(point, 2)), None,
+                                    doc="prism: two orthogonal directions [u, v] of the outline's plane (the "
+                                        "outline's x runs along u, its y along v; default [[1, 0, 0], [0, 1, 0]])")
+    length: float | None = field(optional(positive(number)), None,
+                                 doc="prism: extrusion length along axis, m")
+    file: str | None = field(optional(string), None,
+                             doc="import: a STEP (.step, .stp) or BREP (.brep) file, relative to the scene file "
+                                 "(a scene built in Python or a --set value: to the working directory); only read")
+    length_unit: str = field(one_of("declared", *LENGTH_UNITS), "declared",
+                             doc="import: the unit of the file's coordinates: 'declared' (the unit a STEP file "
+                                 "declares, converted to m; BREP files declare none and are read in m) or one of "
+                                 + ", ".join(LENGTH_UNITS) + " (the numbers as written, whatever unit the file "
+                                 "declares; netgen.occ's WriteStep labels its numbers mm: read its files with 'm' "
+                                 "when they were built in m)")
+    solids: dict = field(dict_of(string), {},
+                         doc="import: region name of the file's named solids (file name -> region); solids "
+                             "left out are the region named like the block")
+    faces: dict = field(dict_of(string), {},
+                        doc="import: boundary name of the file's named faces (file name -> boundary); faces left "
+                            "out keep the file's name")
     boundaries: dict = field(dict_of(either(string, list_of(string), what="a selector or list of selectors")),
                              {}, doc="boundary name -> selector(s) of this block's own sides: "
                                      + ", ".join(SELECTORS))
     maxh: float | None = field(optional(positive(number)), None, doc="maximal element size in this block, m")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Cut:
+    """``[[cuts]]``: a plane (3D) or a line (2D) that splits blocks in two, after the blocks are assembled
+    (painter's order). Axes: x east, y north, z up (2D: x east, y up). In 3D the plane passes through ``point``
+    with strike azimuth ``strike`` (degrees clockwise from north = +y) and dips by ``dip`` degrees from the
+    horizontal to the right of the strike (right-hand rule): its upward normal is
+    (sin(dip) cos(strike), -sin(dip) sin(strike), cos(dip)). In 2D the line through ``point`` dips by ``dip``
+    towards +x (strike 0) or -x (strike 180). Each block's part above the plane (the side the upward normal
+    points to; for dip = 90 the side the dip direction points to) and the part below become regions of the
+    names in ``parts``; the cut face between them is an interface declared in ``[[interfaces]]`` like any other
+    (blocks = the two parts; glued, or contact for a fault), or, when none is declared, a glued interface named
+    ``name`` (one block cut) or ``<name>_<block>`` (several). A part named '' is removed: the cut face is then
+    an outer boundary named ``name``."""
+
+    name: str = field(string, doc="the cut's name (of the cut face: interface or boundary)")
+    point: list = field(point, doc="a point of the plane (line), m")
+    dip: float = field(bounded(number, 0, 90, unit="deg"), doc="dip from the horizontal, degrees in [0, 90]")
+    strike: float = field(bounded(number, 0, 360, hi_open=True, unit="deg"), 0.0,
+                          doc="strike azimuth, degrees clockwise from north (+y) in [0, 360); the plane dips to "
+                              "its right. 2D: 0 (dipping towards +x) or 180 (towards -x)")
+    blocks: list = field(list_of(string), doc="the blocks (or parts of earlier cuts) it splits")
+    parts: list = field(list_of(list_of(string, 2)),
+                        doc="for each block: [name of the part above, name of the part below] ('' removes that "
+                            "part)")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -667,6 +730,7 @@ class Scene:
 
     scene: SceneInfo = field(nested(SceneInfo), doc="name and dimension")
     blocks: list = field(list_of(nested(Block)), doc="bodies")
+    cuts: list = field(list_of(nested(Cut)), [], doc="planes (lines) splitting blocks")
     physics: Physics = field(nested(Physics), Physics(), doc="physics switched on")
     mesh: MeshSettings = field(nested(MeshSettings), MeshSettings(), doc="mesh settings")
     interfaces: list = field(list_of(nested(Interface)), [], doc="block interfaces")

@@ -39,7 +39,8 @@ def resolve(name_or_path: str) -> Path:
 
 def read_toml(path: Path) -> dict:
     """The data of a TOML scene file: UTF-8 text, with or without a byte order mark (some Windows editors
-    write one; TOML itself does not allow it)."""
+    write one; TOML itself does not allow it). The relative paths of imported geometry files (``blocks.file``)
+    are made absolute, relative to the scene file's folder."""
     try:
         raw = Path(path).read_bytes()
     except OSError as exc:
@@ -51,9 +52,22 @@ def read_toml(path: Path) -> dict:
                                              f"{exc.start} is not UTF-8; a scene is a TOML text file")],
                          source=str(path)) from None
     try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError([Problem(str(path), f"TOML syntax error: {exc}")], source=str(path)) from None
+    return anchor_files(data, Path(path).resolve().parent)
+
+
+def anchor_files(data: dict, folder: Path) -> dict:
+    """``data`` with each block's relative ``file`` joined to ``folder`` (other values, also wrong types, are
+    left to the schema's checks)."""
+    blocks = data.get("blocks")
+    if isinstance(blocks, list):
+        for b in blocks:
+            if isinstance(b, dict) and isinstance(b.get("file"), str) and b["file"] \
+                    and not Path(b["file"]).is_absolute():
+                b["file"] = str(folder / b["file"])
+    return data
 
 
 def apply_overrides(data: dict, overrides: list[str]) -> dict:

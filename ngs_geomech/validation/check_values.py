@@ -35,6 +35,15 @@ def check_names(scene: Scene, problems: list[Problem]) -> None:
         for j, seg in enumerate(b.segments or []):
             if seg is not None and seg.name:
                 _check_name(f"blocks[{i}].segments[{j}].name", seg.name, problems, identifier=True)
+        for key in ("solids", "faces"):
+            for fname, name in getattr(b, key).items():
+                _check_name(f"blocks[{i}].{key}.{fname}", name, problems, identifier=True)
+    for i, cut in enumerate(scene.cuts):
+        _check_name(f"cuts[{i}].name", cut.name, problems, identifier=True)
+        for j, pair in enumerate(cut.parts):
+            for name in pair:
+                if name:                # '' removes the part
+                    _check_name(f"cuts[{i}].parts[{j}]", name, problems, identifier=True)
     inames = set()
     for i, itf in enumerate(scene.interfaces):
         _check_name(f"interfaces[{i}].name", itf.name, problems, identifier=True)

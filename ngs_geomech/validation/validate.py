@@ -36,7 +36,7 @@ def validate(scene: Scene) -> GeometryModel:
     check_phase_change(scene, problems)
     check_temperatures(scene, problems)
     geo = None
-    if not any(p.item.startswith("blocks") for p in problems):
+    if not any(p.item.startswith(("blocks", "cuts")) for p in problems):
         try:
             geo = build_geometry(scene)
         except SceneError as exc:
