@@ -223,6 +223,11 @@ def test_thin_boxes_and_the_profile_times():
     kept = [t for t in [0, 7, 15, 19, 20.5, 33, 41, 47, 55, 80, 99.9999999999, 100.0] if pr.due(t) and
             not pr.times.append(t)]
     assert kept == [0, 20.5, 41, 80, 99.9999999999]      # the first at or after 0, 20, 40, 60 (80), 80, 100
+    pr.values[:] = [[float(t)] * 3 for t in pr.times]
+    again = AxisProfile.of([0, -1000], [20, 0], 0.0, 100.0)      # a resumed run: the kept profiles come back
+    again.restore(pr.meta(3))
+    assert again.times == [0, 20.5, 41] and again.values[2] == [41.0] * 3
+    assert not again.due(59.0) and again.due(60.0)
     steady = AxisProfile.of([0, -1000], [20, 0], 0.0, 0.0)
     assert steady.targets == [0.0] and steady.due(0.0)
 
