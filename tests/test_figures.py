@@ -346,3 +346,17 @@ def test_permafrost_writes_its_temperature_profile(tmp_path):
     api.run("permafrost", out, progress=False, overrides=["output.vtk=false", "time.end=20000 year",
                                                           "mesh.maxh=10"])
     assert (out / "figures" / "temperature_profile.png").stat().st_size > 10000
+
+
+def test_colour_bar_labels_carry_their_own_digits(tmp_path):
+    """No offset or power-of-ten text above a colour bar (it would sit on the title): a field of 3e-5 W/m^3 or
+    of 11.5253 ... 11.5256 degC reads off its tick labels."""
+    for offset, spread in ((0.0, 3e-5), (11.5253, 3e-4)):
+        m = box_mesh(2.0, 1.0)
+        fig = figures.field_figure(m, offset + spread * m.points[:, 0] / 2, tmp_path / "f.png", title="small",
+                                   label="q")
+        fig.canvas.draw()
+        cax = fig.axes[1]
+        assert cax.yaxis.get_offset_text().get_text() == ""
+        labels = [t.get_text() for t in cax.get_yticklabels() if t.get_text()]
+        assert len(set(labels)) == len(labels) >= 2, labels

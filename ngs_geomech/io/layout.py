@@ -104,7 +104,9 @@ def colorbar(fig, ax, mappable, label: str):
     cax = divider.append_axes("bottom", size=0.14, pad=0.55) if below else \
         divider.append_axes("right", size=0.16, pad=0.12)
     bar = fig.colorbar(mappable, cax=cax, label=label, orientation="horizontal" if below else "vertical")
-    bar.formatter = ScalarFormatter(useOffset=False)     # an offset text would sit on the title or the x label
+    plain = ScalarFormatter(useOffset=False)     # no offset or power text: it would sit on the title or x label
+    plain.set_powerlimits((-99, 99))
+    bar.formatter = plain
     return cax
 
 
