@@ -94,7 +94,7 @@ def field_figure(m: MeshArrays, values: np.ndarray, path: Path, *, title: str, l
     titled(fig, ax, title)
     colorbar(fig, ax, pc, label)
     if band:
-        legend_below(fig, [Line2D([], [], color="cyan", lw=1.8, label=lines_label)], band)
+        legend_below(fig, [Line2D([], [], color="cyan", lw=1.8, label=lines_label)])
     tight(fig, band)
     save_figure(fig, path)
     return fig

@@ -120,9 +120,8 @@ def legend_right(ax, **kwargs):
     return ax.legend(**{**opts, **kwargs})
 
 
-def legend_below(fig, handles, band: float, ncol: int = 3):
-    """A figure legend of ``handles`` centred in the band of height ``band`` (in) at the figure's bottom (kept free
-    by :func:`tight` with the same band)."""
+def legend_below(fig, handles, ncol: int = 3):
+    """A figure legend of ``handles`` centred at the figure's bottom, in the band :func:`tight` keeps free."""
     height = fig.get_size_inches()[1]
     return fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.1 / height), ncol=ncol,
                       fontsize=8, frameon=False, borderaxespad=0.0)

@@ -39,7 +39,8 @@ class RunOutput:
         self.probes = ProbeSet(model.mesh, scene.output.probes, self.axisymmetric)
         self.bounds = bounding_box(model.mesh)
         t0, t1 = (scene.time.start, scene.time.end) if scene.time else (0.0, 0.0)
-        self.profile = AxisProfile.of(*self.bounds, t0, t1) if scene.output.figures else None
+        self.profile = AxisProfile.of(*self.bounds, t0, t1) if directory is not None and scene.output.figures \
+            else None
         self.vtk = None
         self.lines: dict[str, LineSeries] = {}
         name = scene.scene.name
