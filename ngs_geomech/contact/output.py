@@ -26,6 +26,7 @@ from __future__ import annotations
 import ngsolve as ngs
 import numpy as np
 
+from ..io import scales
 from ..scene.names import plain_file_name
 from .problem import ContactSpec, contact_forces, interface_results, side_dofs, supported_nodes
 
@@ -178,17 +179,22 @@ def contact_lines(specs: list[ContactSpec], latest: list[dict]) -> dict:
 
 def contact_figures(canvas, specs: list[ContactSpec], latest: list[dict]) -> None:
     """Pressure, traction (with the slip bound), gap and slip along each contact at the last mechanics time on
-    ``canvas`` (:class:`~ngs_geomech.io.canvas.Canvas`; 2D scenes, 3D contacts are in the surface series only)."""
+    ``canvas`` (:class:`~ngs_geomech.io.canvas.Canvas`; 2D scenes, 3D contacts are in the surface series only):
+    tractions in MPa or GPa, gap and slip in mm or m, the arc length in m or km, as their magnitudes fit."""
     for spec, res in zip(specs, latest):
         o = res["order"]
         xy = np.column_stack([res["x"], res["y"]])[o]
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
-        forces = {"pressure p": res["pressure"][o] / 1e6, "traction q": res["traction"][o] / 1e6}
+        forces = {"pressure p": res["pressure"][o], "traction q": res["traction"][o]}
         if spec.law.kind != "frictionless":
-            forces["slip bound"] = res["bound"][o] / 1e6
+            forces["slip bound"] = res["bound"][o]
+        motion = {"gap": res["gap"][o], "slip": res["slip"][o]}
+        fu = scales.stress_scale(np.concatenate(list(forces.values())))
+        mu = scales.displacement_scale(np.concatenate(list(motion.values())))
         canvas.draw.interface_profiles(
-            s, [forces, {"gap": res["gap"][o] * 1e3, "slip": res["slip"][o] * 1e3}],
-            canvas.path(f"contact_{plain_file_name(spec.name)}.png"), ylabels=["traction (MPa)", "gap, slip (mm)"],
+            s, [{k: fu(v) for k, v in forces.items()}, {k: mu(v) for k, v in motion.items()}],
+            canvas.path(f"contact_{plain_file_name(spec.name)}.png"),
+            ylabels=[f"traction ({fu.unit})", f"gap, slip ({mu.unit})"],
             title=f"{canvas.title}: contact {spec.name} ({spec.law.kind}), {canvas.when}",
-            xlabel=f"arc length along {spec.op.side} from ({xy[0, 0]:.3g}, {xy[0, 1]:.3g}) (m)",
+            xlabel=f"arc length along {spec.op.side} (m)", start=(xy[0, 0], xy[0, 1]),
             status=res["status"][o].astype(int))

@@ -21,8 +21,11 @@ from .solver import HeatSolver
 
 
 def temperature_figures(canvas, T) -> None:
-    """The temperature at the last time, and in the scene's near-field window when it has one (2D)."""
+    """The temperature at the last time, and in the scene's near-field window when it has one (2D); on the
+    canvas's plane sections (3D)."""
     if canvas.arrays is None:
+        canvas.section_figures(T.space.mesh, T, "temperature", title=f"{canvas.title}: temperature, {canvas.when}",
+                               label=f"T ({canvas.t_unit})")
         return
     vals = vertex_values(T)
     canvas.draw.field_figure(canvas.arrays, vals, canvas.path("temperature.png"),

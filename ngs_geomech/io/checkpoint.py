@@ -36,7 +36,7 @@ PREVIOUS = "previous.npz"
 RESUMABLE_KEYS = ("scene.description", "time.end", "time.dt", "time.dt_growth", "time.dt_max", "time.scheme",
                   "mechanics.tolerance", "mechanics.max_iterations", "mechanics.nonlinear_solver",
                   "mechanics.secant_relaxation", "output.every", "output.figures", "output.figure_window",
-                  "output.checkpoint_every")
+                  "output.sections", "output.checkpoint_every")
 
 
 @dataclass

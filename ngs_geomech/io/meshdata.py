@@ -70,3 +70,26 @@ def vertex_average(mesh, cf) -> np.ndarray:
     g = ngs.GridFunction(ngs.H1(mesh, order=1))
     g.Set(cf)
     return vertex_values(g)
+
+
+def surface_triangles(mesh) -> np.ndarray:
+    """The boundary elements of a 3D mesh (outer boundaries and interfaces) as vertex triangles (n, 3, 3), m;
+    quadrilaterals split in two. Distributed meshes: collective, all parts (in rank order)."""
+    pts = np.array([v.point for v in mesh.vertices], dtype=float).reshape(-1, 3)
+    tris = []
+    for el in mesh.Elements(ngs.BND):
+        vs = [v.nr for v in el.vertices]
+        tris += [vs] if len(vs) == 3 else [[vs[0], vs[1], vs[2]], [vs[0], vs[2], vs[3]]]
+    local = pts[np.array(tris, dtype=int).reshape(-1, 3)]
+    return parallel.concat(mesh, local) if parallel.distributed(mesh) else local
+
+
+def bounding_box(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh's bounding box (lo, hi), m, over all parts of a distributed mesh (collective)."""
+    pts = np.array([v.point for v in mesh.vertices], dtype=float).reshape(-1, mesh.dim)
+    lo = pts.min(axis=0) if len(pts) else np.full(mesh.dim, np.inf)
+    hi = pts.max(axis=0) if len(pts) else np.full(mesh.dim, -np.inf)
+    if parallel.distributed(mesh):
+        lo = np.array([parallel.allmin(mesh, float(x)) for x in lo])
+        hi = np.array([parallel.allmax(mesh, float(x)) for x in hi])
+    return lo, hi

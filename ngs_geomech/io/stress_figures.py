@@ -7,7 +7,8 @@ the caller decides how the stresses are evaluated: exactly at the sample points 
 analytic field there), or by :func:`interpolate` from vertex values. Interpolate the *components*
 ``sxx, syy, sxy`` and then call :func:`principal_2d`; principal values and angles do not interpolate linearly.
 
-Stresses are in Pa with tension positive; the legend states the bar scale in ``stress_unit`` (MPa by default).
+Stresses are in Pa with tension positive; the legend states the bar scale in ``stress_unit`` (MPa, or GPa from
+1 GPa on, by default: :func:`~.scales.stress_scale`).
 """
 
 from __future__ import annotations
@@ -18,8 +19,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .figures import line_collection, new_figure, save_figure
+from .figures import line_collection, new_figure, save_figure, shown_box, titled, window_range
+from .layout import Frame, colorbar, frame_axes, tight
 from .meshdata import MeshArrays
+from .scales import stress_scale
 
 COMPRESSION_COLOR = "#1f4fd6"   # blue
 EXTENSION_COLOR = "#d62728"     # red
@@ -184,8 +187,8 @@ def _light_greys():
 
 def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Path, *, title: str,
                              axis_labels=("x (m)", "y (m)"), window=None, scale=None, background=None,
-                             background_label=None, spacing=None, stress_unit=("MPa", 1e6),
-                             cmap=None, linewidth=1.4) -> None:
+                             background_label=None, spacing=None, stress_unit=None,
+                             cmap=None, linewidth=1.4):
     """Principal stress crosses over the region outlines, optionally over a background field.
 
     At each sample of ``samples_xy`` (n, 2) (or a :class:`Samples`) two perpendicular bars centred at the
@@ -193,9 +196,11 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
     each ``scale * |s|`` long (``scale`` in length per Pa); compression (s < 0) blue, extension (s > 0) red.
     By default the longest bar is 0.9 times the sample ``spacing`` (taken from a :class:`Samples`, else the
     smallest distance between samples), so neighbouring crosses do not touch. ``background`` are vertex
-    values drawn as a filled field with a colorbar labelled ``background_label`` (light greys unless
-    ``cmap``). The legend gives the colours and a reference bar for a round stress in ``stress_unit`` =
-    (name, Pa per unit). ``window`` = [xmin, xmax, ymin, ymax] limits the view (and the colour range).
+    values drawn as a filled field with a colour bar as tall as the axes labelled ``background_label`` (light
+    greys unless ``cmap``). The legend below the axes gives the colours and a reference bar for a round stress
+    in ``stress_unit`` = (name, Pa per unit; default MPa or GPa by the largest stress). ``window`` = [xmin,
+    xmax, ymin, ymax] limits the view (and the colour range); lengths are in m or km as fits, drawn to scale
+    (bar directions are angles). Returns the figure.
     """
     if isinstance(samples_xy, Samples):
         if spacing is None and math.isfinite(samples_xy.spacing):
@@ -211,9 +216,13 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
             spacing = _estimate_spacing(xy, m)
         scale = 0.9 * spacing / smax if smax > 0 else 0.0
 
-    fig, ax = new_figure((7.5, 6.2))
+    frame = Frame.of(*shown_box(m.points, window), stretch=False)
+    band = 0.45
+    w, h = frame.figsize()
+    fig, ax = new_figure((w, h + band))
+    pc = None
     if background is not None:
-        _background(fig, ax, m, background, window, cmap, background_label)
+        pc = _background(ax, m, background, window, cmap)
     ax.add_collection(line_collection(m.outline, colors="k", linewidths=0.9))
 
     segs, s = cross_segments(xy, s1, s2, theta1, scale)
@@ -221,53 +230,36 @@ def principal_stress_crosses(m: MeshArrays, samples_xy, s1, s2, theta1, path: Pa
     colours = np.where(s < 0, COMPRESSION_COLOR, EXTENSION_COLOR)
     ax.add_collection(line_collection(segs[drawn], colors=colours[drawn], linewidths=linewidth,
                                      capstyle="butt", zorder=3))
-    _frame(ax, m, window, axis_labels, title)
-    _legend(ax, smax, scale, stress_unit, linewidth)
-    fig.tight_layout()
+    frame_axes(ax, frame, axis_labels, pad=0.02 if window is None else 0.0)
+    titled(fig, ax, title)
+    if pc is not None:
+        colorbar(fig, ax, pc, background_label or "")
+    _legend(fig, ax, smax, scale, stress_unit or tuple(stress_scale([smax])), linewidth)
+    tight(fig, band)
     save_figure(fig, path)
+    return fig
 
 
-def _background(fig, ax, m: MeshArrays, background, window, cmap, label) -> None:
-    """The vertex values ``background`` as a filled field with a colorbar, its colour range that of ``window``."""
+def _background(ax, m: MeshArrays, background, window, cmap):
+    """The vertex values ``background`` as a filled field, its colour range that of ``window``."""
     values = np.asarray(background, dtype=float)
-    vmin = vmax = None
-    if window is not None:
-        inside = ((m.points[:, 0] >= window[0]) & (m.points[:, 0] <= window[1])
-                  & (m.points[:, 1] >= window[2]) & (m.points[:, 1] <= window[3]))
-        if inside.any():
-            vmin, vmax = float(values[inside].min()), float(values[inside].max())
-    pc = ax.tripcolor(_triangulation(m), values, shading="gouraud", cmap=cmap or _light_greys(),
-                      vmin=vmin, vmax=vmax)
-    fig.colorbar(pc, ax=ax, label=label or "", shrink=0.85)
+    vmin, vmax = window_range(m.points, values, window)
+    return ax.tripcolor(_triangulation(m), values, shading="gouraud", cmap=cmap or _light_greys(),
+                        vmin=vmin, vmax=vmax)
 
 
-def _frame(ax, m: MeshArrays, window, axis_labels, title: str) -> None:
-    """The view (``window``, else the mesh with a 2 % margin), equal axes, labels and title."""
-    if window is not None:
-        ax.set_xlim(window[0], window[1])
-        ax.set_ylim(window[2], window[3])
-    else:
-        lo, hi = m.points.min(axis=0), m.points.max(axis=0)
-        pad = 0.02 * float((hi - lo).max())
-        ax.set_xlim(lo[0] - pad, hi[0] + pad)
-        ax.set_ylim(lo[1] - pad, hi[1] + pad)
-    ax.set_aspect("equal")
-    ax.set_xlabel(axis_labels[0])
-    ax.set_ylabel(axis_labels[1])
-    ax.set_title(title)
-
-
-def _legend(ax, smax: float, scale: float, stress_unit, linewidth: float) -> None:
-    """The colours of compression and extension, and a reference bar of a round stress (``stress_unit`` =
-    (name, Pa per unit)) below the axes."""
+def _legend(fig, ax, smax: float, scale: float, stress_unit, linewidth: float) -> None:
+    """In the band at the figure's bottom: the colours of compression and extension (left), and a reference bar
+    of a round stress (``stress_unit`` = (name, Pa per unit)) drawn to the axes' scale (right)."""
     from matplotlib.lines import Line2D
     from matplotlib.offsetbox import AnchoredOffsetbox, AuxTransformBox, HPacker, TextArea
 
     unit_name, unit = stress_unit
+    bottom = 0.12 / fig.get_size_inches()[1]
     handles = [Line2D([], [], color=COMPRESSION_COLOR, lw=2 * linewidth, label="compression (σ < 0)"),
                Line2D([], [], color=EXTENSION_COLOR, lw=2 * linewidth, label="extension (σ > 0)")]
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, -0.09), ncol=2, fontsize=8,
-              frameon=False, borderaxespad=0.0)
+    fig.legend(handles=handles, loc="lower left", bbox_to_anchor=(0.02, bottom), ncol=2, fontsize=8,
+               frameon=False, borderaxespad=0.0)
     if smax > 0 and scale > 0:
         ref = _nice_below(smax / unit)
         length = ref * unit * scale
@@ -275,8 +267,6 @@ def _legend(ax, smax: float, scale: float, stress_unit, linewidth: float) -> Non
         line.add_artist(Line2D([0.0, length], [0.0, 0.0], color="k", lw=linewidth, solid_capstyle="butt"))
         box = HPacker(children=[TextArea(f"bar length {ref:g} {unit_name}:", textprops={"size": 8}), line],
                       align="center", pad=0, sep=5)
-        anchored = AnchoredOffsetbox(loc="upper right", child=box, pad=0.2, borderpad=0.0, frameon=False,
-                                     bbox_to_anchor=(1.0, -0.09), bbox_transform=ax.transAxes)
-        anchored.set_in_layout(True)
-        ax.add_artist(anchored)
-
+        anchored = AnchoredOffsetbox(loc="lower right", child=box, pad=0.2, borderpad=0.0, frameon=False,
+                                     bbox_to_anchor=(0.98, bottom), bbox_transform=fig.transFigure)
+        fig.add_artist(anchored)

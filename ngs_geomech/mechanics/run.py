@@ -19,7 +19,7 @@ from ..contact.problem import check_supported, contact_options, contact_specs, c
 from ..contact.solver import nodal_modulus
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel
-from ..io import stress_figures
+from ..io import scales, stress_figures
 from ..io.meshdata import vertex_average
 from ..parts import Part, Step
 from ..scene.model import Scene
@@ -31,12 +31,19 @@ from .solver import ElasticSolver, NonlinearInfo
 
 
 def stress_figure_set(canvas, mesh, von_mises, sigma) -> None:
-    """Von Mises stress and principal stress crosses (the seed's Fig. 1) of the last mechanics state (2D)."""
+    """Von Mises stress and principal stress crosses (the seed's Fig. 1) of the last mechanics state (2D); the
+    von Mises stress on the canvas's plane sections (3D). Stresses in MPa, or GPa from 1 GPa on."""
     arrays = canvas.arrays
+    if arrays is None:
+        canvas.section_figures(mesh, von_mises, "von_mises", title=f"{canvas.title}: von Mises stress, {canvas.when}",
+                               label="von Mises stress (MPa)", cmap="viridis", scale=scales.stress_scale)
+        return
     vm = vertex_average(mesh, von_mises)
-    canvas.draw.field_figure(arrays, vm / 1e6, canvas.path("von_mises.png"),
+    unit = scales.stress_scale(vm)
+    label = f"von Mises stress ({unit.unit})"
+    canvas.draw.field_figure(arrays, unit(vm), canvas.path("von_mises.png"),
                              title=f"{canvas.title}: von Mises stress, {canvas.when}",
-                             label="von Mises stress (MPa)", axis_labels=canvas.labels, cmap="viridis")
+                             label=label, axis_labels=canvas.labels, cmap="viridis")
     windows = [(None, "principal_stress.png")]
     if canvas.window:
         windows.append((canvas.window, "principal_stress_zoom.png"))
@@ -53,7 +60,7 @@ def stress_figure_set(canvas, mesh, von_mises, sigma) -> None:
         canvas.draw.principal_stress_crosses(
             arrays, pts, s1, s2, th, canvas.path(fname), axis_labels=canvas.labels, window=window,
             title=f"{canvas.title}: principal stresses, {canvas.when}",
-            background=vm / 1e6, background_label="von Mises stress (MPa)")
+            background=unit(vm), background_label=label)
 
 
 class MechanicsPart(Part):
@@ -97,10 +104,8 @@ class MechanicsPart(Part):
         return contact_lines(self.contacts, self.contact_output.latest)
 
     def figures(self, canvas) -> None:
-        if canvas.arrays is None:
-            return
         stress_figure_set(canvas, self.mesh, self.fields["von_mises"], self.sigma)
-        if self.contact_output is not None:
+        if self.contact_output is not None and canvas.arrays is not None:
             contact_figures(canvas, self.contacts, self.contact_output.latest)
 
     @property

@@ -574,6 +574,24 @@ class Probe:
 
 
 @dataclass(frozen=True, kw_only=True)
+class Section:
+    """``[[output.sections]]``: a plane section of a 3D scene the fields are drawn on at the last time: the
+    temperature (``figures/temperature_section_<name>.png``) and, with mechanics, the von Mises stress
+    (``von_mises_section_<name>.png``), sampled on a regular grid in the plane, with the cut of the blocks'
+    boundaries and interfaces."""
+
+    name: str = field(string, doc="section name (part of the figure file names)")
+    point: list = field(list_of(number, 3), doc="a point of the plane, [x, y, z], m")
+    normal: list = field(list_of(number, 3),
+                         doc="the plane's normal [nx, ny, nz] (not zero). Normal to an axis (e.g. [0, 1, 0]) the "
+                             "plane is drawn in the other two coordinates in order (x and z); otherwise in u "
+                             "(horizontal, along v x normal) and v (up the plane: the steepest ascent of z in it)")
+    window: list | None = field(optional(list_of(number, 4)), None,
+                                doc="[umin, umax, vmin, vmax] of the figure in the plane's coordinates (above), m; "
+                                    "default: the domain's bounding box cut by the plane")
+
+
+@dataclass(frozen=True, kw_only=True)
 class Output:
     """``[output]``: what is written (VTK series, figures, summary.json)."""
 
@@ -596,6 +614,10 @@ class Output:
     figure_window: list | None = field(optional(list_of(number, 4)), None,
                                        doc="[xmin, xmax, ymin, ymax] of an extra zoomed field figure, m")
     probes: list = field(list_of(nested(Probe)), [], doc="probes recorded over time")
+    sections: list | None = field(optional(list_of(nested(Section))), None,
+                                  doc="3D scenes: plane sections the fields are drawn on at the last time "
+                                      "(default: the three mid-planes of the domain's bounding box, normal to x, y "
+                                      "and z, named 'x', 'y', 'z'; [] draws none)")
 
 
 ESTIMATORS = ("zz", "residual")

@@ -18,6 +18,7 @@ from ..scene.schema import recheck
 from .check_distributed import distributed_problems
 from .check_geometry import check_mesh_size, check_references
 from .check_materials import check_conductivity_range, check_materials, check_phase_change, stefan_scene
+from .check_output import check_sections
 from .check_settings import check_settings
 from .check_values import check_names, check_temperatures
 from .expression_values import check_expression_values
@@ -43,6 +44,7 @@ def validate(scene: Scene) -> GeometryModel:
             problems += exc.problems
     if geo is not None:
         check_references(scene, geo, problems)
+        check_sections(scene, geo, problems)
         check_mesh_size(scene, geo, problems)
         check_expression_values(scene, geo, problems)
         check_material_values(scene, geo, problems)
