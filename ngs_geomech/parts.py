@@ -115,6 +115,11 @@ class Part(abc.ABC):
         on a distributed mesh)."""
         return {}
 
+    def derived_fields(self) -> dict:
+        """Output fields the VTK computes from another field's values (name -> (source field, function of its
+        values, n x components)) instead of evaluating their CoefficientFunctions point by point."""
+        return {}
+
     def figures(self, canvas) -> None:
         """Draw the part's figures of the last state on ``canvas`` (:class:`~ngs_geomech.io.canvas.Canvas`)."""
         return None

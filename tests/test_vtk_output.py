@@ -61,3 +61,41 @@ def test_subdivision_keeps_ngsolves_writer(tmp_path):
     text = (tmp_path / "sub.vtu").read_text(errors="ignore")
     assert 'Name="x"' in text
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sub.pvd", "sub.vtu"]
+
+
+def test_principal_stresses_from_the_stress_values_equal_ngsolves_eig(tmp_path):
+    """The VTK computes the principal stresses from the evaluated stress tensor (numpy), as NGSolve's Eig."""
+    import functools
+
+    from ngs_geomech.mechanics.forms import stress_measures
+    from ngs_geomech.mechanics.run import principal_stress
+
+    mesh = ngs.Mesh(OCCGeometry(Box((0, 0, 0), (1, 1, 1)), dim=3).GenerateMesh(maxh=0.5))
+    x, y, z = ngs.x, ngs.y, ngs.z
+    s = ngs.CoefficientFunction((1e6 * x, 2e5 * y, 3e5 * z, 2e5 * y, -4e6, 1e5, 3e5 * z, 1e5, 5e5 * x * y), dims=(3, 3))
+    m = stress_measures(s)
+    f = {"stress": s, "sigma_1": m["sigma_1"], "sigma_2": m["sigma_2"], "sigma_3": m["sigma_3"]}
+    derived = {n: ("stress", functools.partial(principal_stress, index=k))
+               for k, n in enumerate(("sigma_3", "sigma_2", "sigma_1"))}
+    VtkSeries(mesh, f, tmp_path, "eig").write(0.0)
+    VtkSeries(mesh, f, tmp_path, "numpy", derived=derived).write(0.0)
+    a, b = meshio.read(tmp_path / "eig.vtu"), meshio.read(tmp_path / "numpy.vtu")
+    for n in ("sigma_1", "sigma_2", "sigma_3"):
+        assert np.allclose(a.point_data[n], b.point_data[n], rtol=1e-6, atol=1e-6 * 4e6), n
+    assert np.all(b.point_data["sigma_1"] >= b.point_data["sigma_2"])
+
+
+def test_principal_stresses_are_ordered_where_ngsolves_eig_is_not():
+    """At a nearly diagonal stress NGSolve's Eig returns its eigenvalues out of order; the principal stresses
+    sigma_1 >= sigma_2 >= sigma_3 are sorted (numpy's eigenvalues as reference)."""
+    from ngs_geomech.mechanics.forms import stress_measures
+
+    mesh = ngs.Mesh(OCCGeometry(Box((0, 0, 0), (1, 1, 1)), dim=3).GenerateMesh(maxh=0.5))
+    x, y, z = ngs.x, ngs.y, ngs.z
+    s = ngs.CoefficientFunction((1e6 * x, 2e5 * y, 3e5 * z, 2e5 * y, -4e6, 1e5, 3e5 * z, 1e5, 5e5 * x * y), dims=(3, 3))
+    m = stress_measures(s)
+    for p in [(0.0025, 0.0, 0.0), (0.5, 0.5, 0.5), (0.0, 0.3, 0.9)]:
+        mp = mesh(*p)
+        ref = np.linalg.eigvalsh(np.array(s(mp)).reshape(3, 3))
+        got = [m[n](mp) for n in ("sigma_3", "sigma_2", "sigma_1")]
+        assert np.allclose(got, ref, rtol=1e-12, atol=1e-6), (p, got, ref)

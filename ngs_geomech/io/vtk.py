@@ -86,9 +86,13 @@ class ElementVertices:
 
 
 class VtkSeries:
-    """Write named coefficient functions over the mesh at chosen times into ``directory/basename*``."""
+    """Write named coefficient functions over the mesh at chosen times into ``directory/basename*``.
+    ``derived``: name -> (source name, function): a field computed from another field's values at the points
+    (n x components -> n or n x components; e.g. principal stresses from the stress tensor by numpy) instead of
+    evaluating its own CoefficientFunction (subdivision 0)."""
 
-    def __init__(self, mesh, fields: dict[str, object], directory: Path, basename: str, subdivision: int = 0):
+    def __init__(self, mesh, fields: dict[str, object], directory: Path, basename: str, subdivision: int = 0,
+                 derived: dict | None = None):
         self.basename = plain_file_name(basename)     # every file stays inside ``directory``
         self.directory = Path(directory)
         self.directory.mkdir(parents=True, exist_ok=True)
@@ -99,6 +103,7 @@ class VtkSeries:
         self.entries: list[tuple[float, str]] = []
         self._vertices: tuple | None = None       # (mesh, ElementVertices) of the last fast write
         self._compiled: tuple | None = None       # (ids of the fields, their compiled tuple, their dimensions)
+        self.derived = dict(derived or {})
 
     def _fast(self, path: Path) -> None:
         """The fields at the element vertices into ``path`` (a binary, compressed VTU; module docstring)."""
@@ -107,15 +112,19 @@ class VtkSeries:
         if self._vertices is None or self._vertices[0] is not self.mesh:
             self._vertices = (self.mesh, ElementVertices(self.mesh))
         ev = self._vertices[1]
-        key = tuple(id(c) for c in self.coefs)
+        evaluated = [(n, c) for n, c in zip(self.names, self.coefs) if n not in self.derived]
+        key = tuple(id(c) for _, c in evaluated)
         if self._compiled is None or self._compiled[0] != key:
             # one compiled tuple of every field: shared subexpressions (the stress in its measures) evaluated once
-            self._compiled = (key, ngs.CoefficientFunction(tuple(self.coefs)).Compile(), [c.dim for c in self.coefs])
+            self._compiled = (key, ngs.CoefficientFunction(tuple(c for _, c in evaluated)).Compile(),
+                              [c.dim for _, c in evaluated])
         _, compiled, dims = self._compiled
         flat = np.asarray(compiled(ev.mips), dtype=float).reshape(len(ev.points), -1)
         bounds = np.cumsum([0] + dims)
-        data = {name: ev.shaped(flat[:, a:b]).astype(np.float32)
-                for name, a, b in zip(self.names, bounds[:-1], bounds[1:])}
+        raw = {n: flat[:, a:b] for (n, _), a, b in zip(evaluated, bounds[:-1], bounds[1:])}
+        raw.update({n: np.asarray(fn(raw[src])).reshape(len(ev.points), -1) for n, (src, fn) in self.derived.items()
+                    if n in self.names})
+        data = {n: ev.shaped(raw[n]).astype(np.float32) for n in self.names}
         meshio.write(path, meshio.Mesh(ev.points, ev.cells, point_data=data), file_format="vtu", binary=True,
                      compression="zlib")
 

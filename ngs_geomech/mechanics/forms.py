@@ -772,10 +772,21 @@ class ElasticForms:
 
 def stress_measures(sigma):
     """Von Mises stress, mean stress (Pa) and the principal stresses sigma_1 >= sigma_2 >= sigma_3 (Pa) of a
-    3x3 stress CoefficientFunction."""
+    3x3 stress CoefficientFunction (tension positive)."""
     s = sigma
     mean = (s[0, 0] + s[1, 1] + s[2, 2]) / 3
     dev = s - mean * ngs.Id(3)
     vm = ngs.sqrt(1.5 * ngs.InnerProduct(dev, dev))
-    eig = s.Eig()
-    return {"von_mises": vm, "mean_stress": mean, "sigma_1": eig[11], "sigma_2": eig[10], "sigma_3": eig[9]}
+    eig = s.Eig()               # NGSolve's eigenvalues are not always in order (nearly diagonal tensors): sort
+    a, b, c = eig[9], eig[10], eig[11]
+    high = _larger(_larger(a, b), c)
+    low = _smaller(_smaller(a, b), c)
+    return {"von_mises": vm, "mean_stress": mean, "sigma_1": high, "sigma_2": a + b + c - high - low, "sigma_3": low}
+
+
+def _larger(a, b):
+    return ngs.IfPos(a - b, a, b)
+
+
+def _smaller(a, b):
+    return ngs.IfPos(a - b, b, a)

@@ -8,6 +8,7 @@ coupled run), with the lambda law and contact when the scene has them. Units: m,
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import ngsolve as ngs
 import numpy as np
@@ -63,6 +64,12 @@ def stress_figure_set(canvas, mesh, von_mises, sigma) -> None:
             background=unit(vm), background_label=label)
 
 
+def principal_stress(values: np.ndarray, index: int) -> np.ndarray:
+    """The ``index``-th smallest eigenvalue (Pa) of each 3 x 3 stress tensor in ``values`` (n x 9)."""
+    t = np.asarray(values, dtype=float).reshape(-1, 3, 3)
+    return np.linalg.eigvalsh(0.5 * (t + t.transpose(0, 2, 1)))[:, index]
+
+
 class MechanicsPart(Part):
     """What the mechanics parts share: ``forms`` (ElasticForms), ``contacts`` (ContactSpec list),
     ``contact_output`` (its ``latest`` results per contact, or None without contacts), ``sigma``, the output
@@ -90,6 +97,12 @@ class MechanicsPart(Part):
 
     def solve(self, t: float, where: str, record: bool = True) -> None:
         raise NotImplementedError
+
+    def derived_fields(self) -> dict:
+        """The principal stresses from the stress tensor's values (numpy's symmetric eigenvalues: NGSolve's
+        ``Eig`` per point costs most of an output time)."""
+        return {name: ("stress", functools.partial(principal_stress, index=k))
+                for k, name in enumerate(("sigma_3", "sigma_2", "sigma_1"))}
 
     def dissipation_source(self):
         """The heat source of (2.6) the mechanics dissipates (W/m^3), or None."""

@@ -46,8 +46,10 @@ class Model:
         self.parts = [p for p in (self.thermal, self.mechanics, self.coupling) if p is not None]
         self.steppers = [self.coupling] if self.coupling is not None else self.parts
         self.fields = {"region": mesh.MaterialCF({n: i for i, n in enumerate(mesh.GetMaterials())}, default=-1)}
+        self.derived = {}
         for p in self.parts:
             self.fields.update(p.fields)
+            self.derived.update(p.derived_fields())
 
     def steady(self, where: str) -> None:
         for p in self.parts:

@@ -47,7 +47,8 @@ class RunOutput:
         if directory is not None:
             self.lines = {n: LineSeries(directory, f"{name}_{n}") for p in model.parts for n in p.line_names(scene)}
             if scene.output.vtk:
-                self.vtk = VtkSeries(model.mesh, model.fields, directory, name, scene.output.subdivision)
+                self.vtk = VtkSeries(model.mesh, model.fields, directory, name, scene.output.subdivision,
+                                     derived=model.derived)
         self.write_s = 0.0
 
     def switch(self, model) -> None:
