@@ -232,8 +232,9 @@ def constant(conv: Conv, why: str) -> Conv:
 
 
 def holds_expression(v) -> bool:
-    """Whether a value is an :class:`Expression` or a list (matrix) holding one."""
-    return isinstance(v, Expression) or isinstance(v, (list, tuple)) and any(holds_expression(e) for e in v)
+    """Whether a value is an expression (an :class:`Expression`, or a string in an object built in Python) or a
+    list (matrix) holding one."""
+    return isinstance(v, str) or isinstance(v, (list, tuple)) and any(holds_expression(e) for e in v)
 
 
 def varying_keys(obj: Any, keys: tuple[str, ...] | None = None) -> list[str]:
@@ -254,7 +255,7 @@ def material_at(obj: Any, keys, functions: dict, values: dict) -> Any:
     also inside lists and nested tables; ``functions`` caches the compiled expressions. Raises ArithmeticError /
     ValueError where one has no (finite) value."""
     def sub(v):
-        if isinstance(v, Expression):
+        if isinstance(v, str):
             f = functions.get(v)
             if f is None:
                 f = functions[v] = expressions.float_function(v, expressions.ALL_VARIABLES)

@@ -29,9 +29,10 @@ from ..heat.materials import conductivity_tensor, volumetric_heat_capacity
 from ..mechanics.materials import ELASTIC_KEYS, axisymmetric, elastic_properties
 from ..scene import expressions
 from ..scene.model import Material, Scene
-from ..scene.schema import Expression, first_problem
+from ..scene.schema import first_problem
 from ..scene.schema import material_at as schema_material_at
 from ..scene.schema import varying_keys as schema_varying_keys
+from ..scene.units import KELVIN
 from .expression_values import sample_points, value_range
 
 BUDGET = 300_000
@@ -51,7 +52,25 @@ def pointwise_rules(scene: Scene) -> list[Rule]:
         rules.append((("rho_c", "density", "specific_heat"), lambda m, dim: volumetric_heat_capacity(m)))
     if scene.physics.mechanics is not None:
         rules.append((ELASTIC_KEYS, _elastic_reader(scene.scene.dimension == "axisymmetric")))
+        rules.append((("stress_free_temperature",), _reference_temperature_reader(scene)))
     return rules
+
+
+def _reference_temperature_reader(scene: Scene) -> Callable[[Material, int], object]:
+    """The stress-free temperature at or above absolute zero in the scene's unit and, with physics.coupling, above
+    0 K (the deformation heating is proportional to it: :mod:`ngs_geomech.coupling.problem`)."""
+    kelvin = KELVIN if scene.scene.temperature_unit == "C" else 0.0
+    coupled = scene.physics.coupling != "none"
+
+    def read(m: Material, dim: int):
+        t0 = float(m.stress_free_temperature)
+        unit = "degC" if kelvin else "K"
+        if t0 + kelvin < 0 or coupled and not t0 + kelvin > 0:
+            why = (f"the deformation heating of physics.coupling = {scene.physics.coupling!r} needs an absolute "
+                   "reference temperature > 0 K" if coupled else "below absolute zero")
+            raise MaterialError("stress_free_temperature", f"is {t0:g} {unit} ({t0 + kelvin:g} K): {why}")
+        return t0
+    return read
 
 
 def _elastic_reader(axisymmetric_scene: bool) -> Callable[[Material, int], object]:
@@ -161,14 +180,14 @@ def _failure_at(m: Material, keys: list[str], rules: list[Rule], functions: dict
         try:
             read(mp, dim)
         except MaterialError as exc:
-            return exc.key or varying[0], exc.detail
+            return exc.key or varying[0], exc.detail.removeprefix(": ")
         except ValueError as exc:
             return varying[0], str(exc)
     return None
 
 
 def _expressions(v) -> list[str]:
-    if isinstance(v, Expression):
+    if isinstance(v, str):
         return [v]
     if isinstance(v, (list, tuple)):
         return [e for x in v for e in _expressions(x)]
@@ -212,7 +231,7 @@ def check_contact_values(scene: Scene, geo: GeometryModel, problems: list[Proble
     for path, c, sides, where in items:
         for key, law, unit in CONTACT_KEYS:
             text = getattr(c, key)
-            if isinstance(text, Expression) and c.law == law:
+            if isinstance(text, str) and c.law == law:
                 at = _first_negative(text, sample_points(geo, ("boundary", sides)), geo.dim)
                 if at:
                     problems.append(Problem(f"{path}.{key}", f"must be >= 0{unit}, got {at[0]:g}{unit} at {at[1]} of "
