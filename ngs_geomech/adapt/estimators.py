@@ -42,7 +42,10 @@ Estimators (``kind = "estimator"``) bound the discretization error in the energy
   longest edge, h_E the facet's (m); k_T = trace(kappa)/dim (W/(m K)) or trace of the in-plane normal block of
   D / dim (Pa) of the element's region. A conductivity that varies (an expression of x, y, z, T) enters R_T with
   its derivatives (d_i kappa_ij + d kappa_ij/dT d_i T_h) d_j T_h, and the weights (k_T, the ZZ norm's kappa^-1)
-  with its mean over the region (an equivalent norm, within the contrast of kappa in the region). Jumps are
+  with its mean over the region (an equivalent norm, within the contrast of kappa in the region). Elastic data
+  that vary (C(x, T), beta(x), T0(x), rho(x)) enter R_T as (d_k D) e(u_h) - d_k (b (T - T0)) + rho g (the
+  derivative in x_k with T held plus d/dT times d_k T_h for a temperature GridFunction), the ZZ norm with D(x)^-1
+  pointwise (SPR: the region's representative D), k_T with the representative D. Jumps are
   computed with a facet space of the solution's order - 1 (exact on straight facets; the one-sided normal fluxes
   summed over the element boundaries, divided by the facet mass).
 
