@@ -346,3 +346,34 @@ def test_deformation_heating_takes_the_stress_free_temperature_field():
     print(f"\nsource {got}, expected {expected}")
     assert np.all(np.abs(expected) > 0)
     assert np.allclose(got, expected, rtol=1e-12, atol=0)
+
+
+def test_a_stiffness_of_temperature_follows_the_heat_solution_in_time():
+    """Transient heat and static mechanics with E = 1e10 (1 + 0.01 T): the mechanics at the end takes E at the
+    end's temperature (its matrix re-assembled; a factorization kept from t = 0 would hold E(T = 0))."""
+    from ngs_geomech.mechanics.forms import ElasticForms
+    from ngs_geomech.mechanics.solver import ElasticSolver
+    data = _square({"youngs_modulus": "1e10*(1 + 0.01*T)", "thermal_expansion": 1e-5, "rho_c": 2e6},
+                   thermal="transient")
+    data["time"] = {"end": 2e5, "dt": 1e5}
+    data["initial"] = {"temperature": 10.0}
+    res = run(scene_from_dict(data), None, progress=False, threads=1)
+    forms = res.mechanics.forms
+    assert forms.stiffness_uses_temperature
+    fresh = ElasticForms(res.mesh, forms.setup)
+    fresh.t.Set(forms.t.Get())
+    ElasticSolver(fresh).solve("a fresh solve at the end's temperature")
+    a, b = forms.displacement().vec.FV().NumPy(), fresh.displacement().vec.FV().NumPy()
+    diff = float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+    print(f"\nmax |u_run - u_fresh| / max |u| = {diff:.2e}")
+    assert diff < 1e-10
+
+
+def test_dynamic_mechanics_refuses_a_stiffness_of_temperature():
+    data = _square({"youngs_modulus": "1e10*(1 + 0.01*T)", "density": 2500.0, "rho_c": 2e6}, thermal="transient")
+    data["physics"]["mechanics"] = "dynamic"
+    data["time"] = {"end": 1e-3, "dt": 1e-3}
+    with pytest.raises(SceneError) as info:
+        validate(scene_from_dict(data))
+    assert [p.item for p in info.value.problems] == ["materials.rock.youngs_modulus"]
+    assert "assembles its stiffness matrix once" in info.value.problems[0].message

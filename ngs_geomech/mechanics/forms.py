@@ -48,6 +48,7 @@ import scipy.sparse as sp
 
 from .. import parallel
 from ..fem.coefficients import TimeFunction, material_cf, regions_regex
+from ..scene import expressions
 from .choices import FORMULATIONS
 from .materials import (
     ElasticProperties,
@@ -362,6 +363,13 @@ class ElasticForms:
                 red = reduce_tensors(self.setup.model, t.C, t.b)
                 self.D[name], self.b[name], self.zz[name] = red.D, red.b, red.zz
                 self.T0[name], self.rho[name] = t.T0, t.density
+
+    @property
+    def stiffness_uses_temperature(self) -> bool:
+        """Whether a region's stiffness depends on the temperature (E(T)): its matrix changes with T."""
+        return any(p.varying is not None and isinstance(p.varying.material.youngs_modulus, str)
+                   and expressions.TEMPERATURE in expressions.uses(p.varying.material.youngs_modulus)
+                   for p in self.setup.props.values())
 
     def _mixed_data(self, name: str, index: int) -> _Mixed:
         p = self.setup.props[name]

@@ -216,7 +216,8 @@ class ElasticSolver:
         f = self.f
         if not f.setup.nonlinear:
             f.u_frozen.vec[:] = 0.0
-            self._solve_secant_system(where, reuse=True)
+            # E(T): the matrix follows the temperature, assembled and factored at every solve
+            self._solve_secant_system(where, reuse=not f.stiffness_uses_temperature)
             info = NonlinearInfo("linear", 1, wall_s=time.perf_counter() - tic)
         elif self.method == "secant":
             info = self._secant(where)

@@ -93,10 +93,13 @@ def _varying_refused(scene: Scene, mat, key: str) -> str:
             and key != "density":
         return ("an expression in a region with viscosity_time or prony: the rate terms C^v = viscosity_time C and "
                 "C_k = modulus_ratio C take numbers for C; give the elastic data as numbers there")
-    if key == "youngs_modulus" and expressions.TEMPERATURE in expressions.uses(mat.youngs_modulus) \
-            and scene.physics.thermal is None:
-        return ("depends on T, but physics.thermal is off: the mechanics has no temperature to take E(T) at; switch "
-                "the thermal problem on or give E of x, y, z only")
+    if key == "youngs_modulus" and expressions.TEMPERATURE in expressions.uses(mat.youngs_modulus):
+        if scene.physics.thermal is None:
+            return ("depends on T, but physics.thermal is off: the mechanics has no temperature to take E(T) at; "
+                    "switch the thermal problem on or give E of x, y, z only")
+        if scene.physics.mechanics in ("dynamic", "viscous"):
+            return (f"depends on T: {scene.physics.mechanics} mechanics assembles its stiffness matrix once; give E "
+                    "of x, y, z only (static mechanics takes E(T), re-assembled at each solve)")
     return ""
 
 
