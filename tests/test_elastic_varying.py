@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from ngs_geomech.api import run
-from ngs_geomech.errors import MaterialError, SceneError
+from ngs_geomech.errors import MaterialError, SceneError, SolverError
 from ngs_geomech.mechanics import materials as em
 from ngs_geomech.scene import expressions
 from ngs_geomech.scene.model import Material, Orthotropic, TransverselyIsotropic
@@ -377,3 +377,18 @@ def test_dynamic_mechanics_refuses_a_stiffness_of_temperature():
         validate(scene_from_dict(data))
     assert [p.item for p in info.value.problems] == ["materials.rock.youngs_modulus"]
     assert "assembles its stiffness matrix once" in info.value.problems[0].message
+
+
+def test_run_names_the_material_where_a_stiffness_of_temperature_stops_holding():
+    """Validation sees E = 1e10 (1 - T/200) positive at the temperatures the region surely takes (10-50); a heat
+    source takes T past 200 and the mechanics solve stops naming the material, the key and the point."""
+    data = _square({"youngs_modulus": "1e10*(1 - T/200)", "rho_c": 2e6}, thermal="transient")
+    data["boundary_conditions"]["top"] = {"temperature": 50.0}
+    data["sources"] = [{"region": "rock", "density": 2e6}]
+    data["initial"] = {"temperature": 10.0}
+    data["time"] = {"end": 400.0, "dt": 200.0}
+    sc = scene_from_dict(data)
+    validate(sc)
+    with pytest.raises(SolverError, match=r"materials\.rock\.youngs_modulus must be positive, got -.* Pa at x=.* "
+                                          r"T=.*: the temperature of the run"):
+        run(sc, None, progress=False, threads=1)

@@ -39,6 +39,7 @@ import numpy as np
 
 from ..errors import MaterialError
 from ..heat.materials import check_declared, rotation_matrix
+from ..scene import expressions
 from ..scene.model import Material
 from ..scene.schema import material_at, varying_keys
 
@@ -582,7 +583,9 @@ def varying_elastic_properties(m: Material, dim: int, samples) -> ElasticPropert
         try:
             p = elastic_properties(material_at(m, keys, functions, values), dim)
         except (ArithmeticError, ValueError) as exc:
-            where = ", ".join(f"{k}={values[k]:.6g}" for k in ("x", "y", "z", "T") if k in values)
+            with_t = isinstance(m.youngs_modulus, str) and "T" in expressions.uses(m.youngs_modulus)
+            names = ("x", "y", "z")[:dim] + (("T",) if with_t else ())
+            where = ", ".join(f"{k}={values[k] + 0.0:.6g}" for k in names)
             key = getattr(exc, "key", "") or keys[0]
             raise MaterialError(key, f"{getattr(exc, 'detail', str(exc))} at {where}") from None
         n += 1

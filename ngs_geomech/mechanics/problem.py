@@ -6,8 +6,10 @@ import ngsolve as ngs
 import numpy as np
 
 from .. import parallel
+from ..errors import MaterialError, Problem, SceneError, SolverError
 from ..fem.coefficients import expression_function
 from ..geometry.assemble import GeometryModel
+from ..scene import expressions
 from ..scene.model import Scene
 from .forms import ElasticSetup, mixed_regions
 from .materials import elastic_properties, elastic_varying_keys, varying_elastic_properties
@@ -64,15 +66,36 @@ def region_samples(mesh, name: str, temperature=None, limit: int = SAMPLES) -> l
 def region_properties(scene: Scene, mesh, temperature=None) -> dict:
     """Region -> ElasticProperties of a validated scene: numbers as they are; a material whose elastic keys hold
     expressions read at :func:`region_samples` (representative numbers and the expressions:
-    :func:`~.materials.varying_elastic_properties`)."""
+    :func:`~.materials.varying_elastic_properties`). SceneError naming the key and the mesh vertex where varying
+    data are refused (validation samples the geometry, not the mesh)."""
     dim = 3 if scene.scene.dimension == "3d" else 2
     out = {}
     for name, m in scene.materials.items():
-        if elastic_varying_keys(m):
-            out[name] = varying_elastic_properties(m, dim, region_samples(mesh, name, temperature))
-        else:
+        if not elastic_varying_keys(m):
             out[name] = elastic_properties(m, dim)
+            continue
+        try:
+            out[name] = varying_elastic_properties(m, dim, region_samples(mesh, name, temperature))
+        except MaterialError as exc:
+            raise SceneError([Problem(f"materials.{name}.{exc.key}", f"{exc.detail} (a mesh vertex of region "
+                                      f"{name!r})")], source=f"scene {scene.scene.name!r}") from None
     return out
+
+
+def check_elastic_temperatures(forms, where: str) -> None:
+    """Before a solve of ``forms`` (ElasticForms) whose stiffness depends on T: read each such region's data at its
+    vertices at the current temperature with every check of the number path; SolverError naming the material, the
+    key and the point where they stop holding (validation sees only the temperatures a region surely takes)."""
+    for name, p in forms.setup.props.items():
+        m = p.varying.material if p.varying is not None else None
+        if m is None or not (isinstance(m.youngs_modulus, str)
+                                 and expressions.TEMPERATURE in expressions.uses(m.youngs_modulus)):
+            continue
+        try:
+            varying_elastic_properties(m, forms.dim, region_samples(forms.mesh, name, forms.setup.temperature))
+        except MaterialError as exc:
+            raise SolverError(f"elastic solve at {where}: materials.{name}.{exc.key} {exc.detail}: the temperature "
+                              "of the run takes the elastic data of the material out of their range") from None
 
 
 def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> ElasticSetup:
