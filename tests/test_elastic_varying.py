@@ -392,3 +392,25 @@ def test_run_names_the_material_where_a_stiffness_of_temperature_stops_holding()
     with pytest.raises(SolverError, match=r"materials\.rock\.youngs_modulus must be positive, got -.* Pa at x=.* "
                                           r"T=.*: the temperature of the run"):
         run(sc, None, progress=False, threads=1)
+
+
+def test_friction_that_varies_along_a_3d_base_sets_the_slip_zone():
+    """The incline in 3D: a box 1 x 0.5 x 0.25 m with E(z), nu(x), rho(y) on a rigid plane, gravity tilted along x
+    (slope 0.3), F = 0.1 on x < 0.5 and 0.8 beyond: the first half slips (|q| = F p), the far part sticks."""
+    a = math.atan(0.3)
+    data = {"scene": {"name": "incline3d", "dimension": "3d"}, "physics": {"mechanics": "static"},
+            "mesh": {"maxh": 0.12, "order": 1},
+            "blocks": [{"name": "block", "shape": "box", "origin": [0, 0, 0], "size": [1.0, 0.5, 0.25],
+                        "boundaries": {"base": "zmin"}}],
+            "materials": {"block": {"youngs_modulus": "1e9*(1 + z)", "poisson_ratio": "0.25 + 0.05*x",
+                                    "density": "2500 + 100*y"}},
+            "mechanics": {"gravity": [9.81 * math.sin(a), 0.0, -9.81 * math.cos(a)]},
+            "boundary_conditions": {"base": {"foundation": {"point": [0, 0, 0], "normal": [0, 0, 1], "law": "coulomb",
+                                                            "friction": "if(x < 0.5, 0.1, 0.8)"}}},
+            "output": {"vtk": False, "figures": False}}
+    r = run(scene_from_dict(data), None, progress=False, threads=1).mechanics.contact_output.latest[0]
+    x, p, q, status = (np.asarray(r[k]) for k in ("x", "pressure", "traction", "status"))
+    low, high = x < 0.5 - 1e-9, x > 0.7
+    print(f"\n3D: {len(x)} base nodes, slip {int(np.sum(status == 2))}, stick {int(np.sum(status == 1))}")
+    assert np.all(status[low] == 2) and np.all(status[high] == 1)
+    assert np.allclose(q[low], 0.1 * p[low], rtol=1e-6)
