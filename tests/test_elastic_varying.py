@@ -414,3 +414,30 @@ def test_friction_that_varies_along_a_3d_base_sets_the_slip_zone():
     print(f"\n3D: {len(x)} base nodes, slip {int(np.sum(status == 2))}, stick {int(np.sum(status == 1))}")
     assert np.all(status[low] == 2) and np.all(status[high] == 1)
     assert np.allclose(q[low], 0.1 * p[low], rtol=1e-6)
+
+
+def test_friction_that_varies_along_an_interface_between_blocks():
+    """The incline with an elastic base: the block rests on a second block (fixed at its bottom) through a contact
+    interface whose friction is 0.1 on x < 0.5 and 0.8 beyond, with a slip bound check of a Tresca variant."""
+    data = _incline(0.0)
+    a = math.atan(0.3)
+    data["blocks"] = [{"name": "block", "shape": "rectangle", "origin": [0.0, 0.0], "size": [1.0, 0.25]},
+                      {"name": "base", "shape": "rectangle", "origin": [0.0, -0.25], "size": [1.0, 0.25],
+                       "boundaries": {"bottom": "ymin"}}]
+    data["materials"]["base"] = {"youngs_modulus": "2e9*(1 - y)", "poisson_ratio": 0.25, "density": 2500.0}
+    data["interfaces"] = [{"name": "joint", "blocks": ["block", "base"], "type": "contact", "law": "coulomb",
+                           "friction": "if(x < 0.5, 0.1, 0.8)"}]
+    data["boundary_conditions"] = {"bottom": {"displacement": [0.0, 0.0]}}
+    data["mechanics"]["gravity"] = [9.81 * math.sin(a), -9.81 * math.cos(a)]
+    r = run(scene_from_dict(data), None, progress=False, threads=1).mechanics.contact_output.latest[0]
+    x, p, q, status = (np.asarray(r[k]) for k in ("x", "pressure", "traction", "status"))
+    low, high = x < 0.5 - 1e-9, x > 0.7
+    print(f"\ninterface: {len(x)} nodes, slip at x = {np.sort(x[status == 2]).round(3).tolist()}")
+    assert np.all(status[low] == 2) and np.all(status[high] == 1)
+    assert np.allclose(np.abs(q[low]), 0.1 * p[low], rtol=1e-6)
+    data["interfaces"][0].update(law="tresca", slip_bound="1e3*(0.5 - x)")
+    data["interfaces"][0].pop("friction")
+    with pytest.raises(SceneError) as info:
+        validate(scene_from_dict(data))
+    assert [pr.item for pr in info.value.problems] == ["interfaces[0] (joint).slip_bound"]
+    assert "must be >= 0 Pa, got -" in info.value.problems[0].message

@@ -15,6 +15,10 @@ with a multiplier (the normal traction, Pa) <mu, u.n> + <lambda, v.n>.
 Models: plane strain and plane stress (x, y), axisymmetric (r = x, z = y; e_thetatheta = u_r / r, weight
 r, u_r = 0 on the axis) and 3D. Units: u in m, stresses in Pa, T in K (or degC), beta in Pa/K.
 
+Material data may vary in space (the seed's c_ijkl(x), beta(x), T0(x); E also with the given temperature T): a
+region of varying data integrates c(x), beta(x), T0(x) and rho(x) as CoefficientFunctions built by the formulas of
+the number path (:func:`~.materials.elastic_tensors`); a region of numbers keeps its constant matrices.
+
 Near incompressibility: the displacement formulation's mean stress K tr e(u_h) is K times a small,
 badly approximated number when nu -> 1/2 (P2: error ~ h / (1 - 2 nu)). Isotropic linear regions (lam = 1) can
 use a mixed displacement-pressure formulation instead (``ElasticSetup.formulation``; :func:`mixed_regions`):
@@ -430,7 +434,6 @@ class ElasticForms:
         if a.dtype == object:
             return ngs.CoefficientFunction(tuple(_entry_cf(v) for v in a))
         return ngs.CoefficientFunction(tuple(float(v) for v in a))
-
 
     def delta_T(self, name: str):
         """T - T0 of region ``name`` (a CF), None without a temperature."""
