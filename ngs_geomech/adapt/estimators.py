@@ -42,7 +42,10 @@ Estimators (``kind = "estimator"``) bound the discretization error in the energy
   longest edge, h_E the facet's (m); k_T = trace(kappa)/dim (W/(m K)) or trace of the in-plane normal block of
   D / dim (Pa) of the element's region. A conductivity that varies (an expression of x, y, z, T) enters R_T with
   its derivatives (d_i kappa_ij + d kappa_ij/dT d_i T_h) d_j T_h, and the weights (k_T, the ZZ norm's kappa^-1)
-  with its mean over the region (an equivalent norm, within the contrast of kappa in the region). Jumps are
+  with its mean over the region (an equivalent norm, within the contrast of kappa in the region). Elastic data
+  that vary (C(x, T), beta(x), T0(x), rho(x)) enter R_T as (d_k D) e(u_h) - d_k (b (T - T0)) + rho g (the
+  derivative in x_k with T held plus d/dT times d_k T_h for a temperature GridFunction), the ZZ norm with D(x)^-1
+  pointwise (SPR: the region's representative D), k_T with the representative D. Jumps are
   computed with a facet space of the solution's order - 1 (exact on straight facets; the one-sided normal fluxes
   summed over the element boundaries, divided by the facet mass).
 
@@ -552,7 +555,7 @@ def elastic_energy_error(forms: ElasticForms, strain_exact: dict, order: int | N
     tot = 0.0
     for name, e in strain_exact.items():
         d = forms.strain_vector(u) - e
-        tot += float(ngs.Integrate(forms.weight * ngs.InnerProduct(cf_matrix(forms.D[name]) * d, d), forms.mesh,
+        tot += float(ngs.Integrate(forms.weight * ngs.InnerProduct(forms.cf_matrix(forms.D[name]) * d, d), forms.mesh,
                                    order=q, definedon=forms.mesh.Materials(name)))
     return math.sqrt(max(tot, 0.0))
 
@@ -566,7 +569,7 @@ def zz_elastic(forms: ElasticForms, *, recovery: str | None = None, recovery_ord
     for name in s.props:
         region = mesh.Materials(name)
         sh = forms.stress_vector(name, u)
-        D = forms.D[name]
+        D = forms.D_ref[name]           # varying data: the representative stiffness weights the patch recovery
         if recovery == "spr":
             part = _spr_eta2(mesh, sh, region, _spr_degree(s.order, recovery_order), forms.weight, np.linalg.inv(D))
             if part is not None:
@@ -575,12 +578,41 @@ def zz_elastic(forms: ElasticForms, *, recovery: str | None = None, recovery_ord
         ss = _recover(mesh, sh, D.shape[0], _recovery_order(s.order, recovery_order), region,
                       "average" if recovery == "spr" else recovery)
         d = ss - sh
-        eta2 += _element_integral(mesh, forms.weight * ngs.InnerProduct(cf_matrix(np.linalg.inv(D)) * d, d), region)
+        Dinv = cf_matrix(np.linalg.inv(D)) if forms.D[name] is D else ngs.Inv(forms.cf_matrix(forms.D[name]))
+        eta2 += _element_integral(mesh, forms.weight * ngs.InnerProduct(Dinv * d, d), region)
     return Estimate("zz", "estimator", np.sqrt(np.maximum(eta2, 0.0)))
 
 
 def _stiffness_scale(D: np.ndarray, dim: int) -> float:
     return float(np.trace(D[:dim, :dim])) / dim
+
+
+def _varying_divergence(forms: ElasticForms, name: str, u, div: list) -> list:
+    """``div`` plus the divergence terms of varying elastic data in region ``name``: (d_k D) e(u_h) and
+    -d_k (b (T - T0)), each d_k the derivative in x_k with T held, plus d/dT times d_k T_h where T is a
+    GridFunction (E(T), and the temperature gradient of the thermal stress)."""
+    s = forms.setup
+    dim = forms.dim
+    vi = _voigt_index(dim)
+    coords = (ngs.x, ngs.y, ngs.z)[:dim]
+    T = s.temperature if isinstance(s.temperature, ngs.GridFunction) else None
+
+    def total(cf, k):
+        d = cf.Diff(coords[k])
+        return d + cf.Diff(T) * ngs.grad(T)[k] if T is not None else d
+
+    e = forms.strain_vector(u)
+    D = forms.cf_matrix(forms.D[name])
+    dT = forms.delta_T(name)
+    thermal = forms.cf_vector(forms.b[name]) * dT if dT is not None else None
+    out = list(div)
+    for k in range(dim):
+        dsk = total(D, k) * e
+        if thermal is not None:
+            dsk = dsk - total(thermal, k)
+        for i in range(dim):
+            out[i] = out[i] + dsk[vi[(i, k)]]
+    return out
 
 
 def residual_elastic(forms: ElasticForms, *, c_volume: float = C_VOLUME, c_jump: float = C_JUMP) -> Estimate:
@@ -599,7 +631,7 @@ def residual_elastic(forms: ElasticForms, *, c_volume: float = C_VOLUME, c_jump:
     # element residual f + div sigma_h, region by region
     R_parts = {}
     for name, p in s.props.items():
-        D = cf_matrix(forms.D[name])
+        D = forms.cf_matrix(forms.D[name])
         div = [ngs.CoefficientFunction(0.0) for _ in range(dim)]
         if s.order >= 2:
             H = [u.components[c].Operator("hesse") for c in range(dim)]
@@ -612,7 +644,9 @@ def residual_elastic(forms: ElasticForms, *, c_volume: float = C_VOLUME, c_jump:
                 for i in range(dim):
                     div[i] = div[i] + dsk[vi[(i, k)]]
         dT = forms.delta_T(name)
-        if dT is not None and isinstance(s.temperature, ngs.GridFunction):
+        if p.varying is not None:
+            div = _varying_divergence(forms, name, u, div)
+        elif dT is not None and isinstance(s.temperature, ngs.GridFunction):
             gT = ngs.grad(s.temperature)
             for i in range(dim):
                 for k in range(dim):
@@ -622,16 +656,17 @@ def residual_elastic(forms: ElasticForms, *, c_volume: float = C_VOLUME, c_jump:
             for i in range(dim):
                 for k in range(dim):
                     div[i] = div[i] + s0[vi[(i, k)]].Diff(coords[k])
-        if s.gravity is not None and p.density:
+        rho = forms.rho[name] if p.varying is not None else p.density
+        if s.gravity is not None and rho is not None and (p.varying is not None or p.density):
             for i in range(dim):
-                div[i] = div[i] + p.density * s.gravity[i]
+                div[i] = div[i] + rho * s.gravity[i]
         for bname, comps in s.body_force.items():
             if bname == name:
                 for i in range(dim):
                     div[i] = div[i] + comps[i](forms.t)
         R_parts[name] = ngs.CoefficientFunction(tuple(div))
     R = mesh.MaterialCF(R_parts, default=ngs.CoefficientFunction((0.0,) * dim))
-    k = mesh.MaterialCF({n: _stiffness_scale(forms.D[n], dim) for n in s.props}, default=1.0)
+    k = mesh.MaterialCF({n: _stiffness_scale(forms.D_ref[n], dim) for n in s.props}, default=1.0)
     p = s.order
     hT = _p0_field(mesh, element_sizes(mesh))
     eta2 = c_volume / p ** 2 * _element_integral(mesh, forms.weight * hT * hT / k * ngs.InnerProduct(R, R))

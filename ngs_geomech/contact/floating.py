@@ -227,7 +227,7 @@ def _load_lp(ifs: list[InterfaceState], R: np.ndarray) -> tuple[list, list, list
                 if it.law.kind == "tresca":
                     ub_poly.append((j1, j2, ca, sa, None, 0.0, it.bound0[kidx]))
                 else:
-                    ub_poly.append((j1, j2, ca, sa, jn, it.law.friction, np.zeros(len(kidx))))
+                    ub_poly.append((j1, j2, ca, sa, jn, _node_friction(it)[kidx], np.zeros(len(kidx))))
         elif it.law.kind == "tresca":
             cols_eq.append((it.Bt[kidx] @ R).T)
             bounds += [(-float(g), float(g)) for g in it.bound0[kidx]]
@@ -237,8 +237,13 @@ def _load_lp(ifs: list[InterfaceState], R: np.ndarray) -> tuple[list, list, list
             bounds += [(None, None)] * len(kidx)
             jt = np.arange(nvar, nvar + len(kidx))
             nvar += len(kidx)
-            ub_rows += [(a, b_, it.law.friction) for a, b_ in zip(jt, jn)]
+            ub_rows += [(a, b_, float(f)) for a, b_, f in zip(jt, jn, _node_friction(it)[kidx])]
     return cols_eq, bounds, ub_rows, ub_poly, nvar
+
+
+def _node_friction(it: InterfaceState) -> np.ndarray:
+    """The Coulomb friction coefficient of each node of an interface (a number or one per node)."""
+    return np.broadcast_to(np.asarray(it.law.friction, dtype=float), (it.m,))
 
 
 def _friction_inequalities(ub_rows: list, ub_poly: list, nvar: int, k: int, sigma: float):
@@ -257,7 +262,7 @@ def _friction_inequalities(ub_rows: list, ub_poly: list, nvar: int, k: int, sigm
         rows = nrow + np.arange(len(j1))
         rr += [rows, rows] + ([rows] if jn_ is not None else [])
         cc += [j1, j2] + ([jn_] if jn_ is not None else [])
-        vv += [np.full(len(j1), ca), np.full(len(j1), sa)] + ([np.full(len(j1), -F)] if jn_ is not None
+        vv += [np.full(len(j1), ca), np.full(len(j1), sa)] + ([-np.broadcast_to(F, len(j1))] if jn_ is not None
                                                               else [])
         bb.append(rhs / sigma)
         nrow += len(j1)

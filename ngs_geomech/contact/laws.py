@@ -21,13 +21,14 @@ def slip_bound(friction: float, lam_n: np.ndarray) -> np.ndarray:
 @dataclass
 class ContactLaw:
     """The law of one interface: ``kind`` in :data:`LAWS`; ``slip_bound`` g_c per node (Pa, Tresca);
-    ``friction`` F_c (Coulomb); ``augmentation`` c (Pa/m, None: E_max / nodal size); ``penalty``: this
-    interface keeps the penalty rows (lam_n = c x penetration, lam_t = c_t x stick slip) to the end instead of
-    switching to exact constraints (the whole solve is penalty with ContactSolver(method="penalty"))."""
+    ``friction`` F_c (Coulomb: one number, or one per node); ``augmentation`` c (Pa/m, None: E_max / nodal
+    size); ``penalty``: this interface keeps the penalty rows (lam_n = c x penetration, lam_t = c_t x stick
+    slip) to the end instead of switching to exact constraints (the whole solve is penalty with
+    ContactSolver(method="penalty"))."""
 
     kind: str = "frictionless"
     slip_bound: np.ndarray | float | None = None
-    friction: float = 0.0
+    friction: np.ndarray | float = 0.0
     augmentation: float | None = None
     penalty: bool = False
 
@@ -36,8 +37,11 @@ class ContactLaw:
             raise ValueError(f"unknown contact law {self.kind!r}; choose one of {', '.join(LAWS)}")
         if self.kind == "tresca" and self.slip_bound is None:
             raise ValueError("Tresca friction needs a slip bound g_c (Pa)")
-        if self.kind == "coulomb" and not (self.friction > 0 and np.isfinite(self.friction)):
-            raise ValueError(f"Coulomb friction needs a positive coefficient, got {self.friction}")
+        if self.kind == "coulomb":
+            F = np.asarray(self.friction, dtype=float)
+            if not (np.all(np.isfinite(F)) and np.all(F >= 0) and np.any(F > 0)):
+                raise ValueError(f"Coulomb friction needs a positive coefficient (one per node: >= 0 at every node, "
+                                 f"positive at some), got {self.friction}")
         if self.kind == "tresca":
             g = np.asarray(self.slip_bound, dtype=float)
             if not np.all(np.isfinite(g)) or np.any(g < 0):

@@ -52,19 +52,23 @@ class ContactSpec:
     cells: np.ndarray               # S's boundary cells as node indices (output): (k, 2) segments, 3D (k, 3) triangles
 
 
+def nodal_values(value, coords: np.ndarray):
+    """A number as a float, an expression of x, y (z), r as its values at the nodes ``coords`` (m x dim, m)."""
+    if not isinstance(value, str):
+        return float(value)
+    names = "xyz"
+    return np.array([expressions.evaluate(value, **{names[k]: float(p[k]) for k in range(len(p))}, r=float(p[0]))
+                     for p in coords])
+
+
 def contact_law(c: ContactMechanics, coords: np.ndarray, penalty: bool) -> ContactLaw:
-    """The solver's law from the scene keys; an expression slip bound is evaluated at the nodes (m x dim);
-    ``penalty``: the contact keeps its penalty rows (:func:`.choices.contact_methods`)."""
-    g = None
-    if c.law == "tresca":
-        if isinstance(c.slip_bound, str):
-            names = "xyz"
-            g = np.array([expressions.evaluate(c.slip_bound, **{names[k]: float(p[k]) for k in range(len(p))},
-                                               r=float(p[0])) for p in coords])
-        else:
-            g = float(c.slip_bound)
-    kind = "frictionless" if c.law == "coulomb" and c.friction == 0 else c.law     # F_c = 0: no friction
-    return ContactLaw(kind, slip_bound=g, friction=c.friction or 0.0, augmentation=c.augmentation, penalty=penalty)
+    """The solver's law from the scene keys; an expression slip bound or friction coefficient is evaluated at the
+    nodes (m x dim: one value per node); ``penalty``: the contact keeps its penalty rows
+    (:func:`.choices.contact_methods`)."""
+    g = nodal_values(c.slip_bound, coords) if c.law == "tresca" else None
+    friction = nodal_values(c.friction, coords) if c.law == "coulomb" and c.friction is not None else 0.0
+    kind = "frictionless" if c.law == "coulomb" and np.all(np.asarray(friction) == 0) else c.law   # F_c = 0
+    return ContactLaw(kind, slip_bound=g, friction=friction, augmentation=c.augmentation, penalty=penalty)
 
 
 def method_choice(settings: list[ContactMechanics], names: list[str], dim: int, mechanics: str) -> MethodChoice:

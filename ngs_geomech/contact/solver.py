@@ -605,6 +605,8 @@ class PenaltyContactSolver(ContactSolver):
 
 
 def nodal_modulus(props) -> float:
-    """A modulus scale (Pa) for the default augmentation: the largest diagonal entry of the stiffnesses."""
+    """A modulus scale (Pa) for the default augmentation: the largest diagonal entry of the stiffnesses. Varying
+    elastic data enter with their representative stiffness, that of the stiffest of the region's sample points
+    (:func:`~ngs_geomech.mechanics.materials.varying_elastic_properties`): the largest over the region."""
     return max(float(np.max(np.diag(p.C))) for p in props.values())
 

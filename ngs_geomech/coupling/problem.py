@@ -9,9 +9,10 @@ term is the thermoelastic heat
     Q_def = -Theta_0 beta_ij e_ij(u_t)    (W/m^3),
 
 Theta_0 the absolute reference temperature (K: the stress-free temperature of the material, plus 273.15 in a
-scene in degC). Compression (tr e(u_t) < 0 for isotropic beta) heats, expansion cools. In the reduced 2D models
-beta and e are the model's reduced Voigt vectors (plane strain: e_zz = 0; plane stress: the in-plane conjugate
-of the reduced thermal stress; axisymmetric: with the hoop strain).
+scene in degC; where the stress-free temperature or beta vary, the source takes their fields). Compression
+(tr e(u_t) < 0 for isotropic beta) heats, expansion cools. In the reduced 2D models beta and e are the model's
+reduced Voigt vectors (plane strain: e_zz = 0; plane stress: the in-plane conjugate of the reduced thermal stress;
+axisymmetric: with the hoop strain).
 
 Time stepping (per step t_n -> t_n+1, the seed's splitting):
   'staggered': the heat step takes u_t = (u^n - u^(n-1)) / dt_n, the rate of the previous step (zero in the
@@ -55,7 +56,8 @@ class DeformationHeating:
     """The source Q_def = -Theta_0 beta . e(u_t) (module docstring) of an elastic problem (``mech_forms``,
     :class:`ngs_geomech.mechanics.forms.ElasticForms`), against the test function ``v`` of a heat space
     ``space`` with the volume measure ``dx`` and weight ``weight`` (2 pi r-free: r in axisymmetric heat forms).
-    ``offset`` is added to the materials' stress-free temperatures to make Theta_0 absolute (273.15 for degC);
+    ``offset`` is added to the materials' stress-free temperatures to make Theta_0 absolute (273.15 for degC;
+    varying data: checked positive at the smallest sampled T0);
     ``extra`` (a CoefficientFunction, W/m^3, or None) is added to the source: the viscous dissipation density.
 
     The displacement rate is held in :attr:`rate` (a GridFunction of the displacement space, m/s)."""
@@ -76,6 +78,9 @@ class DeformationHeating:
                                  "(a scene in degC needs temperature_unit = 'C')")
             self.theta0[name] = th0
             b = mech_forms.b[name]
+            if props.varying is not None:      # Theta_0(x) and beta(x): the smallest T0 was checked above
+                terms[name] = -(mech_forms.T0[name] + offset) * ngs.InnerProduct(mech_forms.cf_vector(b), e)
+                continue
             terms[name] = -th0 * ngs.InnerProduct(ngs.CoefficientFunction(tuple(float(x) for x in b)), e)
         self.source = mech_forms.mesh.MaterialCF(terms, default=0.0)
         if extra is not None:                      # e.g. the viscous dissipation of dynamic mechanics (2.6)

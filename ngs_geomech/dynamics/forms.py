@@ -65,8 +65,8 @@ class PronyBranch:
 @dataclass(frozen=True)
 class ViscousProperties:
     """Rate-dependent data of one region: ``viscosity`` C^v (6x6 Voigt, Pa s; None: no Kelvin-Voigt term),
-    ``branches`` (Prony series, :class:`PronyBranch`), ``density`` rho (kg/m^3; None: the ElasticProperties'
-    density)."""
+    ``branches`` (Prony series, :class:`PronyBranch`), ``density`` rho (kg/m^3; None: the elastic forms' density,
+    a CoefficientFunction where it varies)."""
 
     viscosity: np.ndarray | None = None
     branches: tuple = ()
@@ -166,9 +166,9 @@ class ViscoelasticForms:
         self.Dv: dict[str, np.ndarray] = {}
         self.density: dict[str, float | None] = {}
         self.branches: list[Branch] = []
-        for name, p in s.props.items():
+        for name in s.props:
             vp = self.viscous.get(name, ViscousProperties())
-            self.density[name] = vp.density if vp.density is not None else p.density
+            self.density[name] = vp.density if vp.density is not None else ef.rho[name]   # a CF where it varies
             if vp.viscosity is not None:
                 self.Dv[name] = _reduce(self.model, vp.viscosity, name)
             for k, b in enumerate(vp.branches):

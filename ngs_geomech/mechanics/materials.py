@@ -30,6 +30,7 @@ several keys (a positive bulk modulus, a positive definite stiffness) are checke
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -38,7 +39,9 @@ import numpy as np
 
 from ..errors import MaterialError
 from ..heat.materials import check_declared, rotation_matrix
+from ..scene import expressions
 from ..scene.model import Material
+from ..scene.schema import material_at, varying_keys
 
 # Voigt index of each tensor component (i, j), and the (i, j) of each Voigt index
 _PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
@@ -387,6 +390,10 @@ class ElasticProperties:
     density: float | None = None
     lam: float = 1.0
     eps_ref: float = 1e-3
+    varying: VaryingElastic | None = None
+    """Data that vary over the region (expressions): then C, alpha, beta are those of the stiffest sample point
+    (the largest diagonal entry of C), T0 the smallest and density the largest over the points
+    (:func:`varying_elastic_properties`): representative numbers for scales, the forms take the expressions."""
 
     @property
     def A_ref(self) -> float:
@@ -411,7 +418,10 @@ class ElasticProperties:
         return 0.5 * self.A_ref * ((A1 / self.A_ref + delta) ** self.lam - delta ** self.lam)
 
     def youngs_modulus_and_poisson(self) -> tuple[float, float] | None:
-        """(E in Pa, nu) for an isotropic material, None otherwise."""
+        """(E in Pa, nu) for an isotropic material, None otherwise (varying data: isotropic when given by
+        youngs_modulus + poisson_ratio or lame_lambda + lame_mu; the representative point's values)."""
+        if self.varying is not None and not self.varying.isotropic:
+            return None
         return isotropic_constants(self.C)
 
     @property
@@ -421,7 +431,9 @@ class ElasticProperties:
         G = 15 / (4 (S11 + S22 + S33) - 4 (S12 + S13 + S23) + 3 (S44 + S55 + S66)) from the compliance
         S = C^-1 (rotation invariant, equal to nu for isotropic C, and -> 0.5 exactly when the material
         becomes incompressible under hydrostatic stress). Apparent nu_ij > 0.5 of an anisotropic material
-        do not by themselves mean incompressibility."""
+        do not by themselves mean incompressibility. Varying data: the largest over the sample points."""
+        if self.varying is not None:
+            return self.varying.max_poisson
         iso = isotropic_constants(self.C)
         if iso is not None:
             return iso[1]
@@ -436,8 +448,9 @@ _GROUPS = (("youngs_modulus", "poisson_ratio"), ("lame_lambda", "lame_mu"), ("or
 _GROUP_NAMES = " | ".join(" + ".join(g) for g in _GROUPS)
 
 
-def _stiffness(m: Material) -> tuple[np.ndarray, str]:
-    """The stiffness in the material axes and the key it comes from."""
+def elastic_group(m: Material) -> tuple[str, ...]:
+    """The one group of keys that gives the stiffness (e.g. ``("youngs_modulus", "poisson_ratio")``), with each key
+    of it given and meeting its declaration; raises :class:`MaterialError` naming the key at fault."""
     given = [g for g in _GROUPS if any(getattr(m, k) is not None for k in g)]
     if not given:
         raise MaterialError("", f"no elastic constants: give exactly one of {_GROUP_NAMES}")
@@ -450,6 +463,12 @@ def _stiffness(m: Material) -> tuple[np.ndarray, str]:
     if missing:
         raise MaterialError(missing[0], f"missing: {' and '.join(group)} go together")
     check_declared(m, group)
+    return group
+
+
+def _stiffness(m: Material) -> tuple[np.ndarray, str]:
+    """The stiffness in the material axes and the key it comes from."""
+    group = elastic_group(m)
     if group[0] == "youngs_modulus":
         return isotropic(float(m.youngs_modulus), float(m.poisson_ratio)), "youngs_modulus"
     if group[0] == "lame_lambda":
@@ -483,10 +502,14 @@ def elastic_properties(m: Material, dim: int) -> ElasticProperties:
     Exactly one of youngs_modulus + poisson_ratio | lame_lambda + lame_mu | orthotropic | transversely_isotropic
     | stiffness_voigt gives the stiffness in the material axes; ``elastic_rotation`` (see :func:`rotation`)
     turns it, and a tensor ``thermal_expansion``, into the global axes. Raises :class:`MaterialError` naming
-    the key at fault."""
+    the key at fault; a material whose elastic keys hold expressions is read by
+    :func:`varying_elastic_properties`."""
+    varying = elastic_varying_keys(m)
+    if varying:
+        raise MaterialError(varying[0], "is an expression: read the material with varying_elastic_properties "
+                                        "(sample points of its region)")
     C, source = _stiffness(m)
-    check_declared(m, ("thermal_expansion", "elastic_rotation", "density", "rheology_lambda", "reference_strain",
-                       "stress_free_temperature"))
+    check_declared(m, _OTHER_KEYS)
     alpha = expansion_tensor(m.thermal_expansion if m.thermal_expansion is not None else 0.0)
     if m.elastic_rotation is not None:
         try:
@@ -504,3 +527,265 @@ def elastic_properties(m: Material, dim: int) -> ElasticProperties:
     density = None if m.density is None else float(m.density)
     return ElasticProperties(C=C, alpha=alpha, beta=beta, T0=float(m.stress_free_temperature), density=density,
                              lam=float(m.rheology_lambda), eps_ref=float(m.reference_strain))
+
+
+# ----------------------------------------------------------------------------- data that vary (expressions)
+
+ELASTIC_KEYS = ("youngs_modulus", "poisson_ratio", "lame_lambda", "lame_mu", "orthotropic", "transversely_isotropic",
+                "stiffness_voigt", "thermal_expansion", "elastic_rotation", "density", "stress_free_temperature",
+                "rheology_lambda", "reference_strain")
+"""The material keys the elastic reading depends on."""
+_OTHER_KEYS = ("thermal_expansion", "elastic_rotation", "density", "rheology_lambda", "reference_strain",
+               "stress_free_temperature")
+
+
+def elastic_varying_keys(m: Material) -> list[str]:
+    """The elastic keys of a material that hold an expression (also an entry of a list, a matrix or a nested
+    table)."""
+    return varying_keys(m, ELASTIC_KEYS)
+
+
+@dataclass(frozen=True, eq=False)
+class VaryingElastic:
+    """What an :class:`ElasticProperties` of varying data carries besides its representative numbers: the
+    ``material`` (its expressions, read by :func:`elastic_tensors`), the ``keys`` holding expressions, whether the
+    material is ``isotropic`` everywhere (given by youngs_modulus + poisson_ratio or lame_lambda + lame_mu), the
+    largest Poisson ratio (:attr:`ElasticProperties.max_poisson`) over the ``points`` sampled."""
+
+    material: Material
+    keys: tuple
+    isotropic: bool
+    max_poisson: float
+    points: int
+
+
+def elastic_structure(m: Material) -> tuple[str, ...]:
+    """What of a material's elastic data can be checked without values: one group of stiffness keys, each key of it
+    given, and every elastic key of the declared type (numbers in range, or expressions); the group. Raises
+    :class:`MaterialError` naming the key."""
+    group = elastic_group(m)
+    check_declared(m, _OTHER_KEYS)
+    return group
+
+
+def varying_elastic_properties(m: Material, dim: int, samples) -> ElasticProperties:
+    """The :class:`ElasticProperties` of a material whose elastic keys hold expressions (of x, y, z, r and, for
+    youngs_modulus, T): the material is read as numbers (:func:`elastic_properties`, with every check) at each of
+    ``samples`` (dicts of x, y, z, r, T: e.g. the vertices of its region); the result holds representative
+    numbers (:attr:`ElasticProperties.varying`) and the material. Raises :class:`MaterialError` naming the key
+    and the point where the data are refused, ValueError without samples."""
+    group = elastic_structure(m)
+    keys = elastic_varying_keys(m)
+    functions: dict = {}
+    best = None
+    nu, t0, rho, n = -math.inf, math.inf, None, 0
+    for values in samples:
+        try:
+            p = elastic_properties(material_at(m, keys, functions, values), dim)
+        except (ArithmeticError, ValueError) as exc:
+            with_t = isinstance(m.youngs_modulus, str) and "T" in expressions.uses(m.youngs_modulus)
+            names = ("x", "y", "z")[:dim] + (("T",) if with_t else ())
+            where = ", ".join(f"{k}={values[k] + 0.0:.6g}" for k in names)
+            key = getattr(exc, "key", "") or keys[0]
+            raise MaterialError(key, f"{getattr(exc, 'detail', str(exc))} at {where}") from None
+        n += 1
+        if best is None or float(np.max(np.diag(p.C))) > float(np.max(np.diag(best.C))):
+            best = p
+        nu, t0 = max(nu, p.max_poisson), min(t0, p.T0)
+        rho = p.density if rho is None else max(rho, p.density) if p.density is not None else rho
+    if best is None:
+        raise ValueError("varying elastic data need at least one sample point")
+    info = VaryingElastic(material=m, keys=tuple(keys), isotropic=group[0] in ("youngs_modulus", "lame_lambda"),
+                          max_poisson=float(nu), points=n)
+    return dataclasses.replace(best, T0=float(t0), density=rho, varying=info)
+
+
+class ElasticTensors(NamedTuple):
+    """The elastic data of a material as arrays whose entries are numbers or whatever ``scalar`` made of the
+    expressions (:func:`elastic_tensors`): the 6x6 stiffness ``C`` (Pa) and the Voigt thermal stress vector ``b``
+    (Pa/K) in the global axes, the stress-free temperature ``T0`` and the ``density`` (kg/m^3, None)."""
+
+    C: np.ndarray
+    b: np.ndarray
+    T0: object
+    density: object
+
+
+def elastic_tensors(m: Material, dim: int, scalar) -> ElasticTensors:
+    """The elastic data of a material (numbers and expressions) as object arrays: ``scalar(v)`` turns each value
+    (a float, or an expression string) into an operand of +, -, *, / (a float: numbers; a CoefficientFunction in
+    the forms). The same formulas as the number path: isotropic and Lame constants, the orthotropic compliance
+    inverted by blocks (its normal 3x3 block by cofactors), the transversely isotropic constants through it, the
+    Bond rotation and beta = C alpha; exact zeros stay 0.0 (no term is built for them). The checks (positive
+    definite, symmetric, ranges) are those of the number path at sample points (:func:`varying_elastic_properties`
+    and validation)."""
+    group = elastic_group(m)
+    if group[0] == "youngs_modulus":
+        E, nu = scalar(m.youngs_modulus), scalar(m.poisson_ratio)
+        C = _from_lame_terms(E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu)))
+    elif group[0] == "lame_lambda":
+        C = _from_lame_terms(scalar(m.lame_lambda), scalar(m.lame_mu))
+    elif group[0] == "orthotropic":
+        o = m.orthotropic
+        C = _orthotropic_terms([scalar(v) for v in o.E], [scalar(v) for v in o.nu], [scalar(v) for v in o.G])
+    elif group[0] == "transversely_isotropic":
+        t = m.transversely_isotropic
+        Ep, Ea, nup, nua, Ga = (scalar(v) for v in (t.E_plane, t.E_axis, t.nu_plane, t.nu_axis, t.G_axis))
+        nu13 = nua * Ep / Ea
+        C = _orthotropic_terms([Ep, Ep, Ea], [nup, nu13, nu13], [Ep / (2.0 * (1.0 + nup)), Ga, Ga])
+    else:
+        C = np.array([[scalar(v) for v in row] for row in m.stiffness_voigt], dtype=object)
+    a = m.thermal_expansion if m.thermal_expansion is not None else 0.0
+    if isinstance(a, (list, tuple)):
+        alpha = np.array([[scalar(v) for v in row] for row in a], dtype=object)
+    else:
+        alpha = np.full((3, 3), 0.0, dtype=object)
+        for i in range(3):
+            alpha[i, i] = scalar(a)
+    if m.elastic_rotation is not None:
+        R = rotation(m.elastic_rotation, dim)
+        M = bond_matrix(R)
+        C = _dot(_dot(M, C), M.T)
+        alpha = _dot(_dot(R, alpha), R.T)
+    strain = [alpha[i, j] if i == j else _add(alpha[i, j], alpha[j, i]) for i, j in _PAIRS]
+    b = _dot(C, np.array(strain, dtype=object))
+    density = None if m.density is None else scalar(m.density)
+    return ElasticTensors(C=C, b=b, T0=scalar(m.stress_free_temperature), density=density)
+
+
+class ReducedTensors(NamedTuple):
+    """The elastic data of a model's reduced Voigt strain vector (:func:`reduce_tensors`): stiffness ``D`` (Pa),
+    thermal vector ``b`` (Pa/K), and for plane strain the sigma_zz row and its thermal coefficient ``zz``."""
+
+    D: np.ndarray
+    b: np.ndarray
+    zz: tuple | None
+
+
+def reduce_tensors(model: str, C: np.ndarray, b: np.ndarray) -> ReducedTensors:
+    """:func:`plane_strain`, :func:`plane_stress` (its 3x3 out-of-plane block inverted by cofactors) and the
+    axisymmetric rows of object arrays (:func:`elastic_tensors`); "3d" keeps them. The axisymmetric torsion
+    check is the number path's, at the sample points. Arrays whose entries are all numbers come back as float
+    arrays."""
+    p, o = _IN_PLANE, _OUT_OF_PLANE
+    zz = None
+    if model == "3d":
+        D, bred = C, b
+    elif model == "plane_strain":
+        D, bred = C[np.ix_(p, p)], b[p]
+        zz = (tidy(C[2, p]), tidy(np.array([b[2]], dtype=object))[0])
+    elif model == "plane_stress":
+        inv = _inverse3(C[np.ix_(o, o)])
+        X = _dot(inv, C[np.ix_(o, p)])
+        D = np.array([[_add(C[i, j], -1.0 * _dot(C[i, o], X[:, k])) for k, j in enumerate(p)] for i in p],
+                     dtype=object)
+        y = _dot(inv, b[o])
+        bred = np.array([_add(b[i], -1.0 * _dot(C[i, o], y)) for i in p], dtype=object)
+    else:
+        a = _AXISYMMETRIC
+        D, bred = C[np.ix_(a, a)], b[a]
+    return ReducedTensors(tidy(D), tidy(bred), zz)
+
+
+class DeviatoricSplit(NamedTuple):
+    """The data of the mixed displacement-pressure formulation of one region (:func:`deviatoric_split`)."""
+
+    K: object
+    mu: object
+    Ddev: np.ndarray
+    bdev: np.ndarray
+    bm: object
+    zz: tuple | None
+
+
+def deviatoric_split(C: np.ndarray, b: np.ndarray, D: np.ndarray, bred: np.ndarray, zz, trace) -> DeviatoricSplit:
+    """Bulk modulus K = (C11 + 2 C12)/3 and shear modulus mu = C66 of an isotropic 6x6 stiffness C (Pa), the mean
+    thermal stress b_m = tr(beta)/3 (Pa/K) of the Voigt thermal vector b, and the deviatoric reduced data
+    Ddev = D - K m m^T, bdev = bred - b_m m and the sigma_zz row (row - K m, b_zz - b_m) of the reduced D, bred, zz
+    (``trace`` m: the model's trace vector); entries numbers or operands (object arrays, :func:`elastic_tensors`)."""
+    m = [float(v) for v in trace]
+    K = _add(C[0, 0], 2.0 * C[0, 1]) / 3.0
+    bm = _add(_add(b[0], b[1]), b[2]) / 3.0
+    n = len(m)
+    Ddev = np.array([[_add(D[i, j], -1.0 * _mul(K, m[i] * m[j])) for j in range(n)] for i in range(n)], dtype=object)
+    bdev = np.array([_add(bred[i], -1.0 * _mul(bm, m[i])) for i in range(n)], dtype=object)
+    out_zz = None
+    if zz is not None:
+        row, bz = zz
+        out_zz = (tidy(np.array([_add(row[j], -1.0 * _mul(K, m[j])) for j in range(n)], dtype=object)),
+                  _add(bz, -1.0 * bm))
+    return DeviatoricSplit(K=K, mu=C[5, 5], Ddev=tidy(Ddev), bdev=tidy(bdev), bm=bm, zz=out_zz)
+
+
+def tidy(a: np.ndarray) -> np.ndarray:
+    """An object array of numbers as a float array; other arrays unchanged."""
+    a = np.asarray(a, dtype=object) if not isinstance(a, np.ndarray) else a
+    if a.dtype == object and all(isinstance(v, (int, float)) for v in a.flat):
+        return np.array(a, dtype=float)
+    return a
+
+
+def _is_zero(v) -> bool:
+    return isinstance(v, (int, float)) and v == 0.0
+
+
+def _mul(a, b):
+    if _is_zero(a) or _is_zero(b):
+        return 0.0
+    if isinstance(a, (int, float)) and a == 1.0:
+        return b
+    if isinstance(b, (int, float)) and b == 1.0:
+        return a
+    return a * b
+
+
+def _add(a, b):
+    if _is_zero(a):
+        return b
+    return a if _is_zero(b) else a + b
+
+
+def _dot(A, B):
+    """A @ B (matrix-matrix, matrix-vector or vector-vector) of object or float arrays, with exact zeros skipped."""
+    A, B = np.asarray(A, dtype=object), np.asarray(B, dtype=object)
+    if A.ndim == 1 and B.ndim == 1:
+        out = 0.0
+        for a, b in zip(A, B):
+            out = _add(out, _mul(a, b))
+        return out
+    if B.ndim == 1:
+        return np.array([_dot(row, B) for row in A], dtype=object)
+    return np.array([[_dot(row, B[:, j]) for j in range(B.shape[1])] for row in A], dtype=object)
+
+
+def _inverse3(a) -> np.ndarray:
+    """The inverse of a 3x3 object array by cofactors: inv[i, j] = cof[j, i] / det."""
+    cof = [[_add(_mul(a[(i + 1) % 3, (j + 1) % 3], a[(i + 2) % 3, (j + 2) % 3]),
+                 -1.0 * _mul(a[(i + 1) % 3, (j + 2) % 3], a[(i + 2) % 3, (j + 1) % 3])) for j in range(3)]
+           for i in range(3)]
+    det = _dot(np.array([a[0, j] for j in range(3)], dtype=object), np.array(cof[0], dtype=object))
+    return np.array([[0.0 if _is_zero(cof[j][i]) else cof[j][i] / det for j in range(3)] for i in range(3)],
+                    dtype=object)
+
+
+def _from_lame_terms(lam, mu) -> np.ndarray:
+    """:func:`from_lame` of operands (object array)."""
+    c = np.full((6, 6), 0.0, dtype=object)
+    for i in range(3):
+        for j in range(3):
+            c[i, j] = lam + 2.0 * mu if i == j else lam
+        c[3 + i, 3 + i] = mu
+    return c
+
+
+def _orthotropic_terms(E, nu, G) -> np.ndarray:
+    """:func:`orthotropic` of operands: the normal 3x3 block of the compliance inverted by cofactors, the shear
+    moduli on the diagonal (object array)."""
+    (E1, E2, E3), (nu12, nu13, nu23) = E, nu
+    s = np.array([[1.0 / E1, -1.0 * nu12 / E1, -1.0 * nu13 / E1],
+                  [-1.0 * nu12 / E1, 1.0 / E2, -1.0 * nu23 / E2],
+                  [-1.0 * nu13 / E1, -1.0 * nu23 / E2, 1.0 / E3]], dtype=object)
+    c = np.full((6, 6), 0.0, dtype=object)
+    c[:3, :3] = _inverse3(s)
+    c[3, 3], c[4, 4], c[5, 5] = G[2], G[1], G[0]
+    return c

@@ -6,11 +6,13 @@ import ngsolve as ngs
 import numpy as np
 
 from .. import parallel
+from ..errors import MaterialError, Problem, SceneError, SolverError
 from ..fem.coefficients import expression_function
 from ..geometry.assemble import GeometryModel
+from ..scene import expressions
 from ..scene.model import Scene
 from .forms import ElasticSetup, mixed_regions
-from .materials import elastic_properties
+from .materials import elastic_properties, elastic_varying_keys, varying_elastic_properties
 
 
 def mechanics_model(scene: Scene) -> str:
@@ -34,10 +36,71 @@ def axis_boundaries(mesh, names) -> list[str]:
     return out
 
 
+SAMPLES = 400
+"""Most mesh vertices per region at which varying elastic data are read as numbers (representative values)."""
+
+
+def region_samples(mesh, name: str, temperature=None, limit: int = SAMPLES) -> list[dict]:
+    """Sample points of region ``name``: its mesh vertices (of every rank of a distributed mesh), sorted and thinned
+    evenly to at most ``limit``, as dicts of x, y, z, r (m) and T (the value of ``temperature`` there, 0 without
+    one). Collective on a distributed mesh."""
+    arr = (mesh.ngmesh.Elements3D() if mesh.dim == 3 else mesh.ngmesh.Elements2D()).NumPy()
+    index = np.asarray(arr["index"], dtype=np.int64) - 1
+    materials = list(mesh.GetMaterials())
+    region = materials.index(name) if name in materials else -1
+    nodes = np.asarray(arr["nodes"], dtype=np.int64)[index == region]
+    ids = np.unique(nodes[nodes > 0]) - 1
+    pts = np.asarray(mesh.ngmesh.Coordinates())[ids] if len(ids) else np.zeros((0, mesh.dim))
+    pts = parallel.concat(mesh, pts)
+    pts = np.unique(np.round(pts, 12), axis=0)
+    pts = pts[::max(1, -(-len(pts) // limit))]
+    T = (parallel.point_values(mesh, temperature, pts[:, :mesh.dim])[:, 0] if temperature is not None and len(pts)
+         else np.zeros(len(pts)))
+    T = np.where(np.isfinite(T), T, 0.0)
+    full = np.zeros((len(pts), 3))
+    full[:, :pts.shape[1]] = pts[:, :3]
+    return [{"x": float(p[0]), "y": float(p[1]), "z": float(p[2]), "r": float(p[0]), "T": float(t)}
+            for p, t in zip(full, T)]
+
+
+def region_properties(scene: Scene, mesh, temperature=None) -> dict:
+    """Region -> ElasticProperties of a validated scene: numbers as they are; a material whose elastic keys hold
+    expressions read at :func:`region_samples` (representative numbers and the expressions:
+    :func:`~.materials.varying_elastic_properties`). SceneError naming the key and the mesh vertex where varying
+    data are refused (validation samples the geometry, not the mesh)."""
+    dim = 3 if scene.scene.dimension == "3d" else 2
+    out = {}
+    for name, m in scene.materials.items():
+        if not elastic_varying_keys(m):
+            out[name] = elastic_properties(m, dim)
+            continue
+        try:
+            out[name] = varying_elastic_properties(m, dim, region_samples(mesh, name, temperature))
+        except MaterialError as exc:
+            raise SceneError([Problem(f"materials.{name}.{exc.key}", f"{exc.detail} (a mesh vertex of region "
+                                      f"{name!r})")], source=f"scene {scene.scene.name!r}") from None
+    return out
+
+
+def check_elastic_temperatures(forms, where: str) -> None:
+    """Before a solve of ``forms`` (ElasticForms) whose stiffness depends on T: read each such region's data at its
+    vertices at the current temperature with every check of the number path; SolverError naming the material, the
+    key and the point where they stop holding (validation sees only the temperatures a region surely takes)."""
+    for name, p in forms.setup.props.items():
+        m = p.varying.material if p.varying is not None else None
+        if m is None or not (isinstance(m.youngs_modulus, str)
+                                 and expressions.TEMPERATURE in expressions.uses(m.youngs_modulus)):
+            continue
+        try:
+            varying_elastic_properties(m, forms.dim, region_samples(forms.mesh, name, forms.setup.temperature))
+        except MaterialError as exc:
+            raise SolverError(f"elastic solve at {where}: materials.{name}.{exc.key} {exc.detail}: the temperature "
+                              "of the run takes the elastic data of the material out of their range") from None
+
+
 def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> ElasticSetup:
     """The ElasticSetup of a validated scene on its mesh; ``temperature`` is the heat solution CF or None."""
-    dim = 3 if scene.scene.dimension == "3d" else 2
-    props = {name: elastic_properties(m, dim) for name, m in scene.materials.items()}
+    props = region_properties(scene, mesh, temperature)
     ms = scene.mechanics
     setup = ElasticSetup(props=props, model=mechanics_model(scene), order=scene.mesh.order,
                          gravity=tuple(ms.gravity) if ms.gravity else None,

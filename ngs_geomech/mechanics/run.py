@@ -27,7 +27,7 @@ from ..scene.model import Scene
 from .contact import ElasticContactSolver
 from .forms import ElasticForms, stress_measures
 from .nested import NestedStart
-from .problem import elastic_setup, mechanics_warnings, probe_fields, watch_small_strain
+from .problem import check_elastic_temperatures, elastic_setup, mechanics_warnings, probe_fields, watch_small_strain
 from .solver import ElasticSolver, NonlinearInfo
 
 
@@ -186,6 +186,8 @@ class StaticMechanicsRun(MechanicsPart):
         self.forms.t.Set(t)
         if self.nested is not None:
             self.nested_solves.append(self.nested(self.forms, t, where))
+        if self.forms.stiffness_uses_temperature:
+            check_elastic_temperatures(self.forms, where)
         self.solver.solve(where)
         watch_small_strain(self, where)
         if record:

@@ -152,13 +152,13 @@ class ElasticSolver:
         if pre is None:
             f = self.f
             # displacement decomposition (P1, and the P1 part of the 3D P2 two-level preconditioner): a per-region
-            # modulus (the largest diagonal of D) times the secant factor of the lambda law at u_frozen (so the
-            # auxiliary forms, re-assembled after every assembly, follow the softening or hardening: with the
-            # modulus alone the CG counts of a lam = 1.5 secant run rose from 110 to 195), and each component's
-            # Dirichlet boundaries
+            # modulus (the largest diagonal of D; of varying data the representative one) times the secant factor
+            # of the lambda law at u_frozen (so the auxiliary forms, re-assembled after every assembly, follow the
+            # softening or hardening: with the modulus alone the CG counts of a lam = 1.5 secant run rose from 110
+            # to 195), and each component's Dirichlet boundaries
             e = f.strain_vector(f.u_frozen)
             scale = f.mesh.MaterialCF(
-                {r: float(np.max(np.diag(np.asarray(f.D[r]))))
+                {r: float(np.max(np.diag(np.asarray(f.D_ref[r]))))
                  * (f.linear_switch + (1 - f.linear_switch) * f.factor(r, e)) for r in f.D}, default=1.0)
             pre = self._pre[name] = Preconditioned(form, f.V, f.setup.order, vector=True, scale=scale,
                                                    weight=f.weight,
@@ -216,7 +216,8 @@ class ElasticSolver:
         f = self.f
         if not f.setup.nonlinear:
             f.u_frozen.vec[:] = 0.0
-            self._solve_secant_system(where, reuse=True)
+            # E(T): the matrix follows the temperature, assembled and factored at every solve
+            self._solve_secant_system(where, reuse=not f.stiffness_uses_temperature)
             info = NonlinearInfo("linear", 1, wall_s=time.perf_counter() - tic)
         elif self.method == "secant":
             info = self._secant(where)

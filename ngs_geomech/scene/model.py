@@ -20,6 +20,7 @@ from .schema import (
     at_most,
     boolean,
     bounded,
+    constant,
     dict_of,
     either,
     expr,
@@ -213,9 +214,9 @@ class ContactMechanics:
     slip_bound: object = field(optional(expr), None,
                                doc="Tresca slip bound g_c, Pa: a number or an expression of x, y (z), "
                                    "evaluated at the contact nodes")
-    friction: float | None = field(optional(bounded(number, 0, note="(0: frictionless)")), None,
-        doc="Coulomb friction coefficient F_c (>= 0; 0 is "
-            "frictionless contact)")
+    friction: object = field(optional(material_value(bounded(number, 0, note="(0: frictionless)"))), None,
+                             doc="Coulomb friction coefficient F_c (>= 0; 0 is frictionless contact): a number or an "
+                                 "expression of x, y (z), r, evaluated at the contact nodes")
     method: str = field(one_of(*CONTACT_METHODS), "ssn",
                         doc="'ssn': semi-smooth Newton / primal-dual active set on the augmented Lagrangian "
                             "(exact constraints; the default), 'penalty': plain penalty (penetration "
@@ -275,7 +276,11 @@ class Foundation(ContactMechanics):
     normal: list = field(list_of(number), doc="the foundation's outward normal (pointing towards the body)")
 
 
-number_or_matrix = either(number, matrix, what="a number or a symmetric matrix [[kxx, kxy], [kxy, kyy]]")
+expansion_value = either(material_value(number), list_of(list_of(material_value(number))),
+                         what="a number or a symmetric 3x3 matrix (1/K); the number and each entry may be an "
+                              "expression of x, y, z, r")
+LAMBDA_LAW = ("the lambda law (2.1)-(2.5) takes rheology_lambda and reference_strain as numbers (its secant factor "
+              "and reference energy are built per region)")
 conductivity_scalar = material_value(positive(number, "W/(m K)"), temperature=True)
 """A conductivity, W/(m K): a positive number, or an expression of x, y, z, r and T (positive where it applies)."""
 conductivity_value = either(conductivity_scalar, list_of(list_of(material_value(number, temperature=True))),
@@ -295,20 +300,26 @@ class PronyTerm:
 class Orthotropic:
     """Orthotropic engineering constants in the material axes 1, 2, 3 (Pa); nu_ij = -eps_j / eps_i."""
 
-    E: list = field(list_of(positive(modulus, "Pa"), 3), doc="[E1, E2, E3], Pa")
-    nu: list = field(list_of(number, 3), doc="[nu12, nu13, nu23]")
-    G: list = field(list_of(positive(modulus, "Pa"), 3), doc="[G12, G13, G23], Pa")
+    E: list = field(list_of(material_value(positive(modulus, "Pa")), 3),
+                    doc="[E1, E2, E3], Pa (each a number or an expression of x, y, z, r)")
+    nu: list = field(list_of(material_value(number), 3), doc="[nu12, nu13, nu23] (numbers or expressions)")
+    G: list = field(list_of(material_value(positive(modulus, "Pa")), 3),
+                    doc="[G12, G13, G23], Pa (numbers or expressions)")
 
 
 @dataclass(frozen=True, kw_only=True)
 class TransverselyIsotropic:
     """Transversely isotropic constants: isotropic in the 1-2 plane, axis 3 (e.g. bedding normal)."""
 
-    E_plane: float = field(positive(modulus, "Pa"), doc="Young's modulus in the plane of isotropy, Pa")
-    E_axis: float = field(positive(modulus, "Pa"), doc="Young's modulus along the axis, Pa")
-    nu_plane: float = field(bounded(number, -1, lo_open=True), doc="Poisson ratio in the plane (nu12)")
-    nu_axis: float = field(number, doc="Poisson ratio nu31 = -eps_1/eps_3 under axial load")
-    G_axis: float = field(positive(modulus, "Pa"), doc="shear modulus in planes containing the axis (G13), Pa")
+    E_plane: object = field(material_value(positive(modulus, "Pa")),
+                            doc="Young's modulus in the plane of isotropy, Pa (a number or an expression of x, y, "
+                                "z, r, as every entry here)")
+    E_axis: object = field(material_value(positive(modulus, "Pa")), doc="Young's modulus along the axis, Pa")
+    nu_plane: object = field(material_value(bounded(number, -1, lo_open=True)),
+                             doc="Poisson ratio in the plane (nu12)")
+    nu_axis: object = field(material_value(number), doc="Poisson ratio nu31 = -eps_1/eps_3 under axial load")
+    G_axis: object = field(material_value(positive(modulus, "Pa")),
+                           doc="shear modulus in planes containing the axis (G13), Pa")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -355,38 +366,45 @@ class Material:
                               "and T (transient heat: the step takes rho c at theta T_new + (1 - theta) T_old; "
                               "Newton takes d(rho c)/dT)")
     density: object = field(optional(material_value(positive(number, "kg/m^3"))), None,
-                            doc="rho, kg/m^3 (with specific_heat; gravity, inertia): a number, or for the heat "
-                                "capacity density * specific_heat an expression of x, y, z, r (the mechanics takes "
-                                "a number)")
+                            doc="rho, kg/m^3 (with specific_heat; gravity, inertia): a number or an expression of "
+                                "x, y, z, r")
     specific_heat: object = field(optional(material_value(positive(number, "J/(kg K)"), temperature=True)), None,
                                   doc="c, J/(kg K) (with density): a number or an expression of x, y, z, r and T")
-    youngs_modulus: float | None = field(optional(positive(modulus, "Pa")), None,
-                                         doc="E, Pa (isotropic, with poisson_ratio)")
-    poisson_ratio: float | None = field(optional(bounded(number, -1, 0.5, lo_open=True, hi_open=True)), None,
-                                        doc="nu (isotropic)")
-    lame_lambda: float | None = field(optional(modulus), None,
-                                      doc="Lame lambda, Pa (with lame_mu; the bulk modulus lambda + 2 mu / 3 > 0)")
-    lame_mu: float | None = field(optional(positive(modulus, "Pa")), None,
-                                  doc="shear modulus mu, Pa (with lame_lambda)")
+    youngs_modulus: object = field(optional(material_value(positive(modulus, "Pa"), temperature=True)), None,
+                                   doc="E, Pa (isotropic, with poisson_ratio): a number or an expression of x, y, z, r "
+                                       "and T (the temperature of the thermal solution, scene unit; needs "
+                                       "physics.thermal)")
+    poisson_ratio: object = field(optional(material_value(bounded(number, -1, 0.5, lo_open=True, hi_open=True))),
+                                  None, doc="nu (isotropic): a number or an expression of x, y, z, r")
+    lame_lambda: object = field(optional(material_value(modulus)), None,
+                                doc="Lame lambda, Pa (with lame_mu; the bulk modulus lambda + 2 mu / 3 > 0): a number "
+                                    "or an expression of x, y, z, r")
+    lame_mu: object = field(optional(material_value(positive(modulus, "Pa"))), None,
+                            doc="shear modulus mu, Pa (with lame_lambda): a number or an expression of x, y, z, r")
     orthotropic: Orthotropic | None = field(optional(nested(Orthotropic)), None, doc="orthotropic constants")
     transversely_isotropic: TransverselyIsotropic | None = field(optional(nested(TransverselyIsotropic)), None,
                                                                  doc="transversely isotropic constants")
-    stiffness_voigt: list | None = field(optional(list_of(list_of(modulus))), None,
+    stiffness_voigt: list | None = field(optional(list_of(list_of(material_value(modulus)))), None,
                                          doc="full 6x6 stiffness c_ijkl in Voigt order xx, yy, zz, yz, xz, xy "
-                                             "(engineering shear strains), Pa; symmetric positive definite (2.38)")
+                                             "(engineering shear strains), Pa; symmetric positive definite (2.38); "
+                                             "entries numbers or expressions of x, y, z, r (symmetric as written)")
     elastic_rotation: object = field(optional(either(number, point, what="an angle or 3 angles")), None,
                                      doc="rotation of the material axes, degrees: about z (2D), Z-Y-X Euler (3D)")
-    thermal_expansion: object = field(optional(number_or_matrix), None,
+    thermal_expansion: object = field(optional(expansion_value), None,
                                       doc="linear thermal expansion alpha, 1/K: scalar or symmetric 3x3 tensor "
-                                          "(beta_ij = c_ijkl alpha_kl, (2.18))")
-    stress_free_temperature: float = field(number, 0.0, doc="T0 of the thermal stress -beta (T - T0), degC or K")
-    rheology_lambda: float = field(positive(at_most(10.0)), 1.0,
+                                          "(beta_ij = c_ijkl alpha_kl, (2.18)); the scalar and the entries may be "
+                                          "expressions of x, y, z, r")
+    stress_free_temperature: object = field(material_value(number), 0.0,
+                                            doc="T0 of the thermal stress -beta (T - T0), degC or K: a number or an "
+                                                "expression of x, y, z, r")
+    rheology_lambda: float = field(constant(positive(at_most(10.0)), LAMBDA_LAW), 1.0,
                                    doc="lambda of W = A1^lambda (2.1): <1 softening, 1 linear, >1 hardening (at most "
                                        "10: the secant stiffness scales with (A1/A_ref)^(lambda-1), which overflows "
-                                       "for larger exponents)")
-    reference_strain: float = field(positive(number), 1e-3,
+                                       "for larger exponents); a number (a material with lambda != 1 takes numbers for "
+                                       "its elastic constants)")
+    reference_strain: float = field(constant(positive(number), LAMBDA_LAW), 1e-3,
                                     doc="strain scale of the lambda law: c* = lambda (A1/A_ref)^(lambda-1) c with "
-                                        "A_ref the A1 of this uniaxial strain")
+                                        "A_ref the A1 of this uniaxial strain; a number")
     phase_change_temperature: float | None = field(
         optional(number), None,
         doc="Theta_R of (2.46)-(2.48), degC or K: the region melts (freezes) at this temperature; the Stefan problem "

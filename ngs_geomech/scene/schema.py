@@ -222,6 +222,55 @@ def material_value(conv: Conv, *, temperature: bool = False) -> Conv:
     return _label(c, f"{conv.what}; or an expression of {', '.join(variables)}")
 
 
+def constant(conv: Conv, why: str) -> Conv:
+    """``conv`` (a number converter) for a key that takes no expression: a string is refused saying ``why``."""
+    def c(v, path, problems):
+        if isinstance(v, str):
+            raise Invalid(f"takes a number, not the expression {expressions.short(v)!r}: {why}")
+        return conv(v, path, problems)
+    return _label(c, conv.what)
+
+
+def holds_expression(v) -> bool:
+    """Whether a value is an expression (an :class:`Expression`, or a string in an object built in Python) or a
+    list (matrix) holding one."""
+    return isinstance(v, str) or isinstance(v, (list, tuple)) and any(holds_expression(e) for e in v)
+
+
+def varying_keys(obj: Any, keys: tuple[str, ...] | None = None) -> list[str]:
+    """The fields of a schema object (among ``keys``; default all) whose value holds an expression, in the order
+    of the fields; a nested table (e.g. ``orthotropic``) counts as its key."""
+    out = []
+    for f in dataclasses.fields(obj):
+        if keys is not None and f.name not in keys:
+            continue
+        v = getattr(obj, f.name)
+        if holds_expression(v) or dataclasses.is_dataclass(v) and varying_keys(v):
+            out.append(f.name)
+    return out
+
+
+def material_at(obj: Any, keys, functions: dict, values: dict) -> Any:
+    """The schema object with the expressions of ``keys`` replaced by their values at ``values`` (x, y, z, r, T),
+    also inside lists and nested tables; ``functions`` caches the compiled expressions. Raises ArithmeticError /
+    ValueError where one has no (finite) value."""
+    def sub(v):
+        if isinstance(v, str):
+            f = functions.get(v)
+            if f is None:
+                f = functions[v] = expressions.float_function(v, expressions.ALL_VARIABLES)
+            r = f(**values)
+            if not math.isfinite(r):
+                raise ArithmeticError(f"value {r}")
+            return r
+        if isinstance(v, (list, tuple)):
+            return [sub(e) for e in v]
+        if dataclasses.is_dataclass(v):
+            return material_at(v, varying_keys(v), functions, values)
+        return v
+    return dataclasses.replace(obj, **{k: sub(getattr(obj, k)) for k in keys})
+
+
 def one_of(*choices: str) -> Conv:
     def conv(v, path, problems):
         if v not in choices:

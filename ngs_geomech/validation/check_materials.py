@@ -5,8 +5,6 @@ with it (:class:`~ngs_geomech.scene.model.Material`) and checked by :func:`~ngs_
 
 from __future__ import annotations
 
-import dataclasses
-
 from ..errors import MaterialError, Problem
 from ..geometry.assemble import GeometryModel, scene_dim
 from ..heat.materials import (
@@ -17,9 +15,9 @@ from ..heat.materials import (
     phase_change_problems,
     volumetric_heat_capacity,
 )
-from ..mechanics.materials import axisymmetric, elastic_properties
+from ..mechanics.materials import axisymmetric, elastic_properties, elastic_structure, elastic_varying_keys
+from ..scene import expressions
 from ..scene.model import Scene
-from ..scene.schema import Expression
 from .expression_values import value_range
 
 
@@ -57,22 +55,52 @@ def check_materials(scene: Scene, problems: list[Problem]) -> None:
             problems.append(Problem(f"materials.{name}", "a transient thermal scene needs rho_c "
                                                          "(or density and specific_heat)"))
         if scene.physics.mechanics is not None:
-            if isinstance(mat.density, Expression):
-                problems.append(Problem(f"materials.{name}.density", "an expression: the mechanics (gravity, inertia) "
-                                        "takes the density as a number; an expression of x, y, z is read by the heat "
-                                        "capacity (density * specific_heat) only"))
-                mat = dataclasses.replace(mat, density=None)
-            try:
-                props = elastic_properties(mat, dim)
-                if scene.scene.dimension == "axisymmetric":
-                    axisymmetric(props.C, props.beta)
-            except MaterialError as exc:
-                problems.append(Problem(f"materials.{name}.{exc.key}" if exc.key else f"materials.{name}",
-                                        exc.detail if exc.key else str(exc)))
-            except ValueError as exc:
-                problems.append(Problem(f"materials.{name}", str(exc)))
-            if scene.mechanics.gravity is not None and mat.density is None:
-                problems.append(Problem(f"materials.{name}.density", "gravity is on: every region needs a density"))
+            _check_elastic(scene, name, mat, dim, problems)
+
+
+def _check_elastic(scene: Scene, name: str, mat, dim: int, problems: list[Problem]) -> None:
+    """The elastic data of one material: read as numbers (with every check), or for data that vary (expressions)
+    their structure here and their values at sample points (:mod:`.material_values`); what the mechanics cannot
+    take varying (the lambda law, the rate terms, E(T) without a temperature) is refused naming the key."""
+    varying = elastic_varying_keys(mat)
+    try:
+        if varying:
+            elastic_structure(mat)
+        else:
+            props = elastic_properties(mat, dim)
+            if scene.scene.dimension == "axisymmetric":
+                axisymmetric(props.C, props.beta)
+    except MaterialError as exc:
+        problems.append(Problem(f"materials.{name}.{exc.key}" if exc.key else f"materials.{name}",
+                                exc.detail if exc.key else str(exc)))
+    except ValueError as exc:
+        problems.append(Problem(f"materials.{name}", str(exc)))
+    for key in varying:
+        why = _varying_refused(scene, mat, key)
+        if why:
+            problems.append(Problem(f"materials.{name}.{key}", why))
+    if scene.mechanics.gravity is not None and mat.density is None:
+        problems.append(Problem(f"materials.{name}.density", "gravity is on: every region needs a density"))
+
+
+def _varying_refused(scene: Scene, mat, key: str) -> str:
+    """Why the mechanics cannot take the expression of elastic key ``key`` ('' when it can)."""
+    if mat.rheology_lambda != 1.0 and key != "density":
+        return (f"an expression with rheology_lambda = {mat.rheology_lambda:g}: the lambda law (2.1)-(2.5) takes "
+                "numbers for the elastic data of its region (A_ref and the secant stiffness are built per region); "
+                "use rheology_lambda = 1 or numbers")
+    if (mat.viscosity_time is not None or mat.prony) and scene.physics.mechanics in ("dynamic", "viscous") \
+            and key != "density":
+        return ("an expression in a region with viscosity_time or prony: the rate terms C^v = viscosity_time C and "
+                "C_k = modulus_ratio C take numbers for C; give the elastic data as numbers there")
+    if key == "youngs_modulus" and expressions.TEMPERATURE in expressions.uses(mat.youngs_modulus):
+        if scene.physics.thermal is None:
+            return ("depends on T, but physics.thermal is off: the mechanics has no temperature to take E(T) at; "
+                    "switch the thermal problem on or give E of x, y, z only")
+        if scene.physics.mechanics in ("dynamic", "viscous"):
+            return (f"depends on T: {scene.physics.mechanics} mechanics assembles its stiffness matrix once; give E "
+                    "of x, y, z only (static mechanics takes E(T), re-assembled at each solve)")
+    return ""
 
 
 def check_phase_change(scene: Scene, problems: list[Problem]) -> None:

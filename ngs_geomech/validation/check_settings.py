@@ -81,7 +81,8 @@ def _check_coupling(scene: Scene, problems: list[Problem]) -> None:
                                 "'transient' and physics.mechanics = 'static'; use 'none' otherwise"))
     offset = KELVIN if scene.scene.temperature_unit == "C" else 0.0
     for name, mat in scene.materials.items():
-        if mat.thermal_expansion is not None and not mat.stress_free_temperature + offset > 0:
+        if mat.thermal_expansion is not None and not isinstance(mat.stress_free_temperature, str) \
+                and not mat.stress_free_temperature + offset > 0:      # an expression: validation.material_values
             problems.append(Problem(f"materials.{name}.stress_free_temperature", f"the deformation heating of "
                                     f"physics.coupling = {ph.coupling!r} is proportional to the absolute "
                                     f"reference temperature, here {mat.stress_free_temperature + offset:g} K: "

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Callable
 
 import numpy as np
@@ -25,9 +26,13 @@ import numpy as np
 from ..errors import MaterialError, Problem
 from ..geometry.assemble import GeometryModel, scene_dim
 from ..heat.materials import conductivity_tensor, volumetric_heat_capacity
+from ..mechanics.materials import ELASTIC_KEYS, axisymmetric, elastic_properties
 from ..scene import expressions
 from ..scene.model import Material, Scene
-from ..scene.schema import Expression, first_problem
+from ..scene.schema import first_problem
+from ..scene.schema import material_at as schema_material_at
+from ..scene.schema import varying_keys as schema_varying_keys
+from ..scene.units import KELVIN
 from .expression_values import sample_points, value_range
 
 BUDGET = 300_000
@@ -45,34 +50,50 @@ def pointwise_rules(scene: Scene) -> list[Rule]:
     if scene.physics.thermal is not None:
         rules.append((("conductivity", "conductivity_principal", "conductivity_angle"), conductivity_tensor))
         rules.append((("rho_c", "density", "specific_heat"), lambda m, dim: volumetric_heat_capacity(m)))
+    if scene.physics.mechanics is not None:
+        rules.append((ELASTIC_KEYS, _elastic_reader(scene.scene.dimension == "axisymmetric")))
+        rules.append((("stress_free_temperature",), _reference_temperature_reader(scene)))
     return rules
 
 
+def _reference_temperature_reader(scene: Scene) -> Callable[[Material, int], object]:
+    """The stress-free temperature at or above absolute zero in the scene's unit and, with physics.coupling, above
+    0 K (the deformation heating is proportional to it: :mod:`ngs_geomech.coupling.problem`)."""
+    kelvin = KELVIN if scene.scene.temperature_unit == "C" else 0.0
+    coupled = scene.physics.coupling != "none"
+
+    def read(m: Material, dim: int):
+        t0 = float(m.stress_free_temperature)
+        unit = "degC" if kelvin else "K"
+        if t0 + kelvin < 0 or coupled and not t0 + kelvin > 0:
+            why = (f"the deformation heating of physics.coupling = {scene.physics.coupling!r} needs an absolute "
+                   "reference temperature > 0 K" if coupled else "below absolute zero")
+            raise MaterialError("stress_free_temperature", f"is {t0:g} {unit} ({t0 + kelvin:g} K): {why}")
+        return t0
+    return read
+
+
+def _elastic_reader(axisymmetric_scene: bool) -> Callable[[Material, int], object]:
+    """The mechanics' reading of a material at a point: :func:`elastic_properties` (a positive definite stiffness,
+    a positive bulk modulus, ...) and, in an axisymmetric scene, no coupling to the torsional shears."""
+    def read(m: Material, dim: int):
+        props = elastic_properties(m, dim)
+        if axisymmetric_scene:
+            axisymmetric(props.C, props.beta)
+        return props
+    return read
+
+
 def varying_keys(m: Material) -> list[str]:
-    """The keys of a material whose value holds an expression (also an entry of a list or a matrix)."""
-    return [f.name for f in dataclasses.fields(m) if _holds_expression(getattr(m, f.name))]
-
-
-def _holds_expression(v) -> bool:
-    return isinstance(v, Expression) or isinstance(v, (list, tuple)) and any(_holds_expression(e) for e in v)
+    """The keys of a material whose value holds an expression (also an entry of a list, a matrix or a nested
+    table such as ``orthotropic``)."""
+    return schema_varying_keys(m)
 
 
 def material_at(m: Material, keys: list[str], functions: dict, values: dict) -> Material:
     """The material with the expressions of ``keys`` replaced by their values at ``values`` (x, y, z, r, T);
-    ``functions`` caches the compiled expressions. Raises ArithmeticError / ValueError where one has no value."""
-    def sub(v):
-        if isinstance(v, Expression):
-            f = functions.get(v)
-            if f is None:
-                f = functions[v] = expressions.float_function(v, expressions.ALL_VARIABLES)
-            r = f(**values)
-            if not math.isfinite(r):
-                raise ArithmeticError(f"value {r}")
-            return r
-        if isinstance(v, (list, tuple)):
-            return [sub(e) for e in v]
-        return v
-    return dataclasses.replace(m, **{k: sub(getattr(m, k)) for k in keys})
+    ``functions`` caches the compiled expressions (:func:`ngs_geomech.scene.schema.material_at`)."""
+    return schema_material_at(m, keys, functions, values)
 
 
 def temperature_samples(scene: Scene, geo: GeometryModel, name: str) -> list[float]:
@@ -159,26 +180,74 @@ def _failure_at(m: Material, keys: list[str], rules: list[Rule], functions: dict
         try:
             read(mp, dim)
         except MaterialError as exc:
-            return exc.key or varying[0], exc.detail
+            return exc.key or varying[0], exc.detail.removeprefix(": ")
         except ValueError as exc:
             return varying[0], str(exc)
     return None
 
 
 def _expressions(v) -> list[str]:
-    if isinstance(v, Expression):
+    if isinstance(v, str):
         return [v]
     if isinstance(v, (list, tuple)):
         return [e for x in v for e in _expressions(x)]
+    if dataclasses.is_dataclass(v):
+        return [e for f in dataclasses.fields(v) for e in _expressions(getattr(v, f.name))]
     return []
 
 
 def _texts_of(m: Material, key: str) -> list[str]:
-    """The distinct expressions of a key (a list or matrix may hold several); ``key`` may carry an index
-    (``conductivity_principal[1]``: that entry's)."""
-    base, _, rest = key.partition("[")
-    value = getattr(m, base, None)
-    if rest and isinstance(value, (list, tuple)) and rest.split("]")[0].isdigit():
-        index = int(rest.split("]")[0])
-        value = value[index] if index < len(value) else value
+    """The distinct expressions of a key (a list or matrix may hold several); ``key`` may be a path into a nested
+    table and carry indices (``conductivity_principal[1]``, ``orthotropic.E[2]``, ``stiffness_voigt[0][1]``: that
+    entry's)."""
+    value = m
+    for part in key.split("."):
+        name = re.match(r"\w*", part).group(0)
+        value = getattr(value, name, None)
+        for index in re.findall(r"\[(\d+)\]", part):
+            if isinstance(value, (list, tuple)) and int(index) < len(value):
+                value = value[int(index)]
     return list(dict.fromkeys(_expressions(value)))
+
+
+CONTACT_KEYS = (("friction", "coulomb", ""), ("slip_bound", "tresca", " Pa"))
+"""The contact-law keys that may be expressions of x, y, z: (key, the law it belongs to, unit)."""
+
+
+def check_contact_values(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
+    """Append a Problem for the first sample point of a contact side (the two sides of a contact interface, the
+    boundary of a foundation) where an expression friction coefficient or Tresca slip bound is negative (values
+    that are not finite are reported by :mod:`.expression_values`)."""
+    if scene.physics.mechanics is None:
+        return
+    items = []
+    for i, itf in enumerate(scene.interfaces):
+        cs = geo.contacts.get(itf.name)
+        if itf.type == "contact" and cs is not None:
+            items.append((f"interfaces[{i}] ({itf.name})", itf, (cs.master, cs.minion), f"interface {itf.name!r}"))
+    for name, bc in scene.boundary_conditions.items():
+        if bc.foundation is not None and name in geo.boundaries:
+            items.append((f"boundary_conditions.{name}.foundation", bc.foundation, (name,), f"boundary {name!r}"))
+    for path, c, sides, where in items:
+        for key, law, unit in CONTACT_KEYS:
+            text = getattr(c, key)
+            if isinstance(text, str) and c.law == law:
+                at = _first_negative(text, sample_points(geo, ("boundary", sides)), geo.dim)
+                if at:
+                    problems.append(Problem(f"{path}.{key}", f"must be >= 0{unit}, got {at[0]:g}{unit} at {at[1]} of "
+                                            f"{where} (expression {expressions.short(text)!r})"))
+
+
+def _first_negative(text: str, pts: np.ndarray, dim: int) -> tuple[float, str] | None:
+    """(value, 'x=.., y=..') at the first sample point where the expression is negative; None when it never is."""
+    f = expressions.float_function(text)
+    step = max(1, math.ceil(len(pts) * expressions.node_count(text) / BUDGET))
+    for p in pts[::step]:
+        values = {"x": float(p[0]), "y": float(p[1]), "z": float(p[2]), "r": float(p[0])}
+        try:
+            v = f(**values)
+        except (ArithmeticError, ValueError):
+            continue
+        if math.isfinite(v) and v < 0:
+            return v, ", ".join(f"{n}={values[n] + 0.0:.6g}" for n in ("x", "y", "z")[:dim])
+    return None

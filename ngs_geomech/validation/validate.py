@@ -6,7 +6,8 @@ material, unphysical values, inconsistent settings. The declared type and range 
 (:mod:`.check_values`), settings (:mod:`.check_settings`, :mod:`.check_adaptivity`), materials
 (:mod:`.check_materials`) and, on the geometry (built cheaply: OCC shapes, no mesh), the names it must hold
 (:mod:`.check_geometry`), the values expressions take on it (:mod:`.expression_values`) and the material values that
-vary over their regions (:mod:`.material_values`). What distributed runs cannot do is :mod:`.check_distributed`.
+vary over their regions and the contact laws' values along their sides (:mod:`.material_values`). What distributed
+runs cannot do is :mod:`.check_distributed`.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from .check_output import check_sections
 from .check_settings import check_settings
 from .check_values import check_names, check_temperatures
 from .expression_values import check_expression_values
-from .material_values import check_material_values
+from .material_values import check_contact_values, check_material_values
 
 __all__ = ["distributed_problems", "stefan_scene", "validate"]
 
@@ -48,6 +49,7 @@ def validate(scene: Scene) -> GeometryModel:
         check_mesh_size(scene, geo, problems)
         check_expression_values(scene, geo, problems)
         check_material_values(scene, geo, problems)
+        check_contact_values(scene, geo, problems)
         if not problems:
             check_conductivity_range(scene, geo, problems)
     if problems:
