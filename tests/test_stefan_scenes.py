@@ -28,6 +28,7 @@ from ngs_geomech.scene.parse import scene_from_dict
 from ngs_geomech.stefan.solver import StefanSolver
 from ngs_geomech.validation.validate import validate
 from ngs_geomech.verification import stefan as st
+from ngs_geomech.verification.stefan_adaptive import strip_scene
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
 pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_stefan_scenes")]
@@ -41,17 +42,7 @@ LENGTH = NEUMANN.domain_length(T_END)
 
 def neumann_scene(**changes) -> dict:
     """The two-phase Neumann problem as a scene dict (a strip [0, LENGTH] x [0, HEIGHT], hot at x = 0)."""
-    m = NEUMANN.material
-    data = {"scene": {"name": "neumann", "dimension": "plane"},
-            "physics": {"thermal": "transient"},
-            "mesh": {"maxh": H},
-            "blocks": [{"name": "pcm", "shape": "rectangle", "origin": [0.0, 0.0], "size": [LENGTH, HEIGHT],
-                        "boundaries": {"hot": "xmin", "far": "xmax"}}],
-            "materials": {"pcm": {"conductivity": m.conductivity_solid, "rho_c": m.rho_c_solid,
-                                  "phase_change_temperature": m.melting_temperature,
-                                  "latent_heat_volumetric": m.latent_heat, "rho_c_liquid": m.rho_c_liquid,
-                                  "conductivity_liquid": m.conductivity_liquid}},
-            "boundary_conditions": {"hot": {"temperature": NEUMANN.t_hot}, "far": {"temperature": NEUMANN.t_cold}},
+    data = {**strip_scene(NEUMANN, LENGTH, HEIGHT, H, name="neumann"),
             "initial": {"temperature": NEUMANN.t_cold},
             "time": {"end": T_END, "dt": 0.2 * H},
             "output": {"every": 10, "probes": [

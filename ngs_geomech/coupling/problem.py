@@ -30,7 +30,6 @@ calls it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import ngsolve as ngs
 import numpy as np
@@ -39,17 +38,6 @@ from .. import parallel
 from ..errors import SolverError
 
 KELVIN = 273.15
-
-
-@dataclass
-class CouplingStep:
-    """What one coupled step did: coupling iterations (heat + mechanics pairs), the last relative changes
-    of T and u, and the deformation heat added (J per metre of depth in 2D, J in 3D)."""
-
-    iterations: int
-    change_T: float
-    change_u: float
-    heat: float
 
 
 class DeformationHeating:

@@ -43,15 +43,15 @@ VERTICES = {
 
 class ElementVertices:
     """The vertices of every volume element of ``mesh`` as mapped points (each element its own copies, in the
-    mesh's element order): ``points`` (n x 3, m), ``cells`` [(meshio type, connectivity)], and :meth:`values`
-    of a CoefficientFunction there."""
+    mesh's element order): ``points`` (n x 3, m), ``cells`` [(meshio type, connectivity)], ``mips`` (the mapped
+    points to evaluate CoefficientFunctions at) and :meth:`shaped` (values as VTK reads them)."""
 
     def __init__(self, mesh):
         types = [el.type for el in mesh.Elements(ngs.VOL)]
         unknown = sorted({str(t) for t in types if t not in VERTICES})
         if unknown:
             raise ValueError(f"VTK output: element types {unknown} are not supported")
-        rules = {t: ngs.IntegrationRule(VERTICES[t][1][:], [0.0] * len(VERTICES[t][1])) for t in set(types)}
+        rules = {t: ngs.IntegrationRule(VERTICES[t][1], [0.0] * len(VERTICES[t][1])) for t in set(types)}
         self.mips = mesh.MapToAllElements(rules, ngs.VOL)
         xyz = [ngs.x, ngs.y, ngs.z][:mesh.dim]
         pts = np.asarray(ngs.CoefficientFunction(tuple(xyz))(self.mips), dtype=float).reshape(-1, mesh.dim)
@@ -65,10 +65,6 @@ class ElementVertices:
             n = len(VERTICES[t][1])
             self.cells.append((VERTICES[t][0], starts[mask][:, None] + np.arange(n)[None, :]))
         self.dim = mesh.dim
-
-    def values(self, cf) -> np.ndarray:
-        """``cf`` at the points, shaped by :meth:`shaped`."""
-        return self.shaped(np.asarray(cf(self.mips), dtype=float).reshape(len(self.points), -1))
 
     def shaped(self, v: np.ndarray) -> np.ndarray:
         """Values (n x components) as VTK reads them: (n,) for a scalar, (n, 3) for a vector (2D vectors padded

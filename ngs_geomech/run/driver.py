@@ -287,7 +287,7 @@ def _march(scene: Scene, policy: MeshPolicy, state: RunState, scratch_dir: Outpu
             bar.update(b - ts.start, f"t = {format_time(b)}  dt = {format_time(b - a)}")
     except BaseException as exc:
         bar.close()
-        _stop(exc, scratch_dir, state, saver.snap, plan, plan.total)
+        _stop(exc, scratch_dir, state, saver.snap, plan)
         raise
     bar.close()
     timings["solve_s"] = solve_s
@@ -358,8 +358,7 @@ def _summary(scene: Scene, model: Model, policy: MeshPolicy, state: RunState, ns
     return summary
 
 
-def _stop(exc: BaseException, staging: OutputDir | None, state: RunState, snap, plan: Plan,
-          nsteps: int) -> None:
+def _stop(exc: BaseException, staging: OutputDir | None, state: RunState, snap, plan: Plan) -> None:
     """A step failed or the run was interrupted: save the last good state (the last completed step) as a
     checkpoint, and raise SolverError and KeyboardInterrupt again with how to continue in their message
     (other exceptions: the caller re-raises them as they are)."""
@@ -372,7 +371,7 @@ def _stop(exc: BaseException, staging: OutputDir | None, state: RunState, snap, 
             log.warning("could not write the checkpoint of step %d: %s", snap.step, err)
     if not has_checkpoint(staging.path):
         return
-    hint = (f"The last good state (step {state.saved_step} of {nsteps}, t = {format_time(state.saved_time)}) is "
+    hint = (f"The last good state (step {state.saved_step} of {plan.total}, t = {format_time(state.saved_time)}) is "
             f"saved in {staging.scratch}: after a fix (e.g. a smaller time step, --set time.dt=...), the same "
             "command with --resume continues from it.")
     if isinstance(exc, SolverError):

@@ -32,13 +32,12 @@ def exact_temperature_expression(problem: st.NeumannProblem, t: float) -> str:
     return f"{tm!r} + ({liquid} + abs{liquid}) / 2 + ({solid} - abs{solid}) / 2"
 
 
-def neumann_strip_scene(problem: st.NeumannProblem, length: float, height: float, h0: float, dt: float, t0: float,
-                        t1: float, levels: int, layers: int, remesh_every: int) -> dict:
-    """The strip [0, length] x [0, height] (m; region 'pcm', hot at x = 0, 'far' at x = length) as a scene dict:
-    mesh size h0 (m), from the exact state at t0 to t1 with step dt (s), front-following meshes ``levels``,
-    ``layers``, ``remesh_every`` (:class:`ngs_geomech.scene.model.Adaptivity`)."""
+def strip_scene(problem: st.NeumannProblem, length: float, height: float, h0: float, name: str = "neumann_strip"
+                ) -> dict:
+    """The strip [0, length] x [0, height] (m; region 'pcm', hot at x = 0, 'far' at x = length) of a two-phase
+    Neumann problem as a scene dict without time, initial state or output: mesh size h0 (m)."""
     m = problem.material
-    return {"scene": {"name": "neumann_strip", "dimension": "plane"},
+    return {"scene": {"name": name, "dimension": "plane"},
             "physics": {"thermal": "transient"},
             "mesh": {"maxh": h0},
             "blocks": [{"name": "pcm", "shape": "rectangle", "origin": [0.0, 0.0], "size": [length, height],
@@ -47,7 +46,14 @@ def neumann_strip_scene(problem: st.NeumannProblem, length: float, height: float
                                   "phase_change_temperature": m.melting_temperature,
                                   "latent_heat_volumetric": m.latent_heat, "rho_c_liquid": m.rho_c_liquid,
                                   "conductivity_liquid": m.conductivity_liquid}},
-            "boundary_conditions": {"hot": {"temperature": problem.t_hot}, "far": {"temperature": problem.t_cold}},
+            "boundary_conditions": {"hot": {"temperature": problem.t_hot}, "far": {"temperature": problem.t_cold}}}
+
+
+def neumann_strip_scene(problem: st.NeumannProblem, length: float, height: float, h0: float, dt: float, t0: float,
+                        t1: float, levels: int, layers: int, remesh_every: int) -> dict:
+    """:func:`strip_scene` from the exact state at t0 to t1 with step dt (s), on front-following meshes ``levels``,
+    ``layers``, ``remesh_every`` (:class:`ngs_geomech.scene.model.Adaptivity`)."""
+    return {**strip_scene(problem, length, height, h0),
             "initial": {"temperature": exact_temperature_expression(problem, t0)},
             "time": {"start": t0, "end": t1, "dt": dt},
             "adaptivity": {"indicators": ["phase_front"], "levels": levels, "layers": layers,
