@@ -67,6 +67,12 @@ class ContactOperator:
     def size(self) -> int:
         return len(self.nodes)
 
+    @property
+    def constrained(self) -> np.ndarray:
+        """The nodes a solver constrains (bool per node): those whose whole support is covered by the opposite
+        side (the dual multipliers need the whole support projected)."""
+        return self.coverage > 1.0 - 1e-6
+
 
 def _ray_hit(seg: Segment, p: np.ndarray, n: np.ndarray) -> tuple[float, float] | None:
     """(gap g, reference coordinate t) where the ray p + g n meets ``seg``, or None (parallel / misses)."""

@@ -64,7 +64,7 @@ class ContactOutput:
         n = f.V.ndof
         u = np.array(f.gf.vec.FV().NumPy())
         K = f.secant_form.mat
-        rhs = np.array(f.secant_rhs.vec.FV().NumPy())
+        rhs = solver.load()
         ku = f.gf.vec.CreateVector()
         ku.data = K * f.gf.vec
         force = np.array(ku.FV().NumPy()) - rhs         # K u - f - B^T lam: the support reactions

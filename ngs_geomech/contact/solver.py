@@ -101,6 +101,7 @@ from .steps import NewtonSystem, exact_residual, newton_steps, relative_change
 COULOMB_FIXED_POINT_TOL = 1e-8    # Coulomb fallback: relative change of the slip bounds F_c p that ends it
 COULOMB_FIXED_POINT_MAXIT = 60
 NEWTON_TOL = 1e-11     # 3D slip rows: converged when max |lam_t - b z / |z|| <= NEWTON_TOL x the largest bound
+U_FLOOR = 1e-8         # floating bodies' refinement: displacements below U_FLOOR |f| / mean diag K (m) count as zero
 INEXACT_REFINEMENTS = 6  # refinement steps with the quasi-definite factorization before factoring exactly
 
 
@@ -452,8 +453,11 @@ class ContactSolver(ContactSolverBase):
                 mask |= np.any(np.abs(body.modes) > 0, axis=1)
             reg_dofs = np.where(mask & free)[0].astype(np.int64)
         reg_dofs = steps.shift_dofs(reg_dofs, free)
+        u_floor = 0.0
         if len(reg_dofs):
-            eps = steps.shift * float(np.mean(np.abs(steps.diagonal(matrix, n, kr, kc, kv)[reg_dofs])))
+            k_mean = float(np.mean(np.abs(steps.diagonal(matrix, n, kr, kc, kv)[reg_dofs])))
+            eps = steps.shift * k_mean
+            u_floor = U_FLOOR * float(np.linalg.norm(f)) / max(k_mean, 1e-300)
         rigid = np.hstack([bd.modes[:n] for bd in self.floating]) if self.floating else np.zeros((n, 0))
         # one pattern for all solves with the same K sparsity (a time series, the secant loop): building it
         # (CreateFromCOO) cost as much as a factorization (0.22 s at 41k dofs)
@@ -472,6 +476,7 @@ class ContactSolver(ContactSolverBase):
         s = NewtonSystem(n, N, ifs, info, what, f, free, freemask, ngs.BitArray(freemask.tolist()), reg_dofs, eps,
                          rigid, float(np.max(np.linalg.norm(rigid, axis=0), initial=0.0)), pattern)
         s.mat = steps.operator(s, matrix)
+        s.u_floor = u_floor
         return s
 
     def _newton_step(self, s: NewtonSystem, steps, step, b: np.ndarray, x: np.ndarray, it_nr: int):
@@ -529,7 +534,7 @@ class ContactSolver(ContactSolverBase):
             # solve, needed with the threshold 1e-10, cost 10 % of a warm solve)
             d = dx.FV().NumPy()[:n]
             d = d - s.rigid @ np.linalg.lstsq(s.rigid, d, rcond=None)[0]
-            if float(np.linalg.norm(d)) <= 1e-6 * max(float(np.linalg.norm(xv.FV().NumPy()[:n])), 1e-300):
+            if float(np.linalg.norm(d)) <= 1e-6 * max(float(np.linalg.norm(xv.FV().NumPy()[:n])), s.u_floor, 1e-300):
                 if not s.rigid.shape[1]:
                     break
                 # the shift leaves a residual eps u along the rigid motions (eps x translation x dofs: 0.5 N

@@ -57,7 +57,7 @@ class InterfaceState:
 
     def __init__(self, op: ContactOperator, law: ContactLaw, c_scale: float, offset: int, ndof: int):
         self.op, self.law = op, law
-        keep = op.coverage > 1.0 - 1e-6     # dual multipliers need the whole support projected
+        keep = op.constrained
         self.keep = keep
         m = op.size
         # first multiplier index: the normal block, then the tangential block(s) at offset + m (3D: t1) and

@@ -43,6 +43,9 @@ class NewtonSystem:
     mode_size: float
     pattern: SaddlePattern
     mat: object = None
+    u_floor: float = 0.0
+    """The displacement (m) below which a solution counts as zero in the floating bodies' refinement (a load in
+    equilibrium with the initial stress leaves u = 0, whose relative corrections never fall)."""
 
 
 class NewtonSteps:

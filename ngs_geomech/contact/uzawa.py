@@ -113,7 +113,7 @@ class _Side:
         pad = sp.csr_matrix((m, ndof - op.Bn.shape[1]))
         self.Bn = sp.hstack([op.Bn, pad]).tocsr()
         self.Bt = sp.hstack([op.Bt, pad]).tocsr()
-        self.keep = op.coverage > 1.0 - 1e-6          # as ContactSolver: only fully covered nodes
+        self.keep = op.constrained
         self.w = np.maximum(op.weight, 1e-300)
         self.frictional = law.kind != "frictionless"
         extent = float(np.max(np.ptp(op.coords, axis=0))) if m > 1 else 1.0

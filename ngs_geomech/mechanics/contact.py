@@ -23,9 +23,12 @@ import time
 
 import ngsolve as ngs
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from ..contact.solver import ContactSolver
 from ..errors import SolverError
+from ..fem.normals import outward_normal
 from .forms import ElasticForms
 from .solver import ElasticSolver, Linearized, NonlinearInfo, h1_norm
 
@@ -35,11 +38,14 @@ class ElasticContactSolver:
     and factorization count as :class:`ElasticSolver`. Contact histories per solve in ``contact_infos``."""
 
     def __init__(self, forms: ElasticForms, contact: ContactSolver, *, tol: float = 1e-8, maxit: int = 100,
-                 relaxation: float | None = None):
+                 relaxation: float | None = None, insitu: InSituTraction | None = None):
         if relaxation is not None and not 0 < relaxation <= 1:
             raise ValueError(f"the secant relaxation with contact must be in (0, 1], got {relaxation}")
         self.f = forms
         self.contact = contact
+        self.insitu = insitu
+        """The exact transfer of the initial stress's interface traction (added to every contact solve's load)."""
+        self._correction = None
         self.tol = tol
         self.maxit = maxit
         lam_max = max(p.lam for p in forms.setup.props.values())
@@ -54,14 +60,20 @@ class ElasticContactSolver:
     def factorizations(self) -> int:
         return sum(i.factorizations for infos in self.contact_infos for i in infos)
 
+    def load(self) -> np.ndarray:
+        """The load of the last contact solve (N, a vector of X): the assembled load and the in-situ correction."""
+        rhs = np.array(self.f.secant_rhs.vec.FV().NumPy())
+        return rhs if self._correction is None else rhs + self._correction
+
     def _contact_solve(self, where: str, infos: list) -> None:
         """U <- the contact solution with the current secant matrix and load (Dirichlet values kept)."""
         f = self.f
         f.secant_form.Assemble()
         f.secant_rhs.Assemble()
         x0 = np.array(f.gf.vec.FV().NumPy())
-        u, info = self.contact.solve(f.secant_form.mat, np.array(f.secant_rhs.vec.FV().NumPy()), self._free, x0,
-                                     where)
+        if self.insitu is not None:
+            self._correction = self.insitu.load(f.X.ndof)
+        u, info = self.contact.solve(f.secant_form.mat, self.load(), self._free, x0, where)
         f.gf.vec.FV().NumPy()[:] = u
         infos.append(info)
 
@@ -111,3 +123,76 @@ class ElasticContactSolver:
         raise SolverError(f"secant modules method with contact at {where} did not converge in {info.iterations} "
                           f"iterations (last relative H1 change {info.changes[-1]:.3e}); try a smaller "
                           "mechanics.secant_relaxation, more max_iterations or a larger regularization")
+
+
+class InSituTraction:
+    """The exact transfer of the initial stress's traction across the contact interfaces.
+
+    An initial stress sigma0 in equilibrium with gravity and the boundary loads (div sigma0 + rho g = 0, the
+    in-situ state of (2.18)) loads the bodies at u = 0 with their interface tractions only: the load is
+    f = -F, F(v) = int_S w sigma0 n_S . v ds + int_O w sigma0 n_O . v ds (N; n outward of each body, w the
+    axisymmetric weight). The contact solve K u - B^T lam = f (:class:`ContactSolver`) carries the side S's part
+    exactly (the dual multipliers are biorthogonal to S's nodal basis), but transmits to the opposite side O only
+    M^T lam, which reproduces a traction constant along the interface and leaves an O(h^2) load where it varies,
+    e.g. the lithostatic pressure rho g depth on a dipping fault: the in-situ state would move at t = 0.
+
+    The correction c = F - B^T lam_ref (N), lam_ref the multipliers that fit F on S's dofs (least squares over
+    the nodes the solver constrains), is added to the contact solve's load: u = 0, lam = lam_ref then solve the
+    contact problem of an equilibrated initial stress exactly, the in-situ traction crosses the interface exactly,
+    and the mortar transfers what the loads add to it. At nodes the solver does not constrain (not fully covered
+    by the opposite side) c holds S's in-situ traction as a load. Rigid foundations have no side O: their S side
+    is exact without a correction."""
+
+    def __init__(self, forms, ops: list):
+        """``ops``: the interfaces' :class:`ContactOperator` (each with an opposite side)."""
+        self.forms = forms
+        self.ops = ops
+        self.fits = [self._fit(op) for op in ops]
+        self.normals: dict = {}
+        self.multipliers: list[np.ndarray] = []
+        """lam_ref of each interface at the last :meth:`load` (the blocks of B's rows: normal, t1 (, t2))."""
+
+    def _fit(self, op) -> tuple:
+        """(B, S's dofs, B on S's dofs, the factorized normal equations) of interface ``op``."""
+        k = op.constrained
+        B = sp.vstack([M[k] for M in (op.Bn, op.Bt, op.Bt2) if M is not None]).tocsr()
+        sdofs = np.array(list(self.forms.V.GetDofs(self.forms.mesh.Boundaries(op.side))), dtype=bool)
+        Bs = B[:, sdofs]
+        solve = spla.factorized((Bs @ Bs.T).tocsc()) if B.shape[0] else None
+        return B, sdofs, Bs, solve
+
+    @classmethod
+    def of(cls, forms, specs) -> InSituTraction | None:
+        """The correction of a scene's contacts (``specs``: :class:`ngs_geomech.contact.problem.ContactSpec`), None
+        without an initial stress or without an interface between two bodies."""
+        ops = [s.op for s in specs if s.kind == "interface"]
+        if forms.setup.initial_stress is None or not ops:
+            return None
+        return cls(forms, ops)
+
+    def tractions(self) -> list[np.ndarray]:
+        """F of each interface at the current time (N, a vector of V): sigma0 n tested on both sides."""
+        f = self.forms
+        s0 = [[g(f.t) for g in row] for row in f.setup.initial_stress]
+        sigma0 = ngs.CoefficientFunction(tuple(c for row in s0 for c in row), dims=(f.dim, f.dim))
+        v = f.V.TestFunction()
+        out = []
+        for op in self.ops:
+            lf = ngs.LinearForm(f.V)
+            for side in (op.side, op.opposite):
+                n = self.normals.setdefault(side, outward_normal(f.mesh, side))
+                lf += f.weight * ((sigma0 * n) * v) * ngs.ds(definedon=f.mesh.Boundaries(side),
+                                                            intrules=f.bnd_intrules)
+            lf.Assemble()
+            out.append(np.array(lf.vec.FV().NumPy()))
+        return out
+
+    def load(self, ndof: int) -> np.ndarray:
+        """C (N) at the current time as a vector of the solve's space X (``ndof``; V's dofs first)."""
+        c = np.zeros(ndof)
+        self.multipliers = []
+        for (B, sdofs, Bs, solve), F in zip(self.fits, self.tractions()):
+            lam = solve(Bs @ F[sdofs]) if solve is not None else np.zeros(0)
+            c[:B.shape[1]] += F - B.T @ lam
+            self.multipliers.append(lam)
+        return c

@@ -24,7 +24,7 @@ from ..io import scales, stress_figures
 from ..io.meshdata import vertex_average
 from ..parts import Part, Step
 from ..scene.model import Scene
-from .contact import ElasticContactSolver
+from .contact import ElasticContactSolver, InSituTraction
 from .forms import ElasticForms, stress_measures
 from .nested import NestedStart
 from .problem import check_elastic_temperatures, elastic_setup, mechanics_warnings, probe_fields, watch_small_strain
@@ -161,7 +161,7 @@ class StaticMechanicsRun(MechanicsPart):
                                        modulus=nodal_modulus(self.setup.props), floating=floating, forms=self.forms)
         relax = ms.secant_relaxation if ms.secant_relaxation is not None and ms.secant_relaxation <= 1 else None
         self.solver = ElasticContactSolver(self.forms, csolver, tol=ms.tolerance, maxit=ms.max_iterations,
-                                           relaxation=relax)
+                                           relaxation=relax, insitu=InSituTraction.of(self.forms, self.contacts))
         self.contact_output = ContactOutput(self.forms, self.contacts)
 
     def _plain_solver(self, scene: Scene, geo: GeometryModel, temperature) -> None:
