@@ -47,8 +47,8 @@ PICTURES = {
     "permafrost": "temperature_profile.png",
     "plate_collision": "principal_stress.png",
     "repository_3d": "probes.png",
-    "repository_fracture_3d": "von_mises_section_y.png",
-    "repository_section": "probes.png",
+    "repository_fracture_3d": "von_mises_section_across_tunnel.png",
+    "repository_section": "temperature_zoom.png",
 }
 """The picture of each scene in the documentation: a file of the run's ``figures/``."""
 
