@@ -19,8 +19,10 @@ A quoted table stands between an opening comment on a line of its own and ``<!--
 ``convergence QUANTITY [HNAME]`` renders the results' ``convergence`` entry of that quantity (columns HNAME,
 default ``h``, dofs, error and the rate between rows, then the observed and expected order); ``orders [PREFIX]``
 the observed and expected order of every convergence entry (whose quantity starts with PREFIX); ``metrics
-NAME[:FMT] ...`` a table of the named metrics. Each table ends with a line naming the study and the level of its
-results, so a reader sees which level a table is from.
+NAME[:FMT] ...`` a table of the named metrics; ``rows COLUMN[:FMT] ...`` the results' ``rows`` (row name ->
+{column: value}) as one line per row, its name first (titled by the results' ``row_name``), then the named columns
+(numbers in FMT, text as it is, ``-`` where a row has no such column). Each table ends with a line naming the
+study and the level of its results, so a reader sees which level a table is from.
 """
 
 from __future__ import annotations
@@ -38,8 +40,8 @@ QUOTE = re.compile(r"<!-- q (?P<study>[a-z0-9_]+) (?P<metric>[A-Za-z0-9_]+)(?: (
                    r"(?P<value>.*?)<!-- /q -->")
 
 
-TABLE = re.compile(r"<!-- table (?P<study>[a-z0-9_]+) (?P<kind>convergence|orders|metrics)(?: (?P<args>[^>]*?))? -->\n"
-                   r"(?P<body>.*?)<!-- /table -->", re.S)
+TABLE = re.compile(r"<!-- table (?P<study>[a-z0-9_]+) (?P<kind>convergence|orders|metrics|rows)"
+                   r"(?: (?P<args>[^>]*?))? -->\n(?P<body>.*?)<!-- /table -->", re.S)
 
 
 def documents() -> list[Path]:
@@ -123,6 +125,27 @@ def metrics_table(study: str, names: list[str]) -> str:
     return "\n".join(rows) + "\n"
 
 
+def _cell(value, fmt: str) -> str:
+    if value is None:
+        return "-"
+    return _format(value, fmt) if isinstance(value, (int, float)) else str(value)
+
+
+def rows_table(study: str, columns: list[str]) -> str:
+    """The Markdown table of a study's ``rows`` (row name -> {column: value}) against the named columns
+    (``name`` or ``name:fmt``)."""
+    data = results(study)
+    if "rows" not in data:
+        raise KeyError(f"docs/results/{study}/results.json has no rows")
+    names = [c.partition(":")[0] for c in columns]
+    lines = ["| " + " | ".join([data.get("row_name", "row"), *names]) + " |", "|" + " --- |" * (len(names) + 1)]
+    for row, values in data["rows"].items():
+        cells = [_cell(values.get(name), c.partition(":")[2] or ".3g") for name, c in zip(names, columns)]
+        lines.append("| " + " | ".join([f"`{row}`", *cells]) + " |")
+    lines += ["", f"*`{study}`, level {data['level']}.*"]
+    return "\n".join(lines) + "\n"
+
+
 def render(text: str) -> tuple[str, list[str]]:
     """``text`` with every quoted number and table filled in from the results, and the quotes that changed."""
     changed = []
@@ -133,6 +156,8 @@ def render(text: str) -> tuple[str, list[str]]:
             body = convergence_table(m["study"], *args[:2])
         elif m["kind"] == "orders":
             body = orders_table(m["study"], *args[:1])
+        elif m["kind"] == "rows":
+            body = rows_table(m["study"], args)
         else:
             body = metrics_table(m["study"], args)
         if body != m["body"]:

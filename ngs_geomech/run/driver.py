@@ -329,15 +329,18 @@ def _summary(scene: Scene, model: Model, policy: MeshPolicy, state: RunState, ns
     mesh, probes = model.mesh, state.output.probes
     if comm is None:
         dofs, counts = model.ndof, {"vertices": mesh.nv, "elements": mesh.ne}
+        by_part = {p.key: p.ndof for p in model.parts}
     else:
-        dofs = sum(p.ndof_global for p in model.parts)
+        by_part = {p.key: p.ndof_global for p in model.parts}
+        dofs = sum(by_part.values())
         counts = {"vertices": ngs.H1(mesh, order=1).ndofglobal, "elements": parallel.allsum(mesh, mesh.ne),
                   "ranks": comm.size, "elements_per_rank": parallel.allgather(mesh, mesh.ne)}
     thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity in THERMAL), [])
     summary = {
         "scene": to_dict(scene),
         "versions": versions(),
-        "mesh": {**counts, "dofs": dofs, "order": scene.mesh.order, "regions": list(mesh.GetMaterials())},
+        "mesh": {**counts, "dofs": dofs, "dofs_by_part": by_part, "order": scene.mesh.order,
+                 "regions": list(mesh.GetMaterials())},
         "steps": nsteps,
         "factorizations": state.factorizations_before + policy.factorizations(model),
         "newton_iterations_max": max(model.newton_iterations or [0]),

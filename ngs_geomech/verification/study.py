@@ -87,19 +87,25 @@ def report(result: dict, hname: str = "h") -> str:
                      + metrics_lines(result))
 
 
-def study_main(run: Callable[[int], tuple], level: int, out) -> dict:
-    """Run a study at ``level``; write ``out/results.json`` (atomically) if ``out`` is given."""
-    result, _ = run(level)
+def study_main(run: Callable[[int], tuple], level: int, out,
+               write: Callable[[object, Path], None] | None = None) -> dict:
+    """Run a study at ``level``; write ``out/results.json`` (atomically) if ``out`` is given, and the study's
+    own files by ``write(tables, out)`` (``tables``: the second item ``run`` returns), e.g. its figures."""
+    result, tables = run(level)
     if out is not None:
         write_json_atomic(Path(out) / "results.json", result)
+        if write is not None:
+            write(tables, Path(out))
     return result
 
 
-def study_cli(doc: str, run: Callable[[int], tuple], report_fn: Callable[[dict], str]) -> None:
-    """The command line of a study: ``--level N --out DIR``; prints the report."""
+def study_cli(doc: str, run: Callable[[int], tuple], report_fn: Callable[[dict], str],
+              write: Callable[[object, Path], None] | None = None) -> None:
+    """The command line of a study: ``--level N --out DIR``; prints the report (``write``: see
+    :func:`study_main`)."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("--level", type=int, default=0, help="0 quick, 1 and 2 finer")
     parser.add_argument("--out", default=None, help="directory for results.json")
     args = parser.parse_args()
-    result = study_main(run, args.level, args.out)
+    result = study_main(run, args.level, args.out, write)
     print(report_fn(result))
