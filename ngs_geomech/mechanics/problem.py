@@ -114,8 +114,12 @@ def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> E
             setup.pressure[name] = expression_function(bc.pressure)
         elif bc.symmetry:
             setup.symmetry.append(name)
-    if ms.initial_stress is not None:
-        setup.initial_stress = [[expression_function(c) for c in row] for row in ms.initial_stress]
+    s0 = ms.initial_stress
+    if s0 is not None:
+        n = 2 if setup.model == "plane_strain" else len(s0)   # plane strain: the in-plane block of a 3x3 table
+        setup.initial_stress = [[expression_function(c) for c in row[:n]] for row in s0[:n]]
+        if len(s0) > n:                                       # and its zz entry, the out-of-plane prestress
+            setup.initial_stress_zz = expression_function(s0[2][2])
     if setup.model == "axisymmetric":
         taken = set(setup.dirichlet) | set(setup.symmetry)
         setup.axis = [n for n in axis_boundaries(mesh, sorted(set(mesh.GetBoundaries()))) if n not in taken]
