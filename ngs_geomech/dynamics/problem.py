@@ -52,10 +52,10 @@ class DynamicsRun(MechanicsPart):
 
     key = "dynamics"
 
-    def __init__(self, scene: Scene, geo: GeometryModel, mesh, temperature):
+    def __init__(self, scene: Scene, geo: GeometryModel, mesh, temperature, *, interpolate=None):
         super().__init__(scene, mesh)
         self.kind = scene.physics.mechanics
-        self.setup = elastic_setup(scene, geo, mesh, temperature)
+        self.setup = elastic_setup(scene, geo, mesh, temperature, interpolate=interpolate)
         self.setup.formulation = "displacement"      # the dynamic forms are built on X = V (validated)
         self.forms = ElasticForms(mesh, self.setup)
         self.contacts = contact_specs(scene, geo, mesh, self.forms.V)

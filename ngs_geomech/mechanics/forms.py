@@ -84,6 +84,9 @@ class ElasticSetup:
     names with u_n = 0; ``axis`` lists boundaries on the axis of an axisymmetric model (u_r = 0);
     ``initial_stress`` is a dim x dim list of TimeFunctions (Pa, in-plane/axisymmetric components);
     ``initial_stress_zz`` the plane-strain out-of-plane prestress (a TimeFunction, Pa, or None: no zz part);
+    ``interpolate_T0`` maps a CF into the temperature's space as the thermal part sets its initial temperature
+    (None: a varying T0 stays a CF): a varying T0 is then that field, so T - T0 = 0 at t = 0 exactly when T0 is
+    the initial temperature (the seed's T0 in H1; a CF T0 would leave its interpolation error as thermal stress);
     ``temperature`` is a CoefficientFunction of T (K) for the thermal stress, or None; ``body_force`` maps
     region names to a TimeFunction per component (N/m^3), a volume load added to rho g.
     """
@@ -99,6 +102,7 @@ class ElasticSetup:
     gravity: tuple | None = None
     initial_stress: list | None = None
     initial_stress_zz: object | None = None
+    interpolate_T0: object | None = None
     temperature: object | None = None
     regularization: float = 1e-6
     body_force: dict[str, list] = field(default_factory=dict)
@@ -381,6 +385,19 @@ class ElasticForms:
                 red = reduce_tensors(self.setup.model, t.C, t.b)
                 self.D[name], self.b[name], self.zz[name] = red.D, red.b, red.zz
                 self.T0[name], self.rho[name] = t.T0, t.density
+        self._interpolate_T0()
+
+    def _interpolate_T0(self) -> None:
+        """Replace the varying (CF) T0 of regions by its field in the temperature's space (``interpolate_T0``),
+        one field over the whole mesh: per region T0 on that region, the numbers elsewhere (a T0 that jumps
+        across a region boundary is smeared over the boundary's elements there). Numbers stay numbers."""
+        f = self.setup.interpolate_T0
+        varying = [n for n, v in self.T0.items() if isinstance(v, ngs.CoefficientFunction)]
+        if f is None or self.setup.temperature is None or not varying:
+            return
+        field = f(self.mesh.MaterialCF({n: _entry_cf(v) for n, v in self.T0.items()}, default=0.0))
+        for name in varying:
+            self.T0[name] = field
 
     @property
     def stiffness_uses_temperature(self) -> bool:

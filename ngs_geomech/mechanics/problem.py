@@ -98,13 +98,15 @@ def check_elastic_temperatures(forms, where: str) -> None:
                               "of the run takes the elastic data of the material out of their range") from None
 
 
-def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> ElasticSetup:
-    """The ElasticSetup of a validated scene on its mesh; ``temperature`` is the heat solution CF or None."""
+def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None, *, interpolate=None) -> ElasticSetup:
+    """The ElasticSetup of a validated scene on its mesh; ``temperature`` is the heat solution CF or None;
+    ``interpolate`` the thermal part's map of a CF into its temperature space (for a varying T0), or None."""
     props = region_properties(scene, mesh, temperature)
     ms = scene.mechanics
     setup = ElasticSetup(props=props, model=mechanics_model(scene), order=scene.mesh.order,
                          gravity=tuple(ms.gravity) if ms.gravity else None,
-                         temperature=temperature, regularization=ms.regularization, formulation=ms.formulation)
+                         temperature=temperature, regularization=ms.regularization, formulation=ms.formulation,
+                         interpolate_T0=interpolate)
     for name, bc in scene.boundary_conditions.items():
         if bc.displacement is not None:
             setup.dirichlet[name] = [None if c == "free" else expression_function(c) for c in bc.displacement]
