@@ -147,6 +147,12 @@ class ThermalPart(Part):
         """Solve the step, with the source of ``heating`` (a DeformationHeating) added; returns the step's info
         (its ``iterations``)."""
 
+    @abc.abstractmethod
+    def interpolate(self, cf):
+        """A field in the temperature's space holding the CoefficientFunction ``cf`` the way this part sets its
+        initial temperature: a stress-free temperature T0(x) so interpolated (the seed's T0 in H1) gives
+        T - T0 = 0 exactly at t = 0 where T0 is the initial temperature."""
+
     def finish_step(self, info) -> None:
         """Keep what a solved step reports (its Newton iterations)."""
         self.newton_iterations.append(info.iterations)

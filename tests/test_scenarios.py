@@ -1,9 +1,10 @@
 """The built-in geomechanics scenarios of issue 7, each run at a coarse, short level and checked for physical sanity.
 
-``plate_collision`` (the seed's test model, Central Aleutians): runs to the end; in-plane principal stresses of the
-order of the convergence strain times E; the plates in contact where they converge; force balance; the Stefan
-energy balance; the melting zone melted as far as the linear geotherm reaches past the solidus (and no further
-within the short run)."""
+``plate_collision`` (the seed's test model, Central Aleutians): runs to the end; in-plane principal stresses of
+the collision (the stress less the lithostatic prestress) of the order of the convergence strain times E; the
+plates in contact where they converge; force balance; the Stefan energy balance; the melting zone melted as far as
+the slab geotherm reaches past the solidus (and no further within the short run). tests/test_plate_collision.py
+has the lithostatic state at t = 0 and the megathrust at the quick level."""
 
 from __future__ import annotations
 
@@ -12,6 +13,8 @@ import pytest
 
 from ngs_geomech import api
 from ngs_geomech.io.stress_figures import principal_2d
+from ngs_geomech.scene import expressions
+from ngs_geomech.scene.parse import load_scene
 
 # one worker for the whole module: its module-scoped fixture is computed once, not once per xdist worker
 pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("test_scenarios")]
@@ -19,13 +22,14 @@ pytestmark = [pytest.mark.usefixtures("one_thread"), pytest.mark.xdist_group("te
 YEAR = 365.25 * 86400.0
 
 # scene data (geometries/plate_collision.toml)
-E = 1.5e11                      # Pa, every block
+E = 1.7e11                      # Pa, the mantle blocks
+RHO_G = 3300.0 * 9.81           # Pa/m: the lithostatic prestress rho g y
 CONVERGENCE = 0.06              # m/year, on the back-arc edge
 END = 1.0e5 * YEAR              # s
 OVERRIDING_WIDTH = 300.0e3      # m, trench (x = 100 km) to the back-arc edge (x = 400 km)
-T_BASE, DEPTH = 1300.0, 150.0e3  # geotherm T = T_BASE * depth / DEPTH (degC)
-THETA_R = 1000.0                # degC, solidus of the melting zone
-ZONE_TOP, ZONE_BOTTOM = 90.0e3, 140.0e3   # m, depth range of the melting zone
+T_MANTLE_MAX = 1345.0           # degC: the adiabat at 150 km, the geotherm's largest value
+THETA_R = 1300.0                # degC, solidus of the melting zone
+ZONE = (300.0e3, 360.0e3, -140.0e3, -90.0e3)   # m, x and y range of the melting zone
 
 
 COARSE = ["mesh.maxh=30e3", "blocks.melt_zone.maxh=10e3", "time.dt=25000 year", "output.every=1"]
@@ -52,7 +56,8 @@ def test_plate_collision_runs_to_the_end(plate_collision):
 def test_plate_collision_stresses_of_the_order_of_the_convergence_strain_times_e(plate_collision):
     sig = _vertex_values(plate_collision, plate_collision.mechanics.fields["stress"])   # 3x3 row-major
     assert np.all(np.isfinite(sig))
-    s1, s2, _ = principal_2d(sig[:, 0], sig[:, 4], sig[:, 1])
+    y = np.array([v.point[1] for v in plate_collision.mesh.vertices])
+    s1, s2, _ = principal_2d(sig[:, 0] - RHO_G * y, sig[:, 4] - RHO_G * y, sig[:, 1])     # less the prestress
     peak = float(np.max(np.maximum(np.abs(s1), np.abs(s2))))
     expected = E * CONVERGENCE * END / YEAR / OVERRIDING_WIDTH      # 6 km over 300 km: 3e9 Pa
     print(f"\nmax |in-plane principal stress| {peak:.3e} Pa, convergence strain times E {expected:.3e} Pa; "
@@ -84,22 +89,29 @@ def test_plate_collision_stefan_energy_balance(plate_collision):
     assert e["imbalance_rel_max"] < 1e-8
 
 
+def _geotherm_in_the_zone():
+    """The scene's initial temperature of the melting zone (degC) on a 121 x 101 grid over the zone."""
+    f = expressions.float_function(load_scene("plate_collision").initial.regions["melt_zone"])
+    x0, x1, y0, y1 = ZONE
+    return np.array([[f(x=x, y=y) for x in np.linspace(x0, x1, 121)] for y in np.linspace(y0, y1, 101)])
+
+
 def test_plate_collision_melting_zone_melts_as_far_as_the_geotherm_says(plate_collision):
     s = plate_collision.summary
     frac = s["stefan"]["melted_fraction"]["melt_zone"]
-    depth_solidus = THETA_R / T_BASE * DEPTH                           # 115.4 km
-    expected = (ZONE_BOTTOM - depth_solidus) / (ZONE_BOTTOM - ZONE_TOP)  # 0.492: below the solidus isotherm
+    T0 = _geotherm_in_the_zone()
+    expected = float(np.mean(T0 > THETA_R))                  # the share of the zone above the solidus
     # 1e5 years of conduction move the solidus isotherm by ~sqrt(kappa t) ~ 2 km << the zone; the nodal
-    # (lumped) melted volume is exact to about half an element of the zone (maxh 10 km over 50 km)
+    # (lumped) melted volume is exact to about half an element of the zone (maxh 10 km over 60 km)
     print(f"\nmelted fraction {frac[0]:.4f} -> {frac[-1]:.4f}, geotherm {expected:.4f}")
     assert 0.0 < frac[-1] < 1.0
     assert frac[0] == pytest.approx(expected, abs=0.1)
     assert abs(frac[-1] - frac[0]) < 0.02
     tmax = s["probes"]["melt_zone_T_max"]["max"]
-    assert tmax == pytest.approx(T_BASE * ZONE_BOTTOM / DEPTH, abs=10.0)      # 1213 C, deformation heat < 10 K
+    assert float(T0.max()) - 1.0 < tmax < float(T0.max()) + 30.0      # + the deformation heat (~20 K)
     T = _vertex_values(plate_collision, plate_collision.stefan.fields["temperature"])
     print(f"temperature {T.min():.2f} .. {T.max():.2f} C")
-    assert T.min() > -1.0 and T.max() < T_BASE + 10.0                          # the geotherm's range
+    assert T.min() > -1.0 and T.max() < T_MANTLE_MAX + 30.0                      # the geotherm's range
 
 
 def test_viscous_plate_collision_against_the_quasi_static_run():
@@ -136,7 +148,7 @@ def test_plate_collision_adaptive_level_follows_the_contacts(plate_collision):
     assert a["remesh_count"] >= 1 and s["mechanics"]["times_s"][-1] == pytest.approx(END, rel=1e-12)
     assert s["stefan"]["energy"]["imbalance_rel_max"] < 1e-8
     assert max(h["imbalance_rel"] for h in c["history"]) < 1e-8
-    assert s["stefan"]["melted_fraction"]["melt_zone"][-1] == pytest.approx(
-        f["stefan"]["melted_fraction"]["melt_zone"][-1], abs=0.02)
+    assert s["stefan"]["melted_fraction"]["melt_zone"][-1] == pytest.approx(      # half an element of the zone:
+        f["stefan"]["melted_fraction"]["melt_zone"][-1], abs=0.1)                 # the meshes differ there
     assert s["probes"]["trench_uy"]["final"] == pytest.approx(f["probes"]["trench_uy"]["final"], rel=0.2)
     assert c["interfaces"]["slab_wedge"]["normal_force"] > 0.0 and c["interfaces"]["slab_base_2"]["normal_force"] > 0

@@ -52,10 +52,10 @@ class DynamicsRun(MechanicsPart):
 
     key = "dynamics"
 
-    def __init__(self, scene: Scene, geo: GeometryModel, mesh, temperature):
+    def __init__(self, scene: Scene, geo: GeometryModel, mesh, temperature, *, interpolate=None):
         super().__init__(scene, mesh)
         self.kind = scene.physics.mechanics
-        self.setup = elastic_setup(scene, geo, mesh, temperature)
+        self.setup = elastic_setup(scene, geo, mesh, temperature, interpolate=interpolate)
         self.setup.formulation = "displacement"      # the dynamic forms are built on X = V (validated)
         self.forms = ElasticForms(mesh, self.setup)
         self.contacts = contact_specs(scene, geo, mesh, self.forms.V)
@@ -191,6 +191,8 @@ class DynamicsRun(MechanicsPart):
             arrays[f"dyn/w{k}"] = np.array(w)
         for k, act in enumerate(s.active):
             arrays[f"dyn/active{k}"] = np.array(act)
+        if s.contact_solver is not None:        # its warm start: a repeated step starts where the first did
+            arrays.update({f"warm/{k}": v for k, v in s.contact_solver.capture().items()})
         return arrays, {"times": len(self.times), "history": len(self.history), "steps": len(s.steps),
                         "energy": len(s.energy_history)}
 
@@ -213,6 +215,9 @@ class DynamicsRun(MechanicsPart):
             s.dissipated = float(meta["dissipated"])
         s.w = [np.array(arrays[f"dyn/w{k}"]) for k in range(len(s.w))]
         s.active = [np.array(arrays[f"dyn/active{k}"], dtype=bool) for k in range(len(s.active))]
+        if s.contact_solver is not None:
+            s.contact_solver.restore(len(s.u), {k.split("/", 1)[1]: v for k, v in arrays.items()
+                                                if k.startswith("warm/")})
         s.t = float(meta["t"])
         s.steps = [StepInfo(0.0, 0.0, active=[np.array(a, dtype=bool) for a in act]) for act in meta["steps_active"]]
         self._started = bool(meta["started"])

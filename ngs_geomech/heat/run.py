@@ -81,6 +81,12 @@ class HeatRun(ThermalPart):
         set_initial_temperature(self.T, self.scene, self.mesh, self.forms.t_new)
         self.solver.set_dirichlet()
 
+    def interpolate(self, cf):
+        """``cf`` set into the temperature's space as the initial temperature is (``Set``)."""
+        g = ngs.GridFunction(self.T.space)
+        g.Set(cf)
+        return g
+
     def begin_step(self, step: Step) -> None:
         """Set the step from a to b up: the old state and the times."""
         h = self.forms

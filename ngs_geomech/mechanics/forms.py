@@ -82,7 +82,11 @@ class ElasticSetup:
     ``dirichlet`` maps boundary names to one TimeFunction or None (free) per component (m); ``traction``
     to a TimeFunction per component (Pa); ``pressure`` to a TimeFunction (Pa); ``symmetry`` lists boundary
     names with u_n = 0; ``axis`` lists boundaries on the axis of an axisymmetric model (u_r = 0);
-    ``initial_stress`` is a dim x dim list of TimeFunctions (Pa, in-plane/axisymmetric components only);
+    ``initial_stress`` is a dim x dim list of TimeFunctions (Pa, in-plane/axisymmetric components);
+    ``initial_stress_zz`` the plane-strain out-of-plane prestress (a TimeFunction, Pa, or None: no zz part);
+    ``interpolate_T0`` maps a CF into the temperature's space as the thermal part sets its initial temperature
+    (None: a varying T0 stays a CF): a varying T0 is then that field, so T - T0 = 0 at t = 0 exactly when T0 is
+    the initial temperature (the seed's T0 in H1; a CF T0 would leave its interpolation error as thermal stress);
     ``temperature`` is a CoefficientFunction of T (K) for the thermal stress, or None; ``body_force`` maps
     region names to a TimeFunction per component (N/m^3), a volume load added to rho g.
     """
@@ -97,6 +101,8 @@ class ElasticSetup:
     axis: list[str] = field(default_factory=list)
     gravity: tuple | None = None
     initial_stress: list | None = None
+    initial_stress_zz: object | None = None
+    interpolate_T0: object | None = None
     temperature: object | None = None
     regularization: float = 1e-6
     body_force: dict[str, list] = field(default_factory=dict)
@@ -379,6 +385,19 @@ class ElasticForms:
                 red = reduce_tensors(self.setup.model, t.C, t.b)
                 self.D[name], self.b[name], self.zz[name] = red.D, red.b, red.zz
                 self.T0[name], self.rho[name] = t.T0, t.density
+        self._interpolate_T0()
+
+    def _interpolate_T0(self) -> None:
+        """Replace the varying (CF) T0 of regions by its field in the temperature's space (``interpolate_T0``),
+        one field over the whole mesh: per region T0 on that region, the numbers elsewhere (a T0 that jumps
+        across a region boundary is smeared over the boundary's elements there). Numbers stay numbers."""
+        f = self.setup.interpolate_T0
+        varying = [n for n, v in self.T0.items() if isinstance(v, ngs.CoefficientFunction)]
+        if f is None or self.setup.temperature is None or not varying:
+            return
+        field = f(self.mesh.MaterialCF({n: _entry_cf(v) for n, v in self.T0.items()}, default=0.0))
+        for name in varying:
+            self.T0[name] = field
 
     @property
     def stiffness_uses_temperature(self) -> bool:
@@ -782,8 +801,8 @@ class ElasticForms:
     # -- post-processing --------------------------------------------------------------------------------------
     def stress_tensor(self, u=None):
         """The full 3x3 stress tensor (Pa) as one CoefficientFunction over all regions: plane strain with
-        sigma_zz (without an initial-stress part: sigma0 is given in-plane), plane stress with sigma_zz = 0,
-        axisymmetric in (r, z, theta) axes."""
+        sigma_zz (the zz prestress ``initial_stress_zz``, if any, plus the elastic and thermal part of e_zz = 0),
+        plane stress with sigma_zz = 0, axisymmetric in (r, z, theta) axes."""
         u = u if u is not None else self.displacement()
         per_region = {}
         for name in self.setup.props:
@@ -794,21 +813,26 @@ class ElasticForms:
             elif m == "axisymmetric":
                 comps = (sv[0], sv[3], 0, sv[3], sv[1], 0, 0, 0, sv[2])
             else:
-                if m == "plane_strain":
-                    row, bz = self.zz[name] if name not in self.mixed else self.mixed[name].zz
-                    e = self.strain_vector(u)
-                    szz = self.factor(name, e) * ngs.InnerProduct(self.cf_vector(np.asarray(row)), e)
-                    if name in self.mixed:
-                        szz = szz + self.pressure(name)
-                    dT = self.delta_T(name)
-                    if dT is not None:
-                        szz = szz - dT * (float(bz) if isinstance(bz, (int, float)) else bz)
-                else:
-                    szz = 0
+                szz = self.plane_strain_zz(name, u) if m == "plane_strain" else 0
                 comps = (sv[0], sv[2], 0, sv[2], sv[1], 0, 0, 0, szz)
             per_region[name] = ngs.CoefficientFunction(tuple(ngs.CoefficientFunction(c) for c in comps),
                                                        dims=(3, 3))
         return self.mesh.MaterialCF(per_region, default=ngs.CoefficientFunction((0.0,) * 9, dims=(3, 3)))
+
+    def plane_strain_zz(self, name: str, u):
+        """sigma_zz (Pa) of region ``name`` in plane strain: the row of e_zz = 0 (with the lambda factor, or the
+        mixed pressure), minus beta_zz (T - T0), plus the out-of-plane prestress ``initial_stress_zz``."""
+        row, bz = self.zz[name] if name not in self.mixed else self.mixed[name].zz
+        e = self.strain_vector(u)
+        szz = self.factor(name, e) * ngs.InnerProduct(self.cf_vector(np.asarray(row)), e)
+        if name in self.mixed:
+            szz = szz + self.pressure(name)
+        dT = self.delta_T(name)
+        if dT is not None:
+            szz = szz - dT * (float(bz) if isinstance(bz, (int, float)) else bz)
+        if self.setup.initial_stress_zz is not None:
+            szz = szz + self.setup.initial_stress_zz(self.t)
+        return szz
 
     def strain_energy_density(self, u=None):
         """W of the elastic part (J/m^3): (A_ref/2)((A1/A_ref + delta)^lam - delta^lam), per region."""

@@ -98,13 +98,15 @@ def check_elastic_temperatures(forms, where: str) -> None:
                               "of the run takes the elastic data of the material out of their range") from None
 
 
-def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> ElasticSetup:
-    """The ElasticSetup of a validated scene on its mesh; ``temperature`` is the heat solution CF or None."""
+def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None, *, interpolate=None) -> ElasticSetup:
+    """The ElasticSetup of a validated scene on its mesh; ``temperature`` is the heat solution CF or None;
+    ``interpolate`` the thermal part's map of a CF into its temperature space (for a varying T0), or None."""
     props = region_properties(scene, mesh, temperature)
     ms = scene.mechanics
     setup = ElasticSetup(props=props, model=mechanics_model(scene), order=scene.mesh.order,
                          gravity=tuple(ms.gravity) if ms.gravity else None,
-                         temperature=temperature, regularization=ms.regularization, formulation=ms.formulation)
+                         temperature=temperature, regularization=ms.regularization, formulation=ms.formulation,
+                         interpolate_T0=interpolate)
     for name, bc in scene.boundary_conditions.items():
         if bc.displacement is not None:
             setup.dirichlet[name] = [None if c == "free" else expression_function(c) for c in bc.displacement]
@@ -114,8 +116,12 @@ def elastic_setup(scene: Scene, geo: GeometryModel, mesh, temperature=None) -> E
             setup.pressure[name] = expression_function(bc.pressure)
         elif bc.symmetry:
             setup.symmetry.append(name)
-    if ms.initial_stress is not None:
-        setup.initial_stress = [[expression_function(c) for c in row] for row in ms.initial_stress]
+    s0 = ms.initial_stress
+    if s0 is not None:
+        n = 2 if setup.model == "plane_strain" else len(s0)   # plane strain: the in-plane block of a 3x3 table
+        setup.initial_stress = [[expression_function(c) for c in row[:n]] for row in s0[:n]]
+        if len(s0) > n:                                       # and its zz entry, the out-of-plane prestress
+            setup.initial_stress_zz = expression_function(s0[2][2])
     if setup.model == "axisymmetric":
         taken = set(setup.dirichlet) | set(setup.symmetry)
         setup.axis = [n for n in axis_boundaries(mesh, sorted(set(mesh.GetBoundaries()))) if n not in taken]

@@ -136,9 +136,9 @@ class StaticMechanicsRun(MechanicsPart):
 
     key = "mechanics"
 
-    def __init__(self, scene: Scene, geo: GeometryModel, mesh, temperature):
+    def __init__(self, scene: Scene, geo: GeometryModel, mesh, temperature, *, interpolate=None):
         super().__init__(scene, mesh)
-        self.setup = elastic_setup(scene, geo, mesh, temperature)
+        self.setup = elastic_setup(scene, geo, mesh, temperature, interpolate=interpolate)
         self.forms = ElasticForms(mesh, self.setup)
         self.contacts = contact_specs(scene, geo, mesh, self.forms.V)
         self.nested = None                     # NestedStart (mechanics.nested_levels, validated: no contact)

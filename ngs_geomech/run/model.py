@@ -35,11 +35,12 @@ class Model:
         elif scene.physics.thermal:
             self.thermal = HeatRun(scene, geo, mesh)
         T = self.thermal.T if self.thermal is not None else None
+        T0 = self.thermal.interpolate if self.thermal is not None else None
         self.mechanics = None
         if scene.physics.mechanics in ("dynamic", "viscous"):
-            self.mechanics = DynamicsRun(scene, geo, mesh, T)
+            self.mechanics = DynamicsRun(scene, geo, mesh, T, interpolate=T0)
         elif scene.physics.mechanics:
-            self.mechanics = StaticMechanicsRun(scene, geo, mesh, T)
+            self.mechanics = StaticMechanicsRun(scene, geo, mesh, T, interpolate=T0)
         self.coupling = None
         if scene.physics.coupling != "none" and self.mechanics is not None and self.thermal is not None:
             self.coupling = CouplingRun(scene, self.thermal, self.mechanics)

@@ -495,7 +495,10 @@ class MechanicsSettings:
                                  "'auto' (mixed in the isotropic regions with nu > 0.45 when the law is linear)")
 
     initial_stress: list | None = field(optional(list_of(list_of(expr))), None,
-                                        doc="initial (e.g. lithostatic) stress tensor sigma0, Pa (expressions)")
+                                        doc="initial (e.g. lithostatic) stress tensor sigma0, Pa (expressions): "
+                                            "dim x dim; plane strain also takes 3x3 with xz = yz = 0, whose zz "
+                                            "entry is the out-of-plane prestress (sigma_zz = zz + the plane-strain "
+                                            "elastic and thermal part; without it sigma_zz has no prestress)")
     nonlinear_solver: str = field(one_of(*NONLINEAR_SOLVERS), "newton",
                                   doc="for rheology_lambda != 1: Newton on W (line search) or the secant modules "
                                       "method (2.32)-(2.34)")

@@ -276,6 +276,12 @@ class StefanRun(ThermalPart):
                               + f": {exc}") from None
         self.initial_heat = self.forms.heat_content(self.solver.e)
 
+    def interpolate(self, cf):
+        """``cf`` at the nodes in the temperature's (P1) space, as the initial temperature is set."""
+        g = ngs.GridFunction(self.T.space)
+        g.vec.FV().NumPy()[:] = _nodal(self.mesh, cf)
+        return g
+
     def _not_finite_initial(self, t0: float) -> tuple[str, str]:
         """(key, message) of the initial temperature that is not finite at a vertex (collective)."""
         ini = self.scene.initial

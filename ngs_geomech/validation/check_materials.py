@@ -90,7 +90,7 @@ def _varying_refused(scene: Scene, mat, key: str) -> str:
                 "numbers for the elastic data of its region (A_ref and the secant stiffness are built per region); "
                 "use rheology_lambda = 1 or numbers")
     if (mat.viscosity_time is not None or mat.prony) and scene.physics.mechanics in ("dynamic", "viscous") \
-            and key != "density":
+            and key not in ("density", "stress_free_temperature"):      # the rate terms take C only
         return ("an expression in a region with viscosity_time or prony: the rate terms C^v = viscosity_time C and "
                 "C_k = modulus_ratio C take numbers for C; give the elastic data as numbers there")
     if key == "youngs_modulus" and expressions.TEMPERATURE in expressions.uses(mat.youngs_modulus):

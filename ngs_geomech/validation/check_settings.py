@@ -55,9 +55,7 @@ def _check_physics(scene: Scene, problems: list[Problem]) -> None:
     if ph.mechanics is not None:
         if ms.gravity is not None and len(ms.gravity) != dim:
             problems.append(Problem("mechanics.gravity", f"needs {dim} components, got {len(ms.gravity)}"))
-        if ms.initial_stress is not None and (len(ms.initial_stress) != dim
-                                              or any(len(r) != dim for r in ms.initial_stress)):
-            problems.append(Problem("mechanics.initial_stress", f"must be a {dim}x{dim} table of expressions"))
+        _check_initial_stress(scene, dim, problems)
         softening = [n for n, m in scene.materials.items() if m.rheology_lambda < 1]
         if softening and ms.regularization <= 0:
             problems.append(Problem("mechanics.regularization", f"must be positive: rheology_lambda < 1 in "
@@ -68,6 +66,34 @@ def _check_physics(scene: Scene, problems: list[Problem]) -> None:
                                     "conductivity needs the pressure of the mechanics in every heat step: set "
                                     "physics.coupling = 'staggered' or 'iterated' (with physics.thermal = "
                                     "'transient' and physics.mechanics = 'static')"))
+
+
+def _check_initial_stress(scene: Scene, dim: int, problems: list[Problem]) -> None:
+    """mechanics.initial_stress is a dim x dim table; plane strain also takes a 3x3 table whose zz entry is the
+    out-of-plane prestress (sigma_zz = zz entry + the plane-strain elastic and thermal part) and whose xz, yz
+    entries are 0 (an out-of-plane shear prestress is not in equilibrium with a plane section's loads)."""
+    s0 = scene.mechanics.initial_stress
+    if s0 is None:
+        return
+    sizes = (dim, 3) if scene.scene.dimension == "plane" and scene.physics.plane_model == "plane_strain" else (dim,)
+    n = len(s0)
+    if n not in sizes or any(len(r) != n for r in s0):
+        shapes = " or ".join(f"{k}x{k}" for k in sizes)
+        problems.append(Problem("mechanics.initial_stress", f"must be a {shapes} table of expressions"))
+        return
+    if n == 3 and dim == 2:
+        bad = [f"[{i}][{j}]" for i, j in ((0, 2), (1, 2), (2, 0), (2, 1)) if not _zero_expression(s0[i][j])]
+        if bad:
+            problems.append(Problem("mechanics.initial_stress", f"entries {', '.join(bad)} (the xz, yz "
+                                    "shears) must be 0 in plane strain: only the zz entry of the third row and "
+                                    "column is taken (the out-of-plane normal prestress)"))
+
+
+def _zero_expression(v) -> bool:
+    """True for the number 0 or an expression without variables whose value is 0."""
+    if isinstance(v, (int, float)):
+        return v == 0
+    return not expressions.uses(v) and expressions.evaluate(v) == 0.0
 
 
 def _check_coupling(scene: Scene, problems: list[Problem]) -> None:
