@@ -174,7 +174,8 @@ def test_heated_rock_scene_writes_mechanics_output(tmp_path):
     assert cli.main(["run", "heated_rock", "--out", str(out), "--quiet"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["mechanics"]["model"] == "plane_strain" and summary["mechanics"]["solves"] == 1
-    for fig in ("temperature.png", "von_mises.png", "principal_stress.png", "principal_stress_zoom.png"):
+    for fig in ("temperature.png", "von_mises.png", "principal_stress.png", "principal_stress_zoom.png",
+                "principal_stress_change.png", "principal_stress_change_zoom.png"):   # the change: it has sigma0
         assert (out / "figures" / fig).stat().st_size > 10000
     vtu = (out / "heated_rock.vtu").read_text(errors="ignore")
     for field in ("temperature", "displacement", "stress", "von_mises", "mean_stress", "sigma_1", "sigma_3",

@@ -173,8 +173,7 @@ class InSituTraction:
     def tractions(self) -> list[np.ndarray]:
         """F of each interface at the current time (N, a vector of V): sigma0 n tested on both sides."""
         f = self.forms
-        s0 = [[g(f.t) for g in row] for row in f.setup.initial_stress]
-        sigma0 = ngs.CoefficientFunction(tuple(c for row in s0 for c in row), dims=(f.dim, f.dim))
+        sigma0 = f.initial_stress_tensor()
         v = f.V.TestFunction()
         out = []
         for op in self.ops:

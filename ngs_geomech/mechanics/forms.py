@@ -472,6 +472,13 @@ class ElasticForms:
             return None
         return self.setup.temperature - self.T0[name]
 
+    def initial_stress_tensor(self):
+        """The initial stress (Pa) as a dim x dim CF (in-plane components in 2D), or None without one."""
+        s0 = self.setup.initial_stress
+        if s0 is None:
+            return None
+        return ngs.CoefficientFunction(tuple(f(self.t) for row in s0 for f in row), dims=(self.dim, self.dim))
+
     def sigma0_vector(self):
         """The initial stress (Pa) as the model's reduced Voigt vector, or None without one."""
         s0 = self.setup.initial_stress

@@ -31,9 +31,11 @@ from .problem import check_elastic_temperatures, elastic_setup, mechanics_warnin
 from .solver import ElasticSolver, NonlinearInfo
 
 
-def stress_figure_set(canvas, mesh, von_mises, sigma) -> None:
+def stress_figure_set(canvas, mesh, von_mises, sigma, sigma0=None) -> None:
     """Von Mises stress and principal stress crosses (the seed's Fig. 1) of the last mechanics state (2D); the
-    von Mises stress on the canvas's plane sections (3D). Stresses in MPa, or GPa from 1 GPa on."""
+    von Mises stress on the canvas's plane sections (3D). Stresses in MPa, or GPa from 1 GPa on. With an initial
+    stress ``sigma0`` (in-plane CF) also the crosses of the change sigma - sigma0 (what the loads add to the
+    in-situ state, whose lithostatic part hides it at depth) on its largest in-plane shear stress."""
     arrays = canvas.arrays
     if arrays is None:
         canvas.section_figures(mesh, von_mises, "von_mises", title=f"{canvas.title}: von Mises stress, {canvas.when}",
@@ -45,9 +47,24 @@ def stress_figure_set(canvas, mesh, von_mises, sigma) -> None:
     canvas.draw.field_figure(arrays, unit(vm), canvas.path("von_mises.png"),
                              title=f"{canvas.title}: von Mises stress, {canvas.when}",
                              label=label, axis_labels=canvas.labels, cmap="viridis")
-    windows = [(None, "principal_stress.png")]
+    principal_crosses(canvas, mesh, sigma, unit(vm), label, "principal_stress", "principal stresses")
+    if sigma0 is not None:
+        change = ngs.CoefficientFunction(tuple(sigma[i, j] - sigma0[i, j] for i in range(2) for j in range(2)),
+                                         dims=(2, 2))
+        shear = ngs.sqrt(((change[0, 0] - change[1, 1]) / 2) ** 2 + change[0, 1] ** 2)
+        tau = vertex_average(mesh, shear)
+        tunit = scales.stress_scale(tau)
+        principal_crosses(canvas, mesh, change, tunit(tau), f"largest shear stress of the change ({tunit.unit})",
+                          "principal_stress_change", "principal stresses added to the initial stress")
+
+
+def principal_crosses(canvas, mesh, sigma, background: np.ndarray, label: str, stem: str, what: str) -> None:
+    """Principal stress crosses of the in-plane stress CF ``sigma`` on a grid over the domain (``stem``.png) and
+    over the canvas's window (``stem``_zoom.png), on ``background`` (vertex values, already scaled)."""
+    arrays = canvas.arrays
+    windows = [(None, f"{stem}.png")]
     if canvas.window:
-        windows.append((canvas.window, "principal_stress_zoom.png"))
+        windows.append((canvas.window, f"{stem}_zoom.png"))
     for window, fname in windows:
         lo, hi = arrays.points.min(axis=0), arrays.points.max(axis=0)
         if window is not None:
@@ -60,8 +77,7 @@ def stress_figure_set(canvas, mesh, von_mises, sigma) -> None:
         s1, s2, th = stress_figures.principal_2d(sxx, syy, sxy)
         canvas.draw.principal_stress_crosses(
             arrays, pts, s1, s2, th, canvas.path(fname), axis_labels=canvas.labels, window=window,
-            title=f"{canvas.title}: principal stresses, {canvas.when}",
-            background=unit(vm), background_label=label)
+            title=f"{canvas.title}: {what}, {canvas.when}", background=background, background_label=label)
 
 
 def principal_stress(values: np.ndarray, index: int) -> np.ndarray:
@@ -117,7 +133,7 @@ class MechanicsPart(Part):
         return contact_lines(self.contacts, self.contact_output.latest)
 
     def figures(self, canvas) -> None:
-        stress_figure_set(canvas, self.mesh, self.fields["von_mises"], self.sigma)
+        stress_figure_set(canvas, self.mesh, self.fields["von_mises"], self.sigma, self.forms.initial_stress_tensor())
         if self.contact_output is not None and canvas.arrays is not None:
             contact_figures(canvas, self.contacts, self.contact_output.latest)
 
