@@ -45,7 +45,7 @@ PICTURES = {
     "heated_rock": "principal_stress.png",
     "melting_block": "phase_boundary.png",
     "permafrost": "temperature_profile.png",
-    "plate_collision": "principal_stress.png",
+    "plate_collision": "principal_stress_change.png",
     "repository_3d": "probes.png",
     "repository_fracture_3d": "von_mises_section_across_tunnel.png",
     "repository_section": "temperature_zoom.png",
