@@ -42,13 +42,15 @@ def test_lithostatic_state_stays_at_rest_across_an_oblique_fault_3d():
     assert r["min_pressure"] > 0 and r["pressure_deviation"] < 0.1
 
 
-def test_rows_the_supports_make_dependent_stay_regular_p1_3d():
-    """P1 in 3D: where the fault (strike 0: its second tangent is e_y) meets the rollers on y = 0 and y = 1000, a
-    node's t2 row has prescribed dofs only; its exact stick rows made the matrix singular (the sets cycled)."""
-    r = lithostatic_fault(dim=3, dip=60.0, strike=0.0)
-    print(f"\n3D lithostatic fault (dip 60, strike 0, P1, {r['ndof']} dofs), max |u| (m): exact transfer "
+@pytest.mark.parametrize("strike", [0.0, 30.0])
+def test_rows_the_supports_make_dependent_are_left_out_p1_3d(strike):
+    """P1 in 3D: where the fault meets the rollers the supports hold part of the relative motion, so some contact
+    rows (of one node, or combined over the nodes on a roller) are dependent on the free dofs; their exact stick
+    rows made the matrix singular (the sets cycled). The solver leaves them out; the state stays at rest."""
+    r = lithostatic_fault(dim=3, dip=60.0 if strike == 0.0 else 50.0, strike=strike)
+    print(f"\n3D lithostatic fault (strike {strike:g}, P1, {r['ndof']} dofs), max |u| (m): exact transfer "
           f"{r['exact']:.1e}, mortar transfer {r['mortar']:.2e}")
-    assert r["exact"] < 1e-10
+    assert r["exact"] < 1e-9
     assert r["mortar"] > 1e-5
 
 

@@ -30,10 +30,6 @@ from .laws import slip_bound
 from .state import InterfaceState
 from .steps import NewtonSystem
 
-SUPPORTED_SHIFT = 1e-10
-"""The rows of a node whose constraints the supports make dependent (:func:`.linear_algebra.supported_tangents`):
--SUPPORTED_SHIFT x the penalty rows' diagonal on the multipliers of its exact rows."""
-
 
 def assemble_rows(s: NewtonSystem, x: np.ndarray, penalty: bool) -> np.ndarray:
     """Set the multiplier rows of the current sets in the pattern's values (and the matrix), the start values of
@@ -51,8 +47,7 @@ def assemble_rows(s: NewtonSystem, x: np.ndarray, penalty: bool) -> np.ndarray:
         vals[seg["rows_n"]] = seg["rows_n_values"] * A[seg["rows_n_node"]]
         # -Bn u - (weight / c) lam_n = g0 in the penalty phase (lam_n = -c g~)
         # (the identity rows of fixed multipliers scaled like the penalty rows: -weight / c)
-        vals[seg["diag_n"]] = np.where(A & (not pen_i), np.where(it.t_supported, -SUPPORTED_SHIFT, 0.0), -1.0) \
-            * it.w / it.c
+        vals[seg["diag_n"]] = np.where(A & (not pen_i), 0.0, -it.w / it.c)
         if it.law.kind == "frictionless":
             x[ot:it.offset + it.blocks * it.m] = 0.0
         elif it.dim3:
@@ -98,11 +93,13 @@ def _rows_3d(it: InterfaceState, seg: dict, vals: np.ndarray, b: np.ndarray, x: 
     # (penalty rows: the slip law lam_t = b z / |z| with z = -c_t s, so no kappa T on lam_t)
     L = -s[:, None, None] * np.where((slip & (not pen))[:, None, None], np.eye(2)[None] - kT, np.eye(2)[None])
     L = np.where((stick & (not pen))[:, None, None], 0.0, L)
-    # a node whose rows the supports make dependent (on a roller whose direction mixes n, t1, t2): the combination
-    # the supports hold has zero rows and columns on the free dofs; SUPPORTED_SHIFT keeps the matrix regular, and
-    # leaves that combination's multiplier 0 (the support carries it) and the others' rows exact to the shift
-    dep = stick & it.t_supported & (not pen)
-    L = np.where(dep[:, None, None], -SUPPORTED_SHIFT * s[:, None, None] * np.eye(2)[None], L)
+    # an exact row left out (dependent on the free dofs through the supports, :func:`.linear_algebra.dependent_rows`)
+    # fixes its multiplier at 0: the supports carry that part (the penalty rows are regular as they are)
+    for k in range(2):
+        out = it.dropped[1 + k] & A & (not pen)
+        R[:, k, :] = np.where(out[:, None], 0.0, R[:, k, :])
+        L[:, k, :] = np.where(out[:, None], 0.0, L[:, k, :])
+        L[:, k, k] = np.where(out, -s, L[:, k, k])
     node = seg["rows_t_node"]
     a1, a2 = seg["rows_t_a"], seg["rows_t_b"]
     vals[seg["rows_t"]] = R[node, 0, 0] * a1 + R[node, 0, 1] * a2

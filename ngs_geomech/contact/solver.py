@@ -101,6 +101,7 @@ from .steps import NewtonSystem, exact_residual, newton_steps, relative_change
 COULOMB_FIXED_POINT_TOL = 1e-8    # Coulomb fallback: relative change of the slip bounds F_c p that ends it
 COULOMB_FIXED_POINT_MAXIT = 60
 NEWTON_TOL = 1e-11     # 3D slip rows: converged when max |lam_t - b z / |z|| <= NEWTON_TOL x the largest bound
+ROUNDOFF_TOL = 1e-9    # ... or below ROUNDOFF_TOL and no longer halving (the round-off floor of the rows)
 U_FLOOR = 1e-8         # floating bodies' refinement: displacements below U_FLOOR |f| / mean diag K (m) count as zero
 INEXACT_REFINEMENTS = 6  # refinement steps with the quasi-definite factorization before factoring exactly
 
@@ -384,6 +385,7 @@ class ContactSolver(ContactSolverBase):
         self._exact_cold = not penalty and not self.converged
         newton_tol = max(NEWTON_TOL, steps.tol_floor)
         info = s.info
+        last_newton = math.inf
         for it_nr in range(1, self.maxit + 1):
             b = assemble_rows(s, x, penalty)
             step = steps.step(s, b, it_nr)
@@ -397,8 +399,9 @@ class ContactSolver(ContactSolverBase):
                     penalty = False
                     info.penalty_iterations = it_nr
                     continue
-                if newton <= newton_tol:
-                    break
+                if newton <= newton_tol or (newton <= ROUNDOFF_TOL and newton > 0.5 * last_newton):
+                    break           # converged, or at the round-off floor of the slip rows (no longer falling)
+                last_newton = newton
         else:
             if info.changes[-1] == 0:
                 raise SolverError(f"{s.what}: the slip directions have not converged after {self.maxit} iterations "
