@@ -1,13 +1,13 @@
 """Semantic validation of a scene, before any meshing or solving.
 
-Every problem found is reported, each naming its item: unknown region or boundary names, regions without a
-material, unphysical values, inconsistent settings. The declared type and range of every key come first
+Every problem found is reported, each naming its item: unknown region or boundary names, regions without a material,
+unphysical values, inconsistent settings. The declared type and range of every key come first
 (:func:`~ngs_geomech.scene.schema.recheck`), then the rules that join keys, by subject: names and temperatures
 (:mod:`.check_values`), settings (:mod:`.check_settings`, :mod:`.check_adaptivity`, the contacts' frictional heating
-:mod:`.check_frictional`), materials (:mod:`.check_materials`) and, on the geometry (built cheaply: OCC shapes, no mesh), the names it must hold
-(:mod:`.check_geometry`), the values expressions take on it (:mod:`.expression_values`) and the material values that
-vary over their regions and the contact laws' values along their sides (:mod:`.material_values`). What distributed
-runs cannot do is :mod:`.check_distributed`.
+:mod:`.check_frictional`), materials (:mod:`.check_materials`) and, on the geometry (built cheaply: OCC shapes, no
+mesh), the names it must hold (:mod:`.check_geometry`), the values expressions take on it
+(:mod:`.expression_values`) and the material values that vary over their regions and the contact laws' values along
+their sides (:mod:`.material_values`). What distributed runs cannot do is :mod:`.check_distributed`.
 """
 
 from __future__ import annotations
