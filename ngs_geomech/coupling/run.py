@@ -1,7 +1,8 @@
 """The coupling part of a run (:class:`CouplingRun`, a :class:`~ngs_geomech.parts.Part`): the coupled time step of
 problem (P_c) (:mod:`.problem`: the heat or Stefan step with the deformation heating of the last displacement
-rate, then the mechanics at the step's end; 'iterated' repeats the pair until neither changes), the mean
-pressure handed to the conductivities kappa(T, p) after each mechanics solve, its history and figure.
+rate and the frictional heating of sliding contacts (:mod:`.frictional`), then the mechanics at the step's end;
+'iterated' repeats the pair until neither changes), the mean pressure handed to the conductivities kappa(T, p)
+after each mechanics solve, its history and figure.
 Units: s, W, J (per m of depth in plane scenes), Pa.
 """
 
