@@ -234,7 +234,7 @@ class FrictionalHeating:
     def of(cls, scene, thermal, mechanics, warnings: list) -> FrictionalHeating | None:
         """The frictional heating of a scene's contacts (None when no contact has frictional_heating); SceneError
         naming the key when an effusivity partition cannot read its materials."""
-        specs = [s for s in mechanics.contacts if getattr(s.settings, "frictional_heating", False)]
+        specs = [s for s in mechanics.contacts if s.settings.frictional_heating]
         if not specs:
             return None
         V = thermal.forms.V
