@@ -18,6 +18,10 @@ Cases (:func:`sliding_strip`):
 
 * 'interface' (heat solver): the blocks in perfect thermal contact (the mortar of the heat forms), split by
   effusivity; both sides reach T(0, t) = 2 q sqrt(t / pi) / (e_1 + e_2), e_i = sqrt(k_i rho_i c_i);
+* 'gap' (heat solver): the same with the slider GAP above the base, the sides named (an interface with an initial
+  gap, closed by the load): the heat forms pass no heat across it, so each block heats only by its own share
+  (the mortar projection onto O), and the effusivity split again gives both sides the temperature of perfect
+  contact (it is the split at which no heat crosses);
 * 'foundation' (heat solver): the slider alone on a rigid foundation (y = 0), the whole q entering it
   (heat_partition 1): T(0, t) = (2 q / k_1) sqrt(alpha_1 t / pi). The slider slides at V / 20 from 0.2 mm to
   0.7 mm here: from a slide of about 1 mm (a tenth of its width) on, the static contact solver settles on this
@@ -53,7 +57,8 @@ BASE = {"conductivity": 4.0, "rho_c": 2.5e6}                   # alpha 1.6e-6 m^
 END = 100.0                               # s: sqrt(alpha t) <= 0.0126 m, a quarter of DEPTH
 HEAD_START = 20.0                         # s: t_s, the slide before t = 0 (the elastic shear is 0.1 mm)
 STEFAN_SHARE = 0.7                        # the slider's share of the heat in the 'stefan' case
-CASES = ("interface", "foundation", "stefan")
+GAP = 1e-5                                # m: the initial gap of the 'gap' case, closed by the load
+CASES = ("interface", "gap", "foundation", "stefan")
 
 
 def _speed(case: str) -> float:
@@ -86,12 +91,14 @@ def sliding_strip_scene(*, h: float, steps: int, case: str = "interface", coupli
     elastic = {"youngs_modulus": MODULUS, "poisson_ratio": 0.0}
     law = {"law": "coulomb", "friction": FRICTION, "frictional_heating": True}
     sides = {"left": "xmin", "right": "xmax"}
-    slider = _box("slider", 0.0, h, dim3, {"slider_top": "ymax", "slider_bottom": "ymin",
-                                           **{f"slider_{k}": v for k, v in sides.items()}})
+    lift = GAP if case == "gap" else 0.0
+    slider = _box("slider", lift, h, dim3, {"slider_top": "ymax", "slider_bottom": "ymin",
+                                            **{f"slider_{k}": v for k, v in sides.items()}})
     shear = {"left": vec(0.0, -tau), "right": vec(0.0, tau)}
     bcs = {f"slider_{k}": {"traction": v} for k, v in shear.items()}
     depth = DEPTH if case == "foundation" else 2 * DEPTH
-    bcs["slider_top"] = {"displacement": vec(f"{V!r}*(t+{_head_start(case)!r})", -PRESSURE * depth / MODULUS)}
+    bcs["slider_top"] = {"displacement": vec(f"{V!r}*(t+{_head_start(case)!r})",
+                                             -PRESSURE * depth / MODULUS - lift)}
     scheme = {"scheme": "backward_euler"} if case == "stefan" else {"scheme": "crank_nicolson", "startup_steps": 2}
     scene = {"scene": {"name": f"frictional_strip_{case}", "temperature_unit": "C",
                        "dimension": "3d" if dim3 else "plane"},
@@ -104,10 +111,13 @@ def sliding_strip_scene(*, h: float, steps: int, case: str = "interface", coupli
     if case == "foundation":
         bcs["slider_bottom"] = {"foundation": {"point": vec(0.0, 0.0), "normal": vec(0.0, 1.0), **law}}
         return scene
-    scene["blocks"].append(_box("base", -DEPTH, h, dim3, {"base_bottom": "ymin",
+    top = {"base_top": "ymax"} if case == "gap" else {}
+    scene["blocks"].append(_box("base", -DEPTH, h, dim3, {"base_bottom": "ymin", **top,
                                                           **{f"base_{k}": v for k, v in sides.items()}}))
     base = {**BASE, **elastic}
     interface = {"name": "sliding", "blocks": ["slider", "base"], "type": "contact", **law}
+    if case == "gap":
+        interface["sides"] = ["slider_bottom", "base_top"]
     if case == "stefan":
         base.update(phase_change_temperature=1e3, latent_heat_volumetric=1e8, rho_c_liquid=BASE["rho_c"],
                     conductivity_liquid=BASE["conductivity"])
