@@ -116,15 +116,13 @@ def partition(scene, mesh, spec) -> tuple[float, str, tuple | None]:
     return e_s / (e_s + e_o), "effusivity", (e_s, e_o)
 
 
-def gap_reach(op) -> float | None:
+def gap_reach(op) -> float:
     """The distance (m) across which the sides of ``op`` face each other: the largest initial gap of its covered
-    nodes (None when they touch: the mortar's own half-element tolerance)."""
+    nodes (0 when none is covered)."""
     seen = op.coverage > 0
     if not np.any(seen):
-        return None
-    g = float(np.max(np.abs(op.g0[seen]) / np.maximum(op.weight[seen], 1e-300)))
-    extent = float(np.max(np.ptp(op.coords, axis=0)))
-    return 1.01 * g if g > 1e-9 * extent else None
+        return 0.0
+    return 1.01 * float(np.max(np.abs(op.g0[seen]) / np.maximum(op.weight[seen], 1e-300)))
 
 
 class FrictionalContact:

@@ -249,8 +249,9 @@ def boundary_transfer(mesh, V, side: str, opposite: str, *, axisymmetric: bool =
     int_side w q(x) v_k(x') ds on the functions v_k of the scalar space ``V`` traced on ``opposite``, x' the point
     of ``opposite`` opposite x (2D: the closest point; 3D: the projection along the side's normal), w = r in
     axisymmetric scenes. Integrated segment-based as :func:`mortar_coupling_2d` / :func:`mortar_coupling_3d` (the
-    side's elements cut where the opposite elements begin), exact for straight sides. Points farther than
-    ``reach`` (m; default: half an element, as the mortar couplings) from ``opposite`` have no partner.
+    side's elements cut where the opposite elements begin), exact for straight sides. Points farther from
+    ``opposite`` than half an element (the tolerance of the mortar couplings) or ``reach`` (m; an initial gap
+    between the sides), whichever is larger, have no partner.
 
     Returns (vertices, C, weight, covered): the side's mesh vertex numbers (m,), C (scipy CSR, m x V.ndof) with
     C[j, k] = int_side w phi_j v_k(x') ds, weight_j = int_side w phi_j ds and covered_j the part of weight_j whose
@@ -295,7 +296,7 @@ def _transfer_2d(mesh, P1, V, side, opposite, axisymmetric, order, reach):
             a, b = sorted((sm.locate(ss.p0), sm.locate(ss.p1)))
             if b - a <= 1e-12:
                 continue
-            far = reach if reach is not None else 0.5 * max(pad, lens[j])
+            far = max(reach or 0.0, 0.5 * max(pad, lens[j]))
             for xq, wq in zip(gx, gw):
                 s = a + (b - a) * xq
                 p = sm.point(s)
@@ -336,7 +337,7 @@ def _transfer_3d(mesh, P1, V, side, opposite, order, reach):
     for tm in sides:
         h = math.sqrt(tm.area2)
         grow = max(0.1 * h, reach or 0.0)
-        far = reach if reach is not None else 0.5 * h
+        far = max(reach or 0.0, 0.5 * h)
         lo, hi = tm.corners.min(axis=0), tm.corners.max(axis=0)
         weight[tm.dofs] += tm.area2 / 6.0            # int phi_j over a flat triangle: area / 3
         for j in np.where(np.all(mins <= hi + grow, axis=1) & np.all(maxs >= lo - grow, axis=1))[0]:
