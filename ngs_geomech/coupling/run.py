@@ -1,7 +1,8 @@
 """The coupling part of a run (:class:`CouplingRun`, a :class:`~ngs_geomech.parts.Part`): the coupled time step of
 problem (P_c) (:mod:`.problem`: the heat or Stefan step with the deformation heating of the last displacement
-rate, then the mechanics at the step's end; 'iterated' repeats the pair until neither changes), the mean
-pressure handed to the conductivities kappa(T, p) after each mechanics solve, its history and figure.
+rate and the frictional heating of sliding contacts (:mod:`.frictional`), then the mechanics at the step's end;
+'iterated' repeats the pair until neither changes), the mean pressure handed to the conductivities kappa(T, p)
+after each mechanics solve, its history and figure.
 Units: s, W, J (per m of depth in plane scenes), Pa.
 """
 
@@ -13,6 +14,7 @@ from ..errors import SolverError
 from ..io.meshdata import vertex_average
 from ..parts import Part, Step
 from ..scene.model import Scene
+from .frictional import FrictionalHeating, ThermalSources
 from .problem import KELVIN, DeformationHeating, relative_change
 
 
@@ -36,6 +38,11 @@ class CouplingRun(Part):
         mechanics.records_every_step = True
         self.history: dict[str, list] = {"passes": [], "deformation_heat": [], "change_T": [], "change_u": [],
                                          "conductivity_factor": []}
+        # the frictional heating of sliding contacts (contacts with frictional_heating; None without)
+        self.friction = FrictionalHeating.of(scene, thermal, mechanics, self.warnings)
+        self.sources = self.heating if self.friction is None else ThermalSources(self.heating, self.friction)
+        if self.friction is not None:
+            self.history["frictional_heat"] = []
 
     # -- solving --------------------------------------------------------------------------------------------
     def start(self, t0: float, where: str) -> None:
@@ -46,6 +53,8 @@ class CouplingRun(Part):
         an 'iterated' step (physics.coupling_tolerance)."""
         ph = self.scene.physics
         self.heating.start_step()
+        if self.friction is not None:
+            self.friction.start_step(step.dt, predict=ph.coupling == "iterated")
         mark = self.thermal.mark()
         self.thermal.begin_step(step)
         passes = ph.coupling_max_iterations if ph.coupling == "iterated" else 1
@@ -54,11 +63,13 @@ class CouplingRun(Part):
         for p in range(passes):
             if p:
                 self.thermal.rewind(mark)
-            info = self.thermal.solve_step(step, self.heating)
+            info = self.thermal.solve_step(step, self.sources)
             T_now = self.thermal.temperature_values()
             self.mech.solve(step.b, f"{step.where}, coupling pass {p + 1}", record=False)
             factors = self.update_pressure(step.where)
             self.heating.set_rate(step.dt)
+            if self.friction is not None:
+                self.friction.set_rate(step.dt)
             u_now = self.mech.forms.gf.vec.FV().NumPy().copy()
             if prev is not None:
                 m = self.mech.forms.mesh
@@ -75,6 +86,8 @@ class CouplingRun(Part):
         self.thermal.finish_step(info)
         for name, value in zip(self.history, (p + 1, step.dt * self.heating.power(), dT, du, factors)):
             self.history[name].append(value)
+        if self.friction is not None:
+            self.history["frictional_heat"].append(self.friction.finish_step())
 
     def update_pressure(self, where: str):
         """Give the thermal part the mean pressure of the last mechanics solve (kappa(T, p)); returns the (min,
@@ -90,16 +103,23 @@ class CouplingRun(Part):
         self.update_pressure(where)
         if step is not None:
             self.heating.set_rate(step.dt)
+            if self.friction is not None:
+                self.friction.set_rate(step.dt)
 
     # -- checkpoints ----------------------------------------------------------------------------------------
     def capture(self) -> tuple[dict, dict]:
-        return self.heating.capture(), {"steps": len(self.history["passes"])}
+        arrays = self.heating.capture()
+        if self.friction is not None:
+            arrays.update(self.friction.capture())
+        return arrays, {"steps": len(self.history["passes"])}
 
     def meta(self, lengths: dict) -> dict:
         return {n: v[:lengths["steps"]] for n, v in self.history.items()}
 
     def restore(self, arrays: dict, meta: dict) -> None:
         self.heating.restore(arrays)
+        if self.friction is not None:
+            self.friction.restore(arrays)
         for n, v in meta.items():
             self.history[n][:] = v
         self.update_pressure("resume")
@@ -109,6 +129,9 @@ class CouplingRun(Part):
         c = self.history
         passes = c["passes"]
         factors = [f for f in c["conductivity_factor"] if f]
+        units = {"3d": "J", "axisymmetric": "J per radian"}.get(self.scene.scene.dimension, "J per m of depth")
+        friction = {} if self.friction is None else {
+            "frictional_heating": self.friction.report(c["frictional_heat"], units)}
         return {"coupling": {
             "mode": self.scene.physics.coupling,
             "deformation_heating": "-Theta_0 beta : e(u_t) (2.49), W/m^3 (field deformation_heating)",
@@ -119,7 +142,7 @@ class CouplingRun(Part):
             "conductivity_pressure_factor": ({"min": min(f[0] for f in factors), "max": max(f[1] for f in factors)}
                                              if factors else None),
             "last_change_T_max": float(max(c["change_T"], default=0.0)),
-            "last_change_u_max": float(max(c["change_u"], default=0.0))}}
+            "last_change_u_max": float(max(c["change_u"], default=0.0)), **friction}}
 
     def figures(self, canvas) -> None:
         if canvas.arrays is None:

@@ -240,3 +240,128 @@ def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):
                                np.array(tm.fe.CalcShape(ref[0], ref[1])), tm.dofs,
                                np.array(ts.fe.CalcShape(rs[0], rs[1])), ts.dofs)
     return _finish(entries, covered, total, master, minion)
+
+
+def boundary_transfer(mesh, V, side: str, opposite: str, *, axisymmetric: bool = False, order: int = 1,
+                      reach: float | None = None):
+    """The mortar transfer of a surface density onto the opposite side of an interface: for the piecewise linear
+    density q = sum_j d_j phi_j on ``side`` (phi_j the hat function of the side's vertex j), the loads
+    int_side w q(x) v_k(x') ds on the functions v_k of the scalar space ``V`` traced on ``opposite``, x' the point
+    of ``opposite`` opposite x (2D: the closest point; 3D: the projection along the side's normal), w = r in
+    axisymmetric scenes. Integrated segment-based as :func:`mortar_coupling_2d` / :func:`mortar_coupling_3d` (the
+    side's elements cut where the opposite elements begin), exact for straight sides. Points farther from
+    ``opposite`` than half an element (the tolerance of the mortar couplings) or ``reach`` (m; an initial gap
+    between the sides), whichever is larger, have no partner.
+
+    Returns (vertices, C, weight, covered): the side's mesh vertex numbers (m,), C (scipy CSR, m x V.ndof) with
+    C[j, k] = int_side w phi_j v_k(x') ds, weight_j = int_side w phi_j ds and covered_j the part of weight_j whose
+    points found a partner (sum_k C[j, k] over the vertex functions v_k of V)."""
+    import scipy.sparse as sp
+    P1 = ngs.H1(mesh, order=1)
+    if mesh.dim == 2:
+        entries, weight, covered = _transfer_2d(mesh, P1, V, side, opposite, axisymmetric, order, reach)
+    else:
+        entries, weight, covered = _transfer_3d(mesh, P1, V, side, opposite, order, reach)
+    vertices = np.array(sorted({v.nr for el in mesh.Boundaries(side).Elements() for v in el.vertices}), dtype=int)
+    index = np.full(mesh.nv, -1, dtype=int)
+    index[vertices] = np.arange(len(vertices))
+    rows, cols, vals = (np.array(e) for e in entries)
+    rows = index[rows.astype(int)] if len(rows) else rows.astype(int)
+    C = sp.coo_matrix((vals, (rows, cols.astype(int))), shape=(len(vertices), V.ndof)).tocsr()
+    C.sum_duplicates()
+    return vertices, C, weight[vertices], covered[vertices]
+
+
+def _transfer_2d(mesh, P1, V, side, opposite, axisymmetric, order, reach):
+    """COO entries (vertex rows), weights and covered weights (per mesh vertex) of :func:`boundary_transfer`, 2D."""
+    sides = [Segment(mesh, P1, el.nr) for el in mesh.Boundaries(side).Elements()]
+    opps = [Segment(mesh, V, el.nr) for el in mesh.Boundaries(opposite).Elements()]
+    if not sides or not opps:
+        raise ValueError(f"interface sides {side!r} / {opposite!r} have no boundary elements")
+    gx, gw = np.polynomial.legendre.leggauss(order + 3)
+    gx, gw = (gx + 1) / 2, gw / 2
+    mins = np.array([np.minimum(s.p0, s.p1) for s in opps])
+    maxs = np.array([np.maximum(s.p0, s.p1) for s in opps])
+    lens = [float(np.linalg.norm(s.p1 - s.p0)) for s in opps]
+    entries = ([], [], [])
+    weight, covered = np.zeros(mesh.nv), np.zeros(mesh.nv)
+    for sm in sides:
+        pad = 0.25 * float(np.linalg.norm(sm.p1 - sm.p0))
+        grow = max(pad, reach or 0.0)
+        lo, hi = np.minimum(sm.p0, sm.p1), np.maximum(sm.p0, sm.p1)
+        for xq, wq in zip(gx, gw):
+            weight[sm.dofs] += wq * sm.speed(xq) * (sm.point(xq)[0] if axisymmetric else 1.0) * sm.shape(xq)
+        for j in np.where(np.all(mins <= hi + grow, axis=1) & np.all(maxs >= lo - grow, axis=1))[0]:
+            ss = opps[j]
+            a, b = sorted((sm.locate(ss.p0), sm.locate(ss.p1)))
+            if b - a <= 1e-12:
+                continue
+            far = max(reach or 0.0, 0.5 * max(pad, lens[j]))
+            for xq, wq in zip(gx, gw):
+                s = a + (b - a) * xq
+                p = sm.point(s)
+                t = ss.locate(p)
+                if np.linalg.norm(ss.point(t) - p) > far + 1e-12:
+                    continue
+                wt = wq * (b - a) * sm.speed(s) * (p[0] if axisymmetric else 1.0)
+                phi = sm.shape(s)
+                covered[sm.dofs] += wt * phi
+                _add_product(entries, wt, phi, sm.dofs, ss.shape(t), ss.dofs)
+    return entries, weight, covered
+
+
+def _add_product(entries, wt, phi, rows, v, cols) -> None:
+    """Add wt phi_i v_k to the COO lists ``entries`` (rows: the side's vertices, cols: the opposite's dofs)."""
+    r, c, val = entries
+    for i, di in enumerate(rows):
+        r += [di] * len(cols)
+        c += list(cols)
+        val += list(wt * phi[i] * np.asarray(v))
+
+
+def _transfer_3d(mesh, P1, V, side, opposite, order, reach):
+    """COO entries (vertex rows), weights and covered weights (per mesh vertex) of :func:`boundary_transfer`, 3D:
+    each side triangle clipped against the opposite triangles projected onto its plane."""
+    sides = [_Triangle(mesh, P1, el.nr) for el in mesh.Boundaries(side).Elements()]
+    opps = [_Triangle(mesh, V, el.nr) for el in mesh.Boundaries(opposite).Elements()]
+    if not sides or not opps:
+        raise ValueError(f"interface sides {side!r} / {opposite!r} have no boundary elements")
+    ir = ngs.IntegrationRule(ngs.TRIG, order + 3)
+    qp = np.array([(p[0], p[1]) for p in ir.points])
+    qw = np.array(list(ir.weights))
+    mins = np.array([t.corners.min(axis=0) for t in opps])
+    maxs = np.array([t.corners.max(axis=0) for t in opps])
+    entries = ([], [], [])
+    weight, covered = np.zeros(mesh.nv), np.zeros(mesh.nv)
+    ref_m = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    for tm in sides:
+        h = math.sqrt(tm.area2)
+        grow = max(0.1 * h, reach or 0.0)
+        far = max(reach or 0.0, 0.5 * h)
+        lo, hi = tm.corners.min(axis=0), tm.corners.max(axis=0)
+        weight[tm.dofs] += tm.area2 / 6.0            # int phi_j over a flat triangle: area / 3
+        for j in np.where(np.all(mins <= hi + grow, axis=1) & np.all(maxs >= lo - grow, axis=1))[0]:
+            ts = opps[j]
+            if abs(float(np.dot(ts.normal, tm.normal))) < 0.5:
+                continue
+            poly = np.array([tm.reference(c) for c in ts.corners])
+            if (poly[1, 0] - poly[0, 0]) * (poly[2, 1] - poly[0, 1]) - \
+                    (poly[1, 1] - poly[0, 1]) * (poly[2, 0] - poly[0, 0]) < 0:
+                poly = poly[::-1]
+            piece = _clip(poly, ref_m)
+            for k in range(1, len(piece) - 1):
+                a, b, c = piece[0], piece[k], piece[k + 1]
+                jac = abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+                if jac < 1e-14:
+                    continue
+                for (s, t), w in zip(qp, qw):
+                    ref = a + s * (b - a) + t * (c - a)
+                    p = tm.p0 + tm.J @ ref
+                    if abs(float(np.dot(p - ts.p0, ts.normal))) > far + 1e-12:
+                        continue
+                    wt = w * jac * tm.area2
+                    phi = np.array(tm.fe.CalcShape(ref[0], ref[1]))
+                    rs = ts.reference(p)
+                    covered[tm.dofs] += wt * phi
+                    _add_product(entries, wt, phi, tm.dofs, np.array(ts.fe.CalcShape(rs[0], rs[1])), ts.dofs)
+    return entries, weight, covered

@@ -124,6 +124,11 @@ class MechanicsPart(Part):
         """The heat source of (2.6) the mechanics dissipates (W/m^3), or None."""
         return None
 
+    def contact_multipliers(self) -> list[tuple]:
+        """The contact multipliers (lam_n, lam_t) (Pa; nodal, :mod:`ngs_geomech.contact.problem`) of each of
+        ``contacts`` after the last solve (lam_t (m, 2) in 3D)."""
+        return []
+
     def line_names(self, scene: Scene) -> list[str]:
         if not (scene.output.contact_vtp and self.contact_output is not None):
             return []
@@ -208,6 +213,9 @@ class StaticMechanicsRun(MechanicsPart):
         watch_small_strain(self, where)
         if record:
             self.record(t)
+
+    def contact_multipliers(self) -> list[tuple]:
+        return list(self.solver.contact.multipliers) if self.contacts else []
 
     def steady(self, where: str) -> None:
         self.solve(0.0, where, record=False)

@@ -234,6 +234,21 @@ class ContactMechanics:
                                           doc="largest initial gap seen as contact, m (default a quarter of "
                                               "the contact side's extent); points of the side farther from the "
                                               "other side never come into contact")
+    frictional_heating: bool | None = field(optional(boolean), None,
+                                            doc="true: in coupled scenes (physics.coupling 'staggered' or "
+                                                "'iterated') with a frictional law, the power tau_t . [du_t/dt] "
+                                                "dissipated by sliding (W/m^2) enters the heat or Stefan step as an "
+                                                "interface heat source, shared between the two sides by "
+                                                "heat_partition (docs/methods.md, 'Frictional heating'); unset or "
+                                                "false: off")
+    heat_partition: object = field(optional(either(bounded(number, 0, 1), one_of("effusivity"),
+                                                   what="a number in [0, 1] or 'effusivity'")), None,
+                                   doc="frictional_heating: the share of the frictional heat entering the contact "
+                                       "side's body (the interface's master block; the rest enters the other "
+                                       "block), or 'effusivity': sqrt(k rho c) of the side's material over the sum "
+                                       "of both sides' (the split of two half-spaces in perfect contact). Default "
+                                       "'effusivity' on an interface, 1 on a foundation (the rigid foundation is "
+                                       "not modelled: the whole heat enters the body)")
 
 
 @dataclass(frozen=True, kw_only=True)

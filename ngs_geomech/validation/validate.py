@@ -1,13 +1,13 @@
 """Semantic validation of a scene, before any meshing or solving.
 
-Every problem found is reported, each naming its item: unknown region or boundary names, regions without a
-material, unphysical values, inconsistent settings. The declared type and range of every key come first
+Every problem found is reported, each naming its item: unknown region or boundary names, regions without a material,
+unphysical values, inconsistent settings. The declared type and range of every key come first
 (:func:`~ngs_geomech.scene.schema.recheck`), then the rules that join keys, by subject: names and temperatures
-(:mod:`.check_values`), settings (:mod:`.check_settings`, :mod:`.check_adaptivity`), materials
-(:mod:`.check_materials`) and, on the geometry (built cheaply: OCC shapes, no mesh), the names it must hold
-(:mod:`.check_geometry`), the values expressions take on it (:mod:`.expression_values`) and the material values that
-vary over their regions and the contact laws' values along their sides (:mod:`.material_values`). What distributed
-runs cannot do is :mod:`.check_distributed`.
+(:mod:`.check_values`), settings (:mod:`.check_settings`, :mod:`.check_adaptivity`, the contacts' frictional heating
+:mod:`.check_frictional`), materials (:mod:`.check_materials`) and, on the geometry (built cheaply: OCC shapes, no
+mesh), the names it must hold (:mod:`.check_geometry`), the values expressions take on it
+(:mod:`.expression_values`) and the material values that vary over their regions and the contact laws' values along
+their sides (:mod:`.material_values`). What distributed runs cannot do is :mod:`.check_distributed`.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from ..geometry.assemble import GeometryModel, build_geometry
 from ..scene.model import Scene
 from ..scene.schema import recheck
 from .check_distributed import distributed_problems
+from .check_frictional import check_frictional_heating
 from .check_geometry import check_mesh_size, check_references
 from .check_materials import check_conductivity_range, check_materials, check_phase_change, stefan_scene
 from .check_output import check_sections
@@ -34,6 +35,7 @@ def validate(scene: Scene) -> GeometryModel:
     recheck(scene, "", problems)        # the declared types and ranges (also of a scene built in Python)
     check_names(scene, problems)
     check_settings(scene, problems)
+    check_frictional_heating(scene, problems)
     check_materials(scene, problems)
     check_phase_change(scene, problems)
     check_temperatures(scene, problems)
