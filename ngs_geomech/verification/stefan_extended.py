@@ -335,20 +335,173 @@ def line_sink_freezing(problem: LineSink | None = None, hs=(0.1, 0.05, 0.025), r
     r_out = p.far_radius(t1) + 0.5
     out = {"lam": p.lam, "t1": t1, "front_exact": p.front(t1), "r0": r0, "r_out": r_out, "height": height,
            "reference": line_sink_reference(p, reference_r0, t1, reference_hs), "levels": []}
-    with one_ngsolve_thread():
-        for h in hs:
-            tic = time.perf_counter()
-            res = run(scene_from_dict(line_sink_scene(p, r0, r_out, height, h, t1)), None, progress=False)
-            st = res.summary["stefan"]
-            frozen = st["phase_change_regions"]["pcm"]["volume"] - st["melted_volume"]["pcm"][-1]
-            front = math.sqrt(r0 * r0 + frozen / (math.pi * height))
-            out["levels"].append({"h": h, "front": front, "front_rel_error": abs(front / p.front(t1) - 1.0),
-                                  "energy_imbalance_rel": st["energy"]["imbalance_rel_max"],
-                                  "ndofs": res.stefan.forms.n, "steps": st["newton_iterations"]["steps"],
-                                  "newton_mean": st["newton_iterations"]["mean"],
-                                  "wall_s": time.perf_counter() - tic})
+    def front(st: dict) -> float:
+        frozen = st["phase_change_regions"]["pcm"]["volume"] - st["melted_volume"]["pcm"][-1]
+        return math.sqrt(r0 * r0 + frozen / (math.pi * height))
+    out["levels"] = _run_levels(lambda h: line_sink_scene(p, r0, r_out, height, h, t1), hs, front)
+    for lv in out["levels"]:
+        lv["front_rel_error"] = abs(lv["front"] / p.front(t1) - 1.0)
     errors = [lv["front_rel_error"] for lv in out["levels"]]
     out.update(h=list(hs), front_rel_error=errors, order=_fit(hs, errors),
                axisymmetric_stefan_front_rel_error=errors[-1],
                energy_imbalance_rel=max(lv["energy_imbalance_rel"] for lv in out["levels"]))
     return out
+
+
+# -- 2. a heat transfer condition ---------------------------------------------------------------------------------
+ROBIN_SLAB = Phases(melt=0.0, latent=2.0, c_solid=3.0, c_liquid=1.0, k_solid=1.5, k_liquid=1.0)
+"""The two-phase material of :data:`ngs_geomech.verification.stefan.TWO_PHASE` (a_s = 0.5, a_l = 1 m^2/s)."""
+
+
+@dataclass(frozen=True)
+class RobinSlab:
+    """The slab of :func:`robin_melting`: ``material``, initial temperature ``t_solid`` (K, below Theta_R),
+    heat transfer coefficient ``h`` (W/(m^2 K)) to the ambient ``t_ambient`` (K, above Theta_R) at x = 0,
+    ``length`` (m; insulated at x = length), end time ``t1`` (s)."""
+
+    material: Phases = ROBIN_SLAB
+    t_solid: float = -0.5
+    h: float = 2.0
+    t_ambient: float = 2.0
+    length: float = 1.0
+    t1: float = 0.5
+
+
+def robin_reference(problem: RobinSlab, hs=(1 / 100, 1 / 200, 1 / 400, 1 / 800, 1 / 1600),
+                    dt_over_h: float = 0.4) -> dict:
+    """The slab in 1D (:func:`enthalpy_1d`, uniform elements of size h, steps dt = dt_over_h h) at the sizes
+    ``hs`` (m): ``front`` per level (the melted volume, m), the successive ``differences`` with their ``order``,
+    ``front_reference`` (the finest level's) and ``front_uncertainty_rel`` (the largest difference of the two
+    next finer levels from it, relative: at fine levels the nodal melted volume moves by steps, so the differences
+    stop falling smoothly at ~1e-4)."""
+    from ..fem.timesteps import schedule
+
+    tic = time.perf_counter()
+    fronts, imbalance = [], 0.0
+    for h in hs:
+        n = int(round(problem.length / h))
+        out = enthalpy_1d(np.linspace(0.0, problem.length, n + 1), 0, problem.material, problem.t_solid,
+                          list(schedule(0.0, problem.t1, dt_over_h * h)),
+                          ("robin", problem.h, problem.t_ambient), ("insulated",))
+        fronts.append(out["melted"])
+        imbalance = max(imbalance, out["imbalance_rel"])
+    diffs = np.abs(np.diff(fronts))
+    return {"h": list(hs), "front": fronts, "differences": diffs.tolist(), "order": _fit(hs[1:], diffs),
+            "front_reference": fronts[-1],
+            "front_uncertainty_rel": float(np.max(np.abs(np.array(fronts[-3:-1]) - fronts[-1])) / fronts[-1]),
+            "imbalance_rel_max": float(imbalance), "wall_s": time.perf_counter() - tic}
+
+
+def robin_scene(problem: RobinSlab, height: float, h: float, dt: float) -> dict:
+    """The slab as a plane scene dict: the strip 'pcm' 0 < x < length, 0 < y < height, the heat transfer
+    condition on 'wall' (x = 0), insulated elsewhere, mesh size h (m), steps dt (s)."""
+    return {"scene": {"name": "robin_melting", "dimension": "plane"},
+            "physics": {"thermal": "transient"},
+            "mesh": {"maxh": h},
+            "blocks": [{"name": "pcm", "shape": "rectangle", "origin": [0.0, 0.0], "size": [problem.length, height],
+                        "boundaries": {"wall": "xmin"}}],
+            "materials": {"pcm": _pcm(problem.material)},
+            "boundary_conditions": {"wall": {"heat_transfer_coefficient": problem.h,
+                                             "ambient_temperature": problem.t_ambient}},
+            "initial": {"temperature": problem.t_solid},
+            "time": {"end": problem.t1, "dt": dt},
+            "output": {"every": 10 ** 6}}
+
+
+def _run_levels(make, hs, front_of) -> list[dict]:
+    """Run the scene ``make(h)`` at each mesh size: the front (``front_of(summary)``, m), the energy imbalance,
+    dofs, steps, Newton iterations and wall time (s) per level."""
+    levels = []
+    with one_ngsolve_thread():
+        for h in hs:
+            tic = time.perf_counter()
+            res = run(scene_from_dict(make(h)), None, progress=False)
+            st = res.summary["stefan"]
+            levels.append({"h": h, "front": front_of(st), "energy_imbalance_rel": st["energy"]["imbalance_rel_max"],
+                           "ndofs": res.stefan.forms.n, "steps": st["newton_iterations"]["steps"],
+                           "newton_mean": st["newton_iterations"]["mean"], "wall_s": time.perf_counter() - tic,
+                           "energy": {k: v[-1] for k, v in st["energy"].items() if isinstance(v, list)}})
+    return levels
+
+
+def robin_melting(problem: RobinSlab | None = None, hs=(0.05, 0.025, 0.0125), height: float = 0.1,
+                  dt_over_h: float = 0.4) -> dict:
+    """The Robin slab (module docstring, 2): the 1D reference (:func:`robin_reference`), then the scene
+    (:func:`robin_scene`) at the mesh sizes ``hs`` (m) with dt = dt_over_h h, the front from the melted volume /
+    height. Returns ``reference``, per level ``front``, ``front_rel_error`` (against the reference's front),
+    ``energy_imbalance_rel`` (Robin exchange included), the level's last ``energy`` figures, ``ndofs``, ``steps``,
+    ``newton_mean``, ``wall_s``; the ``order`` (front) and the figures of the issue ``robin_stefan_front_rel_error``
+    (the finest level's) and ``energy_imbalance_rel`` (the largest)."""
+    p = problem or RobinSlab()
+    ref = robin_reference(p)
+    levels = _run_levels(lambda h: robin_scene(p, height, h, dt_over_h * h), hs,
+                         lambda st: st["melted_volume"]["pcm"][-1] / height)
+    for lv in levels:
+        lv["front_rel_error"] = abs(lv["front"] / ref["front_reference"] - 1.0)
+    errors = [lv["front_rel_error"] for lv in levels]
+    return {"reference": ref, "levels": levels, "h": list(hs), "front_rel_error": errors,
+            "order": _fit(hs, errors), "robin_stefan_front_rel_error": errors[-1],
+            "energy_imbalance_rel": max(lv["energy_imbalance_rel"] for lv in levels)}
+
+
+# -- 3. anisotropic conductivity per phase -----------------------------------------------------------------------
+def anisotropic_scene(problem: NeumannProblem, ratio: float, angle: float, length: float, width: float, h: float,
+                      dt: float, t0: float, t1: float) -> dict:
+    """The rotated strip of :func:`anisotropic_neumann` as a plane scene dict: 'pcm' the rectangle of ``length``
+    along n = (cos angle, sin angle) and ``width`` across (m), 'hot' (its side through the origin, across n) at
+    T_L, 'far' at T_S, the long sides insulated; the conductivities conductivity_principal [k_s / ratio, k_s] and
+    conductivity_liquid_principal [k_l / ratio, k_l] with conductivity_angle = angle - 90 degrees (the second
+    principal axis along n), k_s, k_l those of ``problem``; from the exact state at t0 to t1 with steps dt (s)."""
+    from .stefan_adaptive import exact_temperature_expression
+
+    m = problem.material
+    a = math.radians(angle)
+    n, q = np.array([math.cos(a), math.sin(a)]), np.array([-math.sin(a), math.cos(a)])
+    pts = [np.zeros(2), length * n, length * n + width * q, width * q]
+    xi = f"(x * {math.cos(a)!r} + y * {math.sin(a)!r})"          # the coordinate along the strip
+    import re
+    initial = re.sub(r"\bx\b", xi, exact_temperature_expression(problem, t0))
+    return {"scene": {"name": "anisotropic_neumann", "dimension": "plane"},
+            "physics": {"thermal": "transient"},
+            "mesh": {"maxh": h},
+            "blocks": [{"name": "pcm", "shape": "polygon", "points": [p.tolist() for p in pts],
+                        "edges": ["side", "far", "side", "hot"]}],
+            "materials": {"pcm": {"conductivity_principal": [m.conductivity_solid / ratio, m.conductivity_solid],
+                                  "conductivity_angle": angle - 90.0, "rho_c": m.rho_c_solid,
+                                  "phase_change_temperature": m.melting_temperature,
+                                  "latent_heat_volumetric": m.latent_heat, "rho_c_liquid": m.rho_c_liquid,
+                                  "conductivity_liquid_principal": [m.conductivity_liquid / ratio,
+                                                                    m.conductivity_liquid]}},
+            "boundary_conditions": {"hot": {"temperature": problem.t_hot}, "far": {"temperature": problem.t_cold}},
+            "initial": {"temperature": initial},
+            "time": {"start": t0, "end": t1, "dt": dt},
+            "output": {"every": 10 ** 6}}
+
+
+def anisotropic_neumann(ratio: float = 4.0, angle: float = 30.0, hs=(0.05, 0.025, 0.0125), width: float = 0.1,
+                        dt_over_h: float = 0.05, t0: float = 0.025, t1: float = 0.125) -> dict:
+    """The two-phase Neumann problem (:data:`ngs_geomech.verification.stefan.TWO_PHASE` with both conductivities
+    times ``ratio``: the conductivity along the strip) in a strip at ``angle`` degrees to x (module docstring, 3;
+    across the strip the conductivities are 1/ratio of those along it) at the mesh sizes ``hs`` (m), dt =
+    dt_over_h h (s). Returns ``front_exact`` (m) and per level ``front`` (melted volume / width),
+    ``front_rel_error``, ``energy_imbalance_rel``, ...; the ``order`` and ``anisotropic_stefan_front_rel_error`` (the
+    finest level's), ``energy_imbalance_rel`` (the largest)."""
+    from .stefan import TWO_PHASE
+
+    m = TWO_PHASE.material
+    problem = NeumannProblem(type(m)(melting_temperature=m.melting_temperature, latent_heat=m.latent_heat,
+                                     rho_c_solid=m.rho_c_solid, rho_c_liquid=m.rho_c_liquid,
+                                     conductivity_solid=ratio * m.conductivity_solid,
+                                     conductivity_liquid=ratio * m.conductivity_liquid),
+                             t_hot=TWO_PHASE.t_hot, t_cold=TWO_PHASE.t_cold)
+    length = problem.domain_length(t1)
+    exact = problem.front(t1)
+    levels = _run_levels(lambda h: anisotropic_scene(problem, ratio, angle, length, width, h, dt_over_h * h, t0, t1),
+                         hs, lambda st: st["melted_volume"]["pcm"][-1] / width)
+    for lv in levels:
+        lv["front_rel_error"] = abs(lv["front"] / exact - 1.0)
+    errors = [lv["front_rel_error"] for lv in levels]
+    return {"ratio": ratio, "angle_deg": angle, "length": length, "front_exact": exact, "lam": problem.lam,
+            "levels": levels, "h": list(hs), "front_rel_error": errors, "order": _fit(hs, errors),
+            "anisotropic_stefan_front_rel_error": errors[-1],
+            "energy_imbalance_rel": max(lv["energy_imbalance_rel"] for lv in levels)}
