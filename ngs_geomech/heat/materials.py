@@ -355,6 +355,9 @@ def phase_change_problems(m: Material) -> list[tuple[str, str]]:
     if m.conductivity_liquid is None and m.conductivity_liquid_principal is None:
         out.append(("conductivity_liquid", "a phase change needs the liquid's conductivity (W/(m K)): "
                                            "conductivity_liquid or conductivity_liquid_principal"))
+    elif m.conductivity_liquid is not None and m.conductivity_liquid_principal is not None:
+        out.append(("conductivity_liquid_principal", "give either conductivity_liquid or "
+                                                     "conductivity_liquid_principal, not both"))
     return out
 
 

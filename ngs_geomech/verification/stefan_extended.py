@@ -282,7 +282,8 @@ def line_sink_reference(problem: LineSink, r0: float, t1: float, hs=(0.02, 0.01,
     h t1 / 2) at the radial sizes ``hs`` (m): ``front_rel_error`` per level (R_1D/R - 1, R_1D from the frozen
     volume; its sign changes between levels, so no order is fitted: ``front_rel_error_max`` is the largest
     |error|), ``temperature_rel_error`` (max over the nodes at r >= 10 r0 of |T_1D - T| / (T_i - T_f), T the
-    closed form at t1; largest at the front, where the mushy node sits at T_f) with its ``temperature_order``, ``imbalance_rel_max`` and ``wall_s``."""
+    closed form at t1; largest at the front, where the mushy node sits at T_f) with its ``temperature_order``,
+    ``imbalance_rel_max`` and ``wall_s``."""
     from ..fem.timesteps import schedule
 
     tic = time.perf_counter()
@@ -323,7 +324,8 @@ def line_sink_scene(problem: LineSink, r0: float, r_out: float, height: float, h
 
 
 def line_sink_freezing(problem: LineSink | None = None, hs=(0.1, 0.05, 0.025), r0: float = 0.01,
-                       height: float = 0.1, reference_hs=(0.02, 0.01, 0.005, 0.0025), reference_r0: float = 0.005) -> dict:
+                       height: float = 0.1, reference_hs=(0.02, 0.01, 0.005, 0.0025),
+                       reference_r0: float = 0.005) -> dict:
     """Freezing around a line sink (module docstring, 1) until R(t1) = 1 m: the closed form checked against the
     1D reference (:func:`line_sink_reference` with the sink radius ``reference_r0``), then the axisymmetric scene
     (:func:`line_sink_scene`) at the mesh sizes ``hs`` (m). Returns ``lam``, ``t1`` (s), ``front_exact`` (m),
