@@ -37,10 +37,12 @@ the conduction term is the P1 stiffness applied to the nodal Kirchhoff values of
     m_i (e_i - e_i^old)/dt + sum_regions (K_r theta_r(T))_i = F_i(t_new),    T_i = beta_i(e_i),      (2.55)
 
 with m_i = int phi_i (lumped, m^2 in 2D, m^3 in 3D), K_r the stiffness matrix of region r for unit
-conductivity (isotropic, W/(m K) in theta) and F_i = int W phi_i + int_flux q phi_i (W per metre of
-depth in 2D). At a node shared by several regions the nodal enthalpy is the m-weighted mean
-e_i = sum_r (m_i^r / m_i) e_r(T_i): still a monotone graph in T_i (with a flat part per phase-change
-temperature of the touching PCMs), whose inverse beta_i is what the solver uses. T is continuous across
+conductivity (int K_hat grad phi_j . grad phi_i with the region's shape K_hat, the identity when isotropic:
+the conductivity tensor of each phase is k_phase K_hat, the phases scaling one anisotropy, so that the flux
+-k_phase K_hat grad T = -K_hat grad theta keeps one Kirchhoff variable per region) and F_i = int W phi_i +
+int_flux q phi_i (W per metre of depth in 2D). At a node shared by several regions the nodal enthalpy is the
+m-weighted mean e_i = sum_r (m_i^r / m_i) e_r(T_i): still a monotone graph in T_i (with a flat part per
+phase-change temperature of the touching PCMs), whose inverse beta_i is what the solver uses. T is continuous across
 regions; the Kirchhoff variable is taken per region, so different conductivity laws may meet.
 With lumping and a non-obtuse mesh the scheme keeps the discrete maximum principle (K_r is an M-matrix).
 
@@ -58,6 +60,19 @@ segments; ``penalty`` dimensionless, default 1e3): the jump is then about 1/pena
 one element (measured in tests/test_stefan_interfaces.py). It enters the Newton matrix as one more "group"
 with a linear Kirchhoff map (theta = T). It is not an M-matrix (neighbouring minion nodes get positive
 couplings), so the discrete maximum principle holds only up to O(1/penalty) at the interface.
+
+Heat transfer (Robin) conditions q = h (T_amb - T) (h in W/(m^2 K)) are lumped on their boundaries: the nodal
+conductances r_i = int_Gamma w h phi_i ds (the row sums of the boundary mass) join the interface penalty as the
+linear "group" (theta = T), so that r_i T_i enters the residual and, through dT/de, the Newton matrix, and
+int_Gamma w h T_amb phi_i ds is a load of its own (:meth:`StefanForms.robin_loads`): the heat they bring in,
+sum_i (h T_amb - r T)_i per unit time (:meth:`StefanForms.robin_heat_rate`), is counted apart in the energy
+balance. Lumped, they keep the step monotone.
+
+Axisymmetric problems (``StefanSetup.axisymmetric``; a 2D mesh of the (r, z) half plane, r = x): every integral
+carries the weight w = r, as in the heat forms (energies and heats per radian). The lumped masses and sources are
+the row sums of the r-weighted mass, m_i = int r phi_i (an exact rule; the vertex rule would give the nodes on
+the axis no storage), the fluxes and heat transfer conditions are weighted by r on their boundaries, and the
+stiffness int r K_hat grad phi_j . grad phi_i keeps the signs of its plane counterpart (the M-matrix property).
 
 Backward Euler with any step dt (the seed's time discretization (2.55)). Energy is conserved exactly by the
 discrete equations: sum_i m_i (e_i - e_i^old) = dt (sum_i F_i + boundary inflow at the Dirichlet nodes), since

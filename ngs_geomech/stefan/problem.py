@@ -9,11 +9,14 @@ conditions, sources; unnamed boundaries are insulated; contact interfaces betwee
 penalty on the temperature jump (``thermal_penalty``; :mod:`ngs_geomech.stefan.forms`). A material's
 ``conductivity_temperature_coefficient`` b and ``reference_temperature`` give k(T) = k (1 + b (T - T_ref)) in
 both phases (``conductivity`` and ``conductivity_liquid`` are the values at T_ref); a run stops with an error
-naming that key when k is not positive at a temperature reached. Validation refuses Robin conditions,
-anisotropic conductivities, material values given as expressions (x- or T-dependent data), axisymmetric scenes
-and P2.
+naming that key when k is not positive at a temperature reached. Heat transfer (Robin) conditions
+(``heat_transfer_coefficient``, ``ambient_temperature``) exchange h (T_amb - T) with the nodal T; anisotropic
+conductivities are taken as k_phase K_hat per phase (the liquid's tensor proportional to the solid's); axisymmetric
+scenes weight every integral by r. Validation refuses material values given as expressions (x- or T-dependent
+data), liquid tensors not proportional to the solid's, and P2.
 
-Volumes are m^2 per metre of depth in plane scenes (m^3 in 3D), heats J per metre of depth (J in 3D).
+Volumes are m^2 per metre of depth in plane scenes (m^3 in 3D and axisymmetric: the whole body, 2 pi times the
+forms' per-radian integrals), heats J per metre of depth (J in 3D and axisymmetric).
 
 Distributed meshes (MPI, :mod:`ngs_geomech.parallel`): every rank holds the nodal state of its part, the solver
 takes its distributed Newton path (:mod:`ngs_geomech.stefan.solver`), and the figures of :meth:`StefanRun.record`
