@@ -352,9 +352,11 @@ class StefanForms:
             union = (ones[0] + ones[1]).tocsr()              # structural union (no cancellation)
             union.sort_indices()
             rows = np.repeat(np.arange(self.n), np.diff(union.indptr))
-            self.stiffness = [sp.csr_matrix((np.asarray(K[rows, union.indices]).ravel(), union.indices.copy(),
-                                             union.indptr.copy()), shape=(self.n, self.n))
-                              for K in self.stiffness + [KG]]
+
+            def values(K):                  # K's entries in the union pattern (none on a rank without vertices)
+                return np.asarray(K[rows, union.indices]).ravel() if len(rows) else np.zeros(0)
+            self.stiffness = [sp.csr_matrix((values(K), union.indices.copy(), union.indptr.copy()),
+                                            shape=(self.n, self.n)) for K in self.stiffness + [KG]]
             pattern = (union.indices.copy(), union.indptr.copy())
         self.__dict__.pop("_abs_stiffness", None)
         return pattern
