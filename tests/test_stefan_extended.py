@@ -198,3 +198,19 @@ def test_proportional_tensors_axisymmetric_and_robin_scenes_are_valid():
     axis["boundary_conditions"]["sink"] = {"heat_transfer_coefficient": 5.0, "ambient_temperature": -2.0}
     validate(scene_from_dict(axis))
     assert math.isfinite(p.lam)
+
+
+def test_axisymmetric_coupled_contact_scene_closes_its_energy_balance():
+    """The built-in contact_melting made axisymmetric (the deformation heating holds u_r / r: the lumped rule
+    has interior points only) with its contact interface's heat penalty (r-weighted mortar): the run finishes and
+    the energy balance, deformation heat included, closes; volumes and heats are those of the whole body."""
+    from ngs_geomech.api import run
+
+    res = run("contact_melting", None, overrides=["scene.dimension=axisymmetric", "time.end=30 day"],
+              progress=False)
+    st = res.summary["stefan"]
+    print(f"\naxisymmetric contact_melting: imbalance {st['energy']['imbalance_rel_max']:.1e}, units {st['units']}")
+    assert st["units"] == {"volume": "m^3", "heat": "J"}
+    assert st["energy"]["imbalance_rel_max"] <= 1e-8
+    salt = st["phase_change_regions"]["salt"]["volume"]
+    assert salt == pytest.approx(math.pi * 2.0 ** 2 * 1.0 - math.pi * (1.2 ** 2 - 0.8 ** 2) * 0.3, rel=1e-3)

@@ -234,8 +234,10 @@ class StefanForms:
         """The weight of every integral: r = x in axisymmetric problems (per radian), None (1) otherwise."""
         if self.axisymmetric:
             # row sums of the r-weighted mass, int r phi_i (exact: degree 2 on triangles, 2 x 2 on quads): the
-            # vertex rule would give the nodes on the axis (r = 0) no storage at all
-            self.rules = {ngs.TRIG: ngs.IntegrationRule(ngs.TRIG, 2), ngs.QUAD: ngs.IntegrationRule(ngs.QUAD, 4)}
+            # vertex rule would give the nodes on the axis (r = 0) no storage at all. Interior points only: a
+            # source like the deformation heating holds u_r / r, undefined on the axis
+            self.rules = {ngs.TRIG: ngs.IntegrationRule([(1 / 6, 1 / 6), (2 / 3, 1 / 6), (1 / 6, 2 / 3)], [1 / 6] * 3),
+                          ngs.QUAD: ngs.IntegrationRule(ngs.QUAD, 4)}
         self.dx_lumped = ngs.dx(intrules=self.rules)
         self.V = ngs.H1(mesh, order=1, dirichlet=regions_regex(setup.dirichlet) if setup.dirichlet else "")
         self.n = self.V.ndof
