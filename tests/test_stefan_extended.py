@@ -214,3 +214,17 @@ def test_axisymmetric_coupled_contact_scene_closes_its_energy_balance():
     assert st["energy"]["imbalance_rel_max"] <= 1e-8
     salt = st["phase_change_regions"]["salt"]["volume"]
     assert salt == pytest.approx(math.pi * 2.0 ** 2 * 1.0 - math.pi * (1.2 ** 2 - 0.8 ** 2) * 0.3, rel=1e-3)
+
+
+def test_heat_flux_field_takes_the_phase_tensor():
+    """The output heat flux is -K_phase grad T with the liquid's tensor where T > Theta_R."""
+    from ngs_geomech.api import run
+
+    data = _scene(**{"materials.pcm.conductivity": [[1.5, 0.3], [0.3, 3.0]],
+                     "materials.pcm.conductivity_liquid": [[1.0, 0.2], [0.2, 2.0]]})
+    res = run(scene_from_dict(data), None, progress=False)
+    T = res.stefan.forms.gf_temperature
+    mip = res.mesh(0.1, 0.05)
+    assert T(mip) > 0.0                                   # liquid near the wall
+    want = -np.array([[1.0, 0.2], [0.2, 2.0]]) @ np.array(ngs.grad(T)(mip))
+    assert np.allclose(res.stefan.fields["heat_flux"](mip), want, rtol=1e-12, atol=0)
