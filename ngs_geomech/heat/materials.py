@@ -233,14 +233,15 @@ def expression_keys(m: Material) -> list[str]:
 
 # -- phase change (the Stefan problem, seed (2.46)-(2.51)) -------------------------------------------------------
 PHASE_CHANGE_KEYS = ("latent_heat", "latent_heat_volumetric", "rho_c_liquid", "specific_heat_liquid",
-                     "conductivity_liquid")
+                     "conductivity_liquid", "conductivity_liquid_principal")
 
 
 @dataclass(frozen=True)
 class PhaseChangeProperties:
     """The phase change of one material: ``temperature`` Theta_R (degC or K), ``latent_heat`` L (volumetric,
     J/m^3), ``rho_c_solid`` and ``rho_c_liquid`` (J/(m^3 K)), ``conductivity_solid`` and ``conductivity_liquid``
-    (W/(m K), isotropic)."""
+    (W/(m K)): the phases' tensors are k_s K_hat and k_l K_hat with K_hat = ``anisotropy`` (None: isotropic;
+    :func:`phase_conductivities`)."""
 
     temperature: float
     latent_heat: float
@@ -248,24 +249,78 @@ class PhaseChangeProperties:
     rho_c_liquid: float
     conductivity_solid: float
     conductivity_liquid: float
+    anisotropy: np.ndarray | None = None
 
 
 def has_phase_change(m: Material) -> bool:
     return m.phase_change_temperature is not None
 
 
-def isotropic_conductivity(m: Material, dim: int) -> float:
-    """The scalar conductivity k (W/(m K)) of a material whose tensor is k I; ValueError otherwise (the Stefan
-    forms take an isotropic conductivity per phase)."""
+def conductivity_shape(kappa: np.ndarray) -> tuple[float, np.ndarray | None]:
+    """(k, K_hat) with kappa = k K_hat for a conductivity tensor of numbers (W/(m K)): k = kappa[0][0] and
+    K_hat = None (the identity) when kappa is k I, else k the largest principal value and K_hat = kappa / k
+    (dimensionless, largest principal value 1). The Stefan forms take k as the scalar of the Kirchhoff variable
+    and K_hat as the shape of the region's stiffness."""
+    k = float(kappa[0, 0])
+    dim = kappa.shape[0]
+    if np.allclose(kappa, k * np.eye(dim), rtol=1e-12, atol=1e-12 * abs(k)):
+        return k, None
+    k = float(np.linalg.eigvalsh(kappa).max())
+    return k, kappa / k
+
+
+def liquid_conductivity_tensor(m: Material, dim: int) -> np.ndarray:
+    """The liquid phase's conductivity tensor (W/(m K)) of a phase-change material: ``conductivity_liquid`` (a
+    number k_l, i.e. k_l I, or a symmetric positive definite matrix) or ``conductivity_liquid_principal`` (in the
+    axes of ``conductivity_angle``, the solid's); MaterialError naming the key at fault."""
+    if m.conductivity_liquid is not None and m.conductivity_liquid_principal is not None:
+        raise MaterialError("conductivity_liquid_principal", "give either conductivity_liquid or "
+                            "conductivity_liquid_principal, not both")
+    if m.conductivity_liquid_principal is not None:
+        p = [float(v) for v in m.conductivity_liquid_principal]
+        if len(p) != dim:
+            raise MaterialError("conductivity_liquid_principal", f"needs {dim} values, got {len(p)}")
+        rot = rotation_matrix(m.conductivity_angle or 0.0, dim)
+        return rot @ np.diag(p) @ rot.T
+    k = m.conductivity_liquid
+    if isinstance(k, (int, float)):
+        return float(k) * np.eye(dim)
+    try:
+        kappa = _tensor(k, dim)
+    except ValueError as exc:
+        raise MaterialError("conductivity_liquid", str(exc).replace("'conductivity'", "the matrix")) from None
+    ev = np.linalg.eigvalsh(kappa)
+    if ev.min() <= 0:
+        raise MaterialError("conductivity_liquid", f"{kappa.tolist()} is not positive definite (eigenvalues "
+                            f"{ev.tolist()})")
+    return kappa
+
+
+def phase_conductivities(m: Material, dim: int) -> tuple[float, float, np.ndarray | None]:
+    """(k_s, k_l, K_hat) of a phase-change material whose solid and liquid conductivity tensors are k_s K_hat and
+    k_l K_hat (:func:`conductivity_shape`; K_hat None: isotropic). The Kirchhoff variable of the Stefan forms
+    needs the two tensors proportional (the phases scale one anisotropy); MaterialError naming the liquid's key
+    when they are not, ValueError (the solid's keys) when the solid's tensor is invalid or an expression."""
     kappa = conductivity_tensor(m, dim)
     if kappa.dtype == object:
         raise ValueError("an expression: the Stefan (phase change) solver of a scene with phase change takes "
                          "constant material data in every region (a number per phase)")
-    k = float(kappa[0, 0])
-    if not np.allclose(kappa, k * np.eye(dim), rtol=1e-12, atol=1e-12 * abs(k)):
-        raise ValueError(f"conductivity {kappa.tolist()} is anisotropic: the Stefan (phase change) solver of a "
-                         "scene with phase change takes an isotropic conductivity in every region")
-    return k
+    k_s, shape = conductivity_shape(kappa)
+    if shape is None and isinstance(m.conductivity_liquid, (int, float)):
+        return k_s, float(m.conductivity_liquid), None
+    liquid = liquid_conductivity_tensor(m, dim)
+    key = "conductivity_liquid" if m.conductivity_liquid is not None else "conductivity_liquid_principal"
+    ratio = float(np.trace(liquid) / np.trace(kappa))
+    if not np.allclose(liquid, ratio * kappa, rtol=0, atol=1e-10 * float(np.abs(liquid).max())):
+        solid_key = "conductivity_principal" if m.conductivity_principal is not None else "conductivity"
+        raise MaterialError(key, f"the liquid's tensor {np.round(liquid, 12).tolist()} is not proportional to the "
+                            f"solid's ({solid_key}: {np.round(kappa, 12).tolist()}): the Stefan solver takes "
+                            "anisotropic conductivities when both phases scale one anisotropy (liquid = c x solid, "
+                            "its Kirchhoff variable is per region); give the liquid's tensor as a multiple of the "
+                            "solid's (conductivity_liquid_principal proportional to conductivity_principal, same "
+                            "conductivity_angle)")
+    k_l, _ = conductivity_shape(liquid)
+    return k_s, k_l, shape
 
 
 def phase_change_problems(m: Material) -> list[tuple[str, str]]:
@@ -297,8 +352,12 @@ def phase_change_problems(m: Material) -> list[tuple[str, str]]:
                                     "specific_heat_liquid (J/(kg K), with density)"))
     if c_l_kg is not None and c_l is None and m.density is None:
         out.append(("density", "specific_heat_liquid is per kg: give the density (kg/m^3), or rho_c_liquid"))
-    if m.conductivity_liquid is None:
-        out.append(("conductivity_liquid", "a phase change needs the liquid's conductivity (W/(m K))"))
+    if m.conductivity_liquid is None and m.conductivity_liquid_principal is None:
+        out.append(("conductivity_liquid", "a phase change needs the liquid's conductivity (W/(m K)): "
+                                           "conductivity_liquid or conductivity_liquid_principal"))
+    elif m.conductivity_liquid is not None and m.conductivity_liquid_principal is not None:
+        out.append(("conductivity_liquid_principal", "give either conductivity_liquid or "
+                                                     "conductivity_liquid_principal, not both"))
     return out
 
 
@@ -316,7 +375,7 @@ def phase_change_properties(m: Material, dim: int) -> PhaseChangeProperties | No
         raise ValueError("rho_c: a phase change needs the solid's rho_c (or density and specific_heat)")
     latent = m.latent_heat_volumetric if m.latent_heat_volumetric is not None else m.density * m.latent_heat
     c_l = m.rho_c_liquid if m.rho_c_liquid is not None else m.density * m.specific_heat_liquid
+    k_s, k_l, shape = phase_conductivities(m, dim)
     return PhaseChangeProperties(temperature=float(m.phase_change_temperature), latent_heat=float(latent),
-                                 rho_c_solid=rho_c, rho_c_liquid=float(c_l),
-                                 conductivity_solid=isotropic_conductivity(m, dim),
-                                 conductivity_liquid=float(m.conductivity_liquid))
+                                 rho_c_solid=rho_c, rho_c_liquid=float(c_l), conductivity_solid=k_s,
+                                 conductivity_liquid=k_l, anisotropy=shape)

@@ -347,8 +347,10 @@ class Material:
     L + C_l (T - Theta_R) above, with C_s = ``rho_c`` (or density * specific_heat) of the solid,
     C_l = ``rho_c_liquid`` (or density * ``specific_heat_liquid``) and the volumetric latent heat
     L = density * ``latent_heat`` (J/kg) or ``latent_heat_volumetric`` (J/m^3); the conductivity is
-    ``conductivity`` (solid) and ``conductivity_liquid`` (W/(m K), both isotropic). The phase boundary is where
-    the liquid fraction is 1/2. Only transient, backward Euler, P1 (mesh.order = 1), plane or 3D scenes.
+    ``conductivity`` (or ``conductivity_principal``: solid) and ``conductivity_liquid`` (or
+    ``conductivity_liquid_principal``), W/(m K): numbers or tensors, the liquid's proportional to the solid's (the
+    phases scale one anisotropy). The phase boundary is where the liquid fraction is 1/2. Only transient,
+    backward Euler, P1 (mesh.order = 1) scenes, with numbers as material data (plane, axisymmetric or 3D).
     """
 
     conductivity: object = field(optional(conductivity_value), None,
@@ -424,7 +426,7 @@ class Material:
         optional(number), None,
         doc="Theta_R of (2.46)-(2.48), degC or K: the region melts (freezes) at this temperature; the Stefan problem "
             "in enthalpy form (2.49)-(2.51), (2.55) replaces the heat equation (physics.thermal = 'transient'). "
-            "rho_c (or density * specific_heat) and conductivity are then the solid's (conductivity isotropic)")
+            "rho_c (or density * specific_heat) and conductivity are then the solid's")
     latent_heat: float | None = field(optional(bounded(number, 0, unit="J/kg")), None,
                                       doc="latent heat of fusion L per unit mass, J/kg, with density: the "
                                           "volumetric latent heat of (2.48) is density * latent_heat")
@@ -436,9 +438,16 @@ class Material:
     specific_heat_liquid: float | None = field(optional(positive(number, "J/(kg K)")), None,
                                                doc="specific heat of the liquid phase, J/(kg K), with density "
                                                    "(instead of rho_c_liquid; the density is that of both phases)")
-    conductivity_liquid: float | None = field(optional(positive(number, "W/(m K)")), None,
-                                              doc="thermal conductivity of the liquid phase, W/(m K) (isotropic); "
-                                                  "the Kirchhoff variable (2.50) is piecewise linear")
+    conductivity_liquid: object = field(optional(either(positive(number, "W/(m K)"), matrix,
+                                                        what="a positive number or a symmetric positive definite "
+                                                             "matrix [[kxx, kxy], [kxy, kyy]] (W/(m K))")), None,
+                                        doc="thermal conductivity of the liquid phase, W/(m K): a number (isotropic) "
+                                            "or a tensor proportional to the solid's (conductivity); the Kirchhoff "
+                                            "variable (2.50) is piecewise linear")
+    conductivity_liquid_principal: list | None = field(
+        optional(list_of(positive(number, "W/(m K)"))), None,
+        doc="principal conductivities of the liquid phase, W/(m K), in the axes of conductivity_angle (instead of "
+            "conductivity_liquid): proportional to the solid's conductivity_principal")
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -68,7 +68,9 @@ class ApparentHeatCapacitySolver:
         T = T_old.copy()
         if len(f.dirichlet_dofs):
             T[f.dirichlet_dofs] = f.dirichlet_temperatures(t_new)
-        F = f.loads(t_new)
+        F_src = f.loads(t_new)
+        F_robin = f.robin_loads(t_new)              # heat transfer conditions: the ambient side, or None
+        F = F_src if F_robin is None else F_src + F_robin
         free, m = f.free, f.mass
         lat = max([f.groups[g].latent_heat for g in f.pcm_groups] + [0.0])
         scale = max(lat, float(np.max(f.capacity)) * float(np.ptp(np.concatenate([T_old, T]))), 1e-300)
@@ -98,4 +100,5 @@ class ApparentHeatCapacitySolver:
         self.T = T
         self.iterations.append(max(it, 1))
         return StefanStepInfo(iterations=max(it, 1), residual=res, boundary_heat=float(dt * np.sum(R[~free])),
-                              source_heat=float(dt * np.sum(F)), phase_changes=0)
+                              source_heat=float(dt * np.sum(F_src)), phase_changes=0,
+                              robin_heat=0.0 if F_robin is None else dt * f.robin_heat_rate(F_robin, T))

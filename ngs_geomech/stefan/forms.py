@@ -37,10 +37,12 @@ the conduction term is the P1 stiffness applied to the nodal Kirchhoff values of
     m_i (e_i - e_i^old)/dt + sum_regions (K_r theta_r(T))_i = F_i(t_new),    T_i = beta_i(e_i),      (2.55)
 
 with m_i = int phi_i (lumped, m^2 in 2D, m^3 in 3D), K_r the stiffness matrix of region r for unit
-conductivity (isotropic, W/(m K) in theta) and F_i = int W phi_i + int_flux q phi_i (W per metre of
-depth in 2D). At a node shared by several regions the nodal enthalpy is the m-weighted mean
-e_i = sum_r (m_i^r / m_i) e_r(T_i): still a monotone graph in T_i (with a flat part per phase-change
-temperature of the touching PCMs), whose inverse beta_i is what the solver uses. T is continuous across
+conductivity (int K_hat grad phi_j . grad phi_i with the region's shape K_hat, the identity when isotropic:
+the conductivity tensor of each phase is k_phase K_hat, the phases scaling one anisotropy, so that the flux
+-k_phase K_hat grad T = -K_hat grad theta keeps one Kirchhoff variable per region) and F_i = int W phi_i +
+int_flux q phi_i (W per metre of depth in 2D). At a node shared by several regions the nodal enthalpy is the
+m-weighted mean e_i = sum_r (m_i^r / m_i) e_r(T_i): still a monotone graph in T_i (with a flat part per
+phase-change temperature of the touching PCMs), whose inverse beta_i is what the solver uses. T is continuous across
 regions; the Kirchhoff variable is taken per region, so different conductivity laws may meet.
 With lumping and a non-obtuse mesh the scheme keeps the discrete maximum principle (K_r is an M-matrix).
 
@@ -58,6 +60,19 @@ segments; ``penalty`` dimensionless, default 1e3): the jump is then about 1/pena
 one element (measured in tests/test_stefan_interfaces.py). It enters the Newton matrix as one more "group"
 with a linear Kirchhoff map (theta = T). It is not an M-matrix (neighbouring minion nodes get positive
 couplings), so the discrete maximum principle holds only up to O(1/penalty) at the interface.
+
+Heat transfer (Robin) conditions q = h (T_amb - T) (h in W/(m^2 K)) are lumped on their boundaries: the nodal
+conductances r_i = int_Gamma w h phi_i ds (the row sums of the boundary mass) join the interface penalty as the
+linear "group" (theta = T), so that r_i T_i enters the residual and, through dT/de, the Newton matrix, and
+int_Gamma w h T_amb phi_i ds is a load of its own (:meth:`StefanForms.robin_loads`): the heat they bring in,
+sum_i (h T_amb - r T)_i per unit time (:meth:`StefanForms.robin_heat_rate`), is counted apart in the energy
+balance. Lumped, they keep the step monotone.
+
+Axisymmetric problems (``StefanSetup.axisymmetric``; a 2D mesh of the (r, z) half plane, r = x): every integral
+carries the weight w = r, as in the heat forms (energies and heats per radian). The lumped masses and sources are
+the row sums of the r-weighted mass, m_i = int r phi_i (an exact rule; the vertex rule would give the nodes on
+the axis no storage), the fluxes and heat transfer conditions are weighted by r on their boundaries, and the
+stiffness int r K_hat grad phi_j . grad phi_i keeps the signs of its plane counterpart (the M-matrix property).
 
 Backward Euler with any step dt (the seed's time discretization (2.55)). Energy is conserved exactly by the
 discrete equations: sum_i m_i (e_i - e_i^old) = dt (sum_i F_i + boundary inflow at the Dirichlet nodes), since
@@ -114,7 +129,9 @@ class StefanSetup:
     ``interfaces`` lists contact interfaces as (master boundary, minion boundary, penalty): heat passes by the
     jump penalty of the module docstring (penalty dimensionless, > 0). ``pressure_coefficients`` maps regions
     to c_p (1/Pa): their conductivities (both phases) are multiplied by 1 + c_p p, p the mean pressure given by
-    :meth:`StefanForms.set_pressure` (compression > 0).
+    :meth:`StefanForms.set_pressure` (compression > 0). ``robin`` maps boundary names to (h, T_amb): the heat
+    transfer condition q = h (T_amb - T) (h in W/(m^2 K), > 0; T_amb in K: number, expression or TimeFunction).
+    ``axisymmetric``: a 2D mesh of the (r, z) half plane (r = x >= 0), every integral weighted by r (per radian).
     """
 
     materials: dict[str, StefanMaterial]
@@ -123,6 +140,8 @@ class StefanSetup:
     sources: dict[str, object] = field(default_factory=dict)
     interfaces: list[tuple[str, str, float]] = field(default_factory=list)
     pressure_coefficients: dict[str, float] = field(default_factory=dict)
+    robin: dict[str, tuple[float, object]] = field(default_factory=dict)
+    axisymmetric: bool = False
 
 
 DEFAULT_INTERFACE_PENALTY = 1e3
@@ -172,7 +191,7 @@ class StefanForms:
             raise ValueError(f"Stefan problem: material(s) for region(s) {unknown} that are not in the mesh "
                              f"(regions: {sorted(regions)})")
         boundaries = set(mesh.GetBoundaries())
-        for kind in ("dirichlet", "flux"):
+        for kind in ("dirichlet", "flux", "robin"):
             bad = sorted(set(getattr(setup, kind)) - boundaries)
             if bad:
                 raise ValueError(f"Stefan problem: {kind} boundary(ies) {bad} not in the mesh "
@@ -189,10 +208,17 @@ class StefanForms:
             if bad:
                 raise ValueError(f"Stefan problem: interface side(s) {bad} not in the mesh")
             check_number(f"penalty of interface {master!r}", penalty, positive=True)
+        for name, (h, _) in setup.robin.items():
+            check_number(f"heat transfer coefficient of boundary {name!r}", h, positive=True)
         for name, mat in setup.materials.items():
             if not isinstance(mat, (PhaseChangeMaterial, PlainThermalMaterial)):
                 raise ValueError(f"Stefan problem: material of region {name!r} must be a PhaseChangeMaterial or a "
                                  f"PlainThermalMaterial, got {type(mat).__name__}")
+            if mat.anisotropy is not None and np.shape(mat.anisotropy) != (mesh.dim, mesh.dim):
+                raise ValueError(f"Stefan problem: the anisotropy of region {name!r} must be {mesh.dim}x{mesh.dim}, "
+                                 f"got shape {np.shape(mat.anisotropy)}")
+        if setup.axisymmetric and mesh.dim != 2:
+            raise ValueError(f"Stefan problem: an axisymmetric problem needs a 2D (r, z) mesh, got dim {mesh.dim}")
         self.dim = mesh.dim
         self.distributed = parallel.distributed(mesh)
         """Whether the mesh is a part of a distributed mesh (MPI): see the module docstring."""
@@ -203,6 +229,15 @@ class StefanForms:
         if not types <= set(self.rules):
             raise ValueError(f"Stefan problem: element types {sorted(map(str, types - set(self.rules)))} have no "
                              "vertex rule here (triangles, quadrilaterals and tetrahedra do)")
+        self.axisymmetric = bool(setup.axisymmetric)
+        self.weight = ngs.x if self.axisymmetric else None
+        """The weight of every integral: r = x in axisymmetric problems (per radian), None (1) otherwise."""
+        if self.axisymmetric:
+            # row sums of the r-weighted mass, int r phi_i (exact: degree 2 on triangles, 2 x 2 on quads): the
+            # vertex rule would give the nodes on the axis (r = 0) no storage at all. Interior points only: a
+            # source like the deformation heating holds u_r / r, undefined on the axis
+            self.rules = {ngs.TRIG: ngs.IntegrationRule([(1 / 6, 1 / 6), (2 / 3, 1 / 6), (1 / 6, 2 / 3)], [1 / 6] * 3),
+                          ngs.QUAD: ngs.IntegrationRule(ngs.QUAD, 4)}
         self.dx_lumped = ngs.dx(intrules=self.rules)
         self.V = ngs.H1(mesh, order=1, dirichlet=regions_regex(setup.dirichlet) if setup.dirichlet else "")
         self.n = self.V.ndof
@@ -250,7 +285,7 @@ class StefanForms:
         for g, names in enumerate(self.group_regions):
             where = self.mesh.Materials(regions_regex(names))
             lf = ngs.LinearForm(self.V)
-            lf += v * ngs.dx(definedon=where, intrules=self.rules)
+            lf += self.lumped(v, where)
             lf.Assemble()
             masses[:, g] = self.cumulate(lf.vec.FV().NumPy())
             # the whole mesh with an indicator (not definedon), so that all groups share one sparsity pattern
@@ -258,10 +293,11 @@ class StefanForms:
             if pressure_factor is not None:
                 indicator = indicator * pressure_factor
             a = ngs.BilinearForm(self.V)
-            a += indicator * ngs.grad(u) * ngs.grad(v) * ngs.dx
+            a += self.group_integrand(g, indicator, u, v) * ngs.dx
             self._group_forms.append(a)
         self.interface_conductance: list[float] = []
         self._interface = self._interface_matrix() if self.setup.interfaces else None
+        self._robin = self._robin_matrix() if self.setup.robin else None
         pattern = self._collect_stiffness()
         self.pattern_cols = pattern[0]
         self.pattern_rows = np.repeat(np.arange(self.n), np.diff(pattern[1]))
@@ -274,9 +310,29 @@ class StefanForms:
         self.mass_by_group = masses
         self.weights = masses / self.mass[:, None]
 
+    def lumped(self, integrand, definedon=None):
+        """``integrand`` (linear in the test function) on the lumped measure: the vertex rule (plane, 3D), or
+        w = r times it with the rule exact for r phi_i (axisymmetric: row-sum lumping of the r-weighted mass).
+        ``definedon``: a region (None: the whole mesh)."""
+        dx = (ngs.dx(intrules=self.rules) if definedon is None
+              else ngs.dx(definedon=definedon, intrules=self.rules))
+        return (integrand if self.weight is None else self.weight * integrand) * dx
+
+    def group_integrand(self, g: int, coefficient, u, v):
+        """The integrand of group g's stiffness for unit conductivity, ``coefficient`` (a CF) times
+        grad u . grad v, K_hat grad u . grad v for an anisotropic material, times r in axisymmetric problems."""
+        shape = self.groups[g].anisotropy
+        if shape is None:
+            form = coefficient * ngs.grad(u) * ngs.grad(v)
+        else:
+            K = ngs.CoefficientFunction(tuple(float(c) for row in shape for c in row), dims=(self.dim, self.dim))
+            form = coefficient * ngs.InnerProduct(K * ngs.grad(u), ngs.grad(v))
+        return form if self.weight is None else self.weight * form
+
     def _collect_stiffness(self) -> tuple:
         """Assemble the groups' stiffness matrices (with the pressure factors) into ``stiffness`` (CSR, one
-        shared pattern; the interface penalty last, in the union pattern); returns the pattern."""
+        shared pattern; the linear terms (the interface penalty, the heat transfer conditions) last, in the
+        union pattern); returns the pattern."""
         self.stiffness = []
         pattern = None
         for a in self._group_forms:
@@ -289,17 +345,20 @@ class StefanForms:
             elif not (np.array_equal(pattern[0], K.indices) and np.array_equal(pattern[1], K.indptr)):
                 raise AssertionError("Stefan forms: the region stiffness matrices do not share one pattern")
             self.stiffness.append(K)
-        if self._interface is not None:
-            KG = self._interface
+        linear = [M for M in (self._interface, self._robin) if M is not None]
+        if linear:
+            KG = linear[0] if len(linear) == 1 else (linear[0] + linear[1]).tocsr()
             K0 = self.stiffness[0]
             ones = [sp.csr_matrix((np.ones(len(M.indices)), M.indices, M.indptr), shape=(self.n, self.n))
                     for M in (K0, KG)]
             union = (ones[0] + ones[1]).tocsr()              # structural union (no cancellation)
             union.sort_indices()
             rows = np.repeat(np.arange(self.n), np.diff(union.indptr))
-            self.stiffness = [sp.csr_matrix((np.asarray(K[rows, union.indices]).ravel(), union.indices.copy(),
-                                             union.indptr.copy()), shape=(self.n, self.n))
-                              for K in self.stiffness + [KG]]
+
+            def values(K):                  # K's entries in the union pattern (none on a rank without vertices)
+                return np.asarray(K[rows, union.indices]).ravel() if len(rows) else np.zeros(0)
+            self.stiffness = [sp.csr_matrix((values(K), union.indices.copy(), union.indptr.copy()),
+                                            shape=(self.n, self.n)) for K in self.stiffness + [KG]]
             pattern = (union.indices.copy(), union.indptr.copy())
         self.__dict__.pop("_abs_stiffness", None)
         return pattern
@@ -333,7 +392,8 @@ class StefanForms:
         for master, minion, penalty in self.setup.interfaces:
             L = ngs.H1(self.mesh, order=1, definedon=self.mesh.Boundaries(master))
             if self.dim == 2:
-                r, c, v = mortar_coupling_2d(self.mesh, self.V, L, master, minion, axisymmetric=False, order=2)
+                r, c, v = mortar_coupling_2d(self.mesh, self.V, L, master, minion, axisymmetric=self.axisymmetric,
+                                             order=2)
             else:
                 r, c, v = mortar_coupling_3d(self.mesh, self.V, L, master, minion, order=1)
             B = sp.csr_matrix((v, (r, c)), shape=(L.ndof, self.n))
@@ -358,6 +418,21 @@ class StefanForms:
             B = B[keep]
             total = total + gamma * (B.T @ sp.diags(1.0 / D[keep]) @ B)
         return total.tocsr()
+
+    def _robin_matrix(self) -> sp.csr_matrix:
+        """The heat transfer conditions' nodal conductances r_i = sum int_Gamma w h phi_i ds as a diagonal
+        matrix (W/K per metre of depth in 2D, per radian axisymmetric; this rank's part on a distributed mesh): the
+        row sums of the boundary mass, lumped, so that the step stays monotone; ``robin_conductance`` holds them
+        cumulated. The ambient side h T_amb is the load :meth:`robin_loads`."""
+        _, v = self.V.TnT()
+        w = 1.0 if self.weight is None else self.weight
+        lf = ngs.LinearForm(self.V)
+        for name, (h, _) in self.setup.robin.items():
+            lf += float(h) * w * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+        lf.Assemble()
+        local = lf.vec.FV().NumPy().copy()
+        self.robin_conductance = self.cumulate(local.copy())
+        return sp.diags(local).tocsr()
 
     def _build_graph(self):
         pcm = [self.groups[g] for g in self.pcm_groups]
@@ -384,7 +459,7 @@ class StefanForms:
         self.e_hi = self.weights @ e_hi
         self.jump = self.e_hi - self.e_lo
         self.capacity = self.weights @ cap
-        if self.setup.interfaces:                   # the interface "group": theta = T (its matrix is last)
+        if self.setup.interfaces or self.setup.robin:    # the linear "group": theta = T (its matrix is last)
             cond = np.vstack([cond, np.ones((1, K + 1))])
         self.group_conductivity = cond              # G (+ 1 with interfaces) x (K + 1), W/(m K), at T_ref
         coef = np.array([m.conductivity_temperature_coefficient for m in self.groups]
@@ -406,16 +481,48 @@ class StefanForms:
         # flagged time_dependent = False for the heat forms, which scale its vector; here it must be reassembled)
         self._loads_static = all(isinstance(time_function(f), Steady)
                                  for f in list(s.sources.values()) + list(s.flux.values()))
+        self._build_robin_loads(v)
         if not s.sources and not s.flux:
             return
         lf = ngs.LinearForm(self.V)
         for region, f in s.sources.items():
-            lf += time_function(f)(self.t_load) * v * ngs.dx(definedon=self.mesh.Materials(region),
-                                                              intrules=self.rules)
+            lf += self.lumped(time_function(f)(self.t_load) * v, self.mesh.Materials(region))
         for name, f in s.flux.items():
-            lf += time_function(f)(self.t_load) * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+            flux = time_function(f)(self.t_load) * v
+            lf += (flux if self.weight is None else self.weight * flux) * ngs.ds(definedon=self.mesh.Boundaries(name))
         self._loads = lf
         self._loads_assembled = False
+
+    def _build_robin_loads(self, v) -> None:
+        """The linear form of the heat transfer conditions' ambient side, sum int_Gamma w h T_amb(t) phi_i ds."""
+        robin = self.setup.robin
+        self._robin_loads = None
+        if not robin:
+            return
+        w = 1.0 if self.weight is None else self.weight
+        self._robin_static = all(isinstance(time_function(a), Steady) for _, a in robin.values())
+        lf = ngs.LinearForm(self.V)
+        for name, (h, amb) in robin.items():
+            lf += float(h) * w * time_function(amb)(self.t_load) * v * ngs.ds(definedon=self.mesh.Boundaries(name))
+        self._robin_loads = lf
+        self._robin_assembled = False
+
+    def robin_loads(self, t: float) -> np.ndarray | None:
+        """The ambient side of the heat transfer conditions at time t, int w h T_amb phi_i ds (W per metre of
+        depth in 2D, W per radian axisymmetric, W in 3D; cumulated); None without heat transfer conditions. The
+        exchange with the ambient is this minus ``robin_conductance`` T (:meth:`robin_heat_rate`)."""
+        if self._robin_loads is None:
+            return None
+        if not (self._robin_static and self._robin_assembled):
+            self.t_load.Set(t)
+            self._robin_loads.Assemble()
+            self._robin_assembled = True
+        return self.cumulate(self._robin_loads.vec.FV().NumPy().copy())
+
+    def robin_heat_rate(self, F_robin: np.ndarray, T: np.ndarray) -> float:
+        """The heat flow into the body through the heat transfer conditions, sum_i (F_robin,i - r_i T_i) (W per
+        metre of depth in 2D, per radian axisymmetric, W in 3D; global on a distributed mesh)."""
+        return self.nodal_sum(F_robin - self.robin_conductance * T)
 
     # -- nodal maps -----------------------------------------------------------------------------------------
     def nodal_state(self, e: np.ndarray) -> NodalState:
@@ -458,7 +565,7 @@ class StefanForms:
         quadrature of ``order``; use a high order when e jumps inside elements, as across a phase boundary)."""
         _, v = self.V.TnT()
         lf = ngs.LinearForm(self.V)
-        lf += e_cf * v * ngs.dx(bonus_intorder=order)
+        lf += (e_cf if self.weight is None else self.weight * e_cf) * v * ngs.dx(bonus_intorder=order)
         lf.Assemble()
         return self.cumulate(lf.vec.FV().NumPy()) / self.mass
 

@@ -168,8 +168,8 @@ class KrylovJacobian(NewtonJacobian):
         form = ngs.BilinearForm(f.V)
         for g, names in enumerate(f.group_regions):
             indicator = f.mesh.MaterialCF({n: 1.0 for n in names}, default=0.0)
-            form += indicator * self._kappa[g] * ngs.grad(u) * ngs.grad(v) * ngs.dx
-        form += self._c * u * v * ngs.dx(intrules=f.rules)
+            form += f.group_integrand(g, indicator * self._kappa[g], u, v) * ngs.dx
+        form += f.lumped(self._c * u * v)
         self._pform = form
         # "h1amg" (serial meshes: NGSolve's AMG is serial) on the same form; BDDC's P1 coarse problem is the whole
         # form, factored

@@ -2,6 +2,11 @@
 enthalpy e(T) (J/m^3, measured from the solid at the phase-change temperature Theta_R; the enthalpy graph H of
 (2.48), multivalued at Theta_R), the Kirchhoff variable theta(T) = int k(s) ds (W/m) and the linear conductivity law
 k(T) = k (1 + b (T - T_ref)). Plain numpy on nodal values; no mesh, no forms.
+
+Anisotropy. The conductivity tensor of each phase may be k_phase K_hat with one symmetric positive definite shape
+K_hat per material (``anisotropy``; None: the identity): the phases scale the same anisotropy, so that the flux
+-k(T) K_hat grad T = -K_hat grad theta(T) keeps one Kirchhoff variable theta per material (the scalar k_s, k_l
+of the laws below are the factors of K_hat).
 """
 
 from __future__ import annotations
@@ -33,6 +38,21 @@ class _LinearConductivityLaw:
     """k(T) = k f(T), f(T) = 1 + b (T - T_ref) (b = ``conductivity_temperature_coefficient``, 1/K;
     T_ref = ``reference_temperature``), shared by the phase-change and the plain materials."""
 
+    def _check_anisotropy(self) -> None:
+        """``anisotropy`` None or a symmetric positive definite matrix of finite floats (stored as nested tuples)."""
+        a = self.anisotropy
+        if a is None:
+            return
+        try:
+            arr = np.array(a, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"anisotropy must be a square matrix of numbers, got {a!r}") from None
+        if arr.ndim != 2 or arr.shape[0] != arr.shape[1] or not np.all(np.isfinite(arr)):
+            raise ValueError(f"anisotropy must be a square matrix of finite numbers, got {a!r}")
+        if not np.allclose(arr, arr.T, rtol=1e-12, atol=0) or np.linalg.eigvalsh(arr).min() <= 0:
+            raise ValueError(f"anisotropy {arr.tolist()} must be symmetric positive definite")
+        object.__setattr__(self, "anisotropy", tuple(tuple(float(v) for v in row) for row in arr))
+
     @property
     def temperature_dependent(self) -> bool:
         """Whether k depends on T (b != 0)."""
@@ -50,8 +70,9 @@ class PhaseChangeMaterial(_LinearConductivityLaw):
 
     ``latent_heat`` L is volumetric (J/m^3, rho L of (2.46), (2.48); >= 0), ``rho_c_solid`` and
     ``rho_c_liquid`` the volumetric heat capacities C_s, C_l (J/(m^3 K), > 0), ``conductivity_solid`` and
-    ``conductivity_liquid`` k_s, k_l (W/(m K), > 0, isotropic). The enthalpy is measured from the solid at
-    Theta_R: e(T) = C_s (T - Theta_R) below, L + C_l (T - Theta_R) above (J/m^3).
+    ``conductivity_liquid`` k_s, k_l (W/(m K), > 0), the tensors k_s K_hat and k_l K_hat with K_hat =
+    ``anisotropy`` (dimensionless, symmetric positive definite; None: isotropic). The enthalpy is measured from
+    the solid at Theta_R: e(T) = C_s (T - Theta_R) below, L + C_l (T - Theta_R) above (J/m^3).
     """
 
     melting_temperature: float
@@ -62,6 +83,7 @@ class PhaseChangeMaterial(_LinearConductivityLaw):
     conductivity_liquid: float
     conductivity_temperature_coefficient: float = 0.0
     reference_temperature: float = 0.0
+    anisotropy: tuple | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "melting_temperature",
@@ -70,6 +92,7 @@ class PhaseChangeMaterial(_LinearConductivityLaw):
         for name in ("rho_c_solid", "rho_c_liquid", "conductivity_solid", "conductivity_liquid"):
             object.__setattr__(self, name, check_number(name, getattr(self, name), positive=True))
         _check_law(self)
+        self._check_anisotropy()
 
     @property
     def diffusivity_solid(self) -> float:
@@ -109,18 +132,20 @@ class PhaseChangeMaterial(_LinearConductivityLaw):
 
 @dataclass(frozen=True)
 class PlainThermalMaterial(_LinearConductivityLaw):
-    """A material without phase change: ``rho_c`` C (J/(m^3 K), > 0), ``conductivity`` k (W/(m K), > 0,
-    isotropic); e = C T (J/m^3), theta = k T (W/m)."""
+    """A material without phase change: ``rho_c`` C (J/(m^3 K), > 0), ``conductivity`` k (W/(m K), > 0; the
+    tensor k K_hat with K_hat = ``anisotropy``, None: isotropic); e = C T (J/m^3), theta = k T (W/m)."""
 
     rho_c: float
     conductivity: float
     conductivity_temperature_coefficient: float = 0.0
     reference_temperature: float = 0.0
+    anisotropy: tuple | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "rho_c", check_number("rho_c", self.rho_c, positive=True))
         object.__setattr__(self, "conductivity", check_number("conductivity", self.conductivity, positive=True))
         _check_law(self)
+        self._check_anisotropy()
 
     def enthalpy(self, T, liquid_fraction=0.0):
         return self.rho_c * np.asarray(T, dtype=float)

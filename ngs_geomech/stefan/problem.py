@@ -9,11 +9,14 @@ conditions, sources; unnamed boundaries are insulated; contact interfaces betwee
 penalty on the temperature jump (``thermal_penalty``; :mod:`ngs_geomech.stefan.forms`). A material's
 ``conductivity_temperature_coefficient`` b and ``reference_temperature`` give k(T) = k (1 + b (T - T_ref)) in
 both phases (``conductivity`` and ``conductivity_liquid`` are the values at T_ref); a run stops with an error
-naming that key when k is not positive at a temperature reached. Validation refuses Robin conditions,
-anisotropic conductivities, material values given as expressions (x- or T-dependent data), axisymmetric scenes
-and P2.
+naming that key when k is not positive at a temperature reached. Heat transfer (Robin) conditions
+(``heat_transfer_coefficient``, ``ambient_temperature``) exchange h (T_amb - T) with the nodal T; anisotropic
+conductivities are taken as k_phase K_hat per phase (the liquid's tensor proportional to the solid's); axisymmetric
+scenes weight every integral by r. Validation refuses material values given as expressions (x- or T-dependent
+data), liquid tensors not proportional to the solid's, and P2.
 
-Volumes are m^2 per metre of depth in plane scenes (m^3 in 3D), heats J per metre of depth (J in 3D).
+Volumes are m^2 per metre of depth in plane scenes (m^3 in 3D and axisymmetric: the whole body, 2 pi times the
+forms' per-radian integrals), heats J per metre of depth (J in 3D and axisymmetric).
 
 Distributed meshes (MPI, :mod:`ngs_geomech.parallel`): every rank holds the nodal state of its part, the solver
 takes its distributed Newton path (:mod:`ngs_geomech.stefan.solver`), and the figures of :meth:`StefanRun.record`
@@ -35,7 +38,13 @@ from ..errors import Problem, SceneError, SolverError
 from ..fem.coefficients import Steady, expression_function
 from ..geometry.assemble import GeometryModel
 from ..geometry.isolines import IsoLines, iso_segments
-from ..heat.materials import has_phase_change, isotropic_conductivity, phase_change_properties, volumetric_heat_capacity
+from ..heat.materials import (
+    conductivity_shape,
+    conductivity_tensor,
+    has_phase_change,
+    phase_change_properties,
+    volumetric_heat_capacity,
+)
 from ..heat.problem import initial_temperature, pressure_coefficients, region_measure, source_function
 from ..heat.run import temperature_figures
 from ..io.meshdata import mesh_arrays, vertex_values
@@ -44,7 +53,7 @@ from ..parts import Step, ThermalPart
 from ..scene.expressions import short
 from ..scene.model import Scene
 from ..scene.units import YEAR
-from .forms import DEFAULT_INTERFACE_PENALTY, StefanForms, StefanSetup, vertex_rules
+from .forms import DEFAULT_INTERFACE_PENALTY, StefanForms, StefanSetup
 from .materials import ConductivityRangeError, PhaseChangeMaterial, PlainThermalMaterial
 from .solver import StefanSolver
 
@@ -80,11 +89,18 @@ def stefan_materials(scene: Scene) -> dict:
             out[name] = PhaseChangeMaterial(melting_temperature=pc.temperature, latent_heat=pc.latent_heat,
                                             rho_c_solid=pc.rho_c_solid, rho_c_liquid=pc.rho_c_liquid,
                                             conductivity_solid=pc.conductivity_solid,
-                                            conductivity_liquid=pc.conductivity_liquid, **law)
+                                            conductivity_liquid=pc.conductivity_liquid,
+                                            anisotropy=_shape(pc.anisotropy), **law)
         else:
-            out[name] = PlainThermalMaterial(rho_c=volumetric_heat_capacity(m),
-                                             conductivity=isotropic_conductivity(m, dim), **law)
+            k, shape = conductivity_shape(conductivity_tensor(m, dim))
+            out[name] = PlainThermalMaterial(rho_c=volumetric_heat_capacity(m), conductivity=k,
+                                             anisotropy=_shape(shape), **law)
     return out
+
+
+def _shape(shape) -> tuple | None:
+    """K_hat as nested tuples (hashable: regions with equal materials share a stiffness matrix), or None."""
+    return None if shape is None else tuple(tuple(float(c) for c in row) for row in np.asarray(shape))
 
 
 def _summed(functions: list):
@@ -98,7 +114,9 @@ def _summed(functions: list):
 def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> StefanSetup:
     """The StefanSetup of a validated scene on its mesh; ``geo`` (the scene's geometry model) gives the contact
     interfaces heat passes through (touching blocks; the jump penalty of :mod:`ngs_geomech.stefan.forms`)."""
-    setup = StefanSetup(materials=stefan_materials(scene), pressure_coefficients=pressure_coefficients(scene))
+    axi = scene.scene.dimension == "axisymmetric"
+    setup = StefanSetup(materials=stefan_materials(scene), pressure_coefficients=pressure_coefficients(scene),
+                        axisymmetric=axi)
     if geo is not None:
         penalty = {itf.name: itf.thermal_penalty for itf in scene.interfaces}
         setup.interfaces = [(cs.master, cs.minion, penalty.get(cs.name) or DEFAULT_INTERFACE_PENALTY)
@@ -108,11 +126,32 @@ def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> Stefan
             setup.dirichlet[name] = expression_function(bc.temperature)
         elif bc.flux is not None:
             setup.flux[name] = expression_function(bc.flux)
+        elif bc.heat_transfer_coefficient is not None:
+            setup.robin[name] = (bc.heat_transfer_coefficient, expression_function(bc.ambient_temperature))
     by_region: dict[str, list] = {}
     for src in scene.sources:
-        by_region.setdefault(src.region, []).append(source_function(src, region_measure(mesh, src.region, False)))
+        by_region.setdefault(src.region, []).append(source_function(src, region_measure(mesh, src.region, axi)))
     setup.sources = {r: _summed(fs) for r, fs in by_region.items()}
     return setup
+
+
+def _heat_flux(mesh, materials: dict, T):
+    """The heat flux -k(T) K_hat grad T (W/m^2) of the nodal temperature T: per region the conductivity of the
+    phase at T (k_l above, k_s below Theta_R) times f(T) = 1 + b (T - T_ref), times K_hat when anisotropic."""
+    def k(m):
+        base = (ngs.IfPos(T - m.melting_temperature, m.conductivity_liquid, m.conductivity_solid)
+                if isinstance(m, PhaseChangeMaterial) else m.conductivity)
+        return base * (1 + m.conductivity_temperature_coefficient * (T - m.reference_temperature)
+                       if m.temperature_dependent else 1)
+    if all(m.anisotropy is None for m in materials.values()):
+        return -mesh.MaterialCF({n: k(m) for n, m in materials.items()}, default=0.0) * ngs.grad(T)
+    d = mesh.dim
+    eye = tuple(float(i == j) for i in range(d) for j in range(d))
+    tensors = {n: k(m) * ngs.CoefficientFunction(eye if m.anisotropy is None else
+                                                 tuple(c for row in m.anisotropy for c in row), dims=(d, d))
+               for n, m in materials.items()}
+    zero = ngs.CoefficientFunction((0.0,) * d * d, dims=(d, d))
+    return -(mesh.MaterialCF(tensors, default=zero) * ngs.grad(T))
 
 
 def _region_vertices(mesh, name: str) -> np.ndarray:
@@ -152,18 +191,13 @@ class StefanRun(ThermalPart):
         self.mass = {}
         for r in self.regions:
             lf = ngs.LinearForm(f.V)
-            lf += v * ngs.dx(definedon=mesh.Materials(r), intrules=vertex_rules(mesh.dim))
+            lf += f.lumped(v, mesh.Materials(r))
             lf.Assemble()
             self.mass[r] = lf.vec.FV().NumPy().copy()      # distributed on a distributed mesh: sums add over ranks
         self.volume = {r: float(parallel.allsum(mesh, float(self.mass[r].sum()))) for r in self.regions}
         T = f.gf_temperature
-        k = mesh.MaterialCF({n: (ngs.IfPos(T - m.melting_temperature, m.conductivity_liquid, m.conductivity_solid)
-                                 if isinstance(m, PhaseChangeMaterial) else m.conductivity)
-                             * (1 + m.conductivity_temperature_coefficient * (T - m.reference_temperature)
-                                if m.temperature_dependent else 1)
-                             for n, m in f.setup.materials.items()}, default=0.0)
         self.fields = {"temperature": T, "enthalpy": f.gf_enthalpy, "liquid_fraction": f.gf_liquid_fraction,
-                       "heat_flux": -k * ngs.grad(T)}
+                       "heat_flux": _heat_flux(mesh, f.setup.materials, T)}
         self.T = T
         phi = f.gf_liquid_fraction
         self.probe_fields = {"temperature": T, "liquid_fraction": phi, "front": phi}
@@ -171,6 +205,7 @@ class StefanRun(ThermalPart):
         self.halvings = 0                                # steps split because Newton failed
         self.dirichlet_heat: list[float] = []            # per step: heat in through the Dirichlet nodes
         self.source_heat: list[float] = []               # per step: sources and fluxes
+        self.robin_heat: list[float] = []                # per step: heat transfer (Robin) conditions
         self.records: dict = {"time_s": [], "melted_volume": {r: [] for r in self.regions},
                               "latent_heat_stored": {r: [] for r in self.regions}, "heat_content": []}
         self._steps_at_record: list[int] = []            # steps completed at each record
@@ -190,9 +225,9 @@ class StefanRun(ThermalPart):
 
     def heating_target(self) -> tuple:
         """(space, test function, volume measure, weight) a deformation-heating source is assembled against: the
-        nodal (vertex-rule) measure of the lumped P1 enthalpy forms."""
-        V = self.forms.V
-        return V, V.TestFunction(), ngs.dx(intrules=vertex_rules(self.mesh.dim)), 1.0
+        nodal (vertex-rule) measure of the lumped P1 enthalpy forms, weighted by r in axisymmetric scenes."""
+        f = self.forms
+        return f.V, f.V.TestFunction(), f.dx_lumped, 1.0 if f.weight is None else f.weight
 
     def take_state(self, old: StefanRun, t0: float | None) -> tuple[float, float, object]:
         """Carry the nodal enthalpy of ``old`` (the same scene on another mesh) over by the lumped L2 projection
@@ -318,6 +353,7 @@ class StefanRun(ThermalPart):
         self.iterations.append(int(info.iterations))
         self.dirichlet_heat.append(float(info.boundary_heat))
         self.source_heat.append(float(info.source_heat))
+        self.robin_heat.append(float(info.robin_heat))
         return info
 
     def mark(self) -> tuple:
@@ -328,7 +364,7 @@ class StefanRun(ThermalPart):
         """Back to the state of :meth:`mark` (the step's histories dropped)."""
         self.solver.rewind(mark[0])
         n = mark[1]
-        del self.iterations[n:], self.dirichlet_heat[n:], self.source_heat[n:]
+        del self.iterations[n:], self.dirichlet_heat[n:], self.source_heat[n:], self.robin_heat[n:]
 
     def record(self, t: float) -> None:
         """The melted volume and latent heat per region and the heat content at an output time (after the
@@ -359,56 +395,77 @@ class StefanRun(ThermalPart):
         return iso_segments(m.points, tris, vertex_values(self.forms.gf_liquid_fraction), LEVEL)
 
     def report(self) -> dict:
-        """The summary's ``stefan`` block."""
+        """The summary's ``stefan`` block. Axisymmetric scenes: volumes and heats of the whole body (2 pi times
+        the per-radian integrals of the forms), as the heat run's interface flows."""
         rec = self.records
-        plane = self.mesh.dim == 2
-        supplied = np.cumsum(np.array(self.dirichlet_heat) + np.array(self.source_heat))
-        step_of_record = self._steps_at_record          # cumulative supply at each output time
-        heat_in = [float(supplied[k - 1]) if k > 0 else 0.0 for k in step_of_record]
-        dirichlet = np.cumsum(self.dirichlet_heat)
-        heat_in_dirichlet = [float(dirichlet[k - 1]) if k > 0 else 0.0 for k in step_of_record]
-        gain = [h - self.initial_heat for h in rec["heat_content"]]
-        # heat changed by the state transfers between meshes (front-following meshes) before each record
-        moved = [sum(dq for n, dq in self.transfers if n <= i) for i in range(len(gain))]
-        total_latent = [sum(rec["latent_heat_stored"][r][i] for r in self.regions) for i in range(len(gain))]
-        latent_gain = [v - total_latent[0] for v in total_latent] if total_latent else []
-        scale = max([abs(v) for v in heat_in + gain] + [1e-300])
-        imbalance = [abs(g - q - m) / scale for g, q, m in zip(gain, heat_in, moved)]
+        plane = self.mesh.dim == 2 and not self.forms.axisymmetric
+        c = 2 * np.pi if self.forms.axisymmetric else 1.0
+
+        def whole(values: list) -> list:
+            return [c * v for v in values] if self.forms.axisymmetric else values
+        melted = {r: whole(v) for r, v in rec["melted_volume"].items()}
+        latent = {r: whole(v) for r, v in rec["latent_heat_stored"].items()}
+        total_latent = [sum(latent[r][i] for r in self.regions) for i in range(len(rec["heat_content"]))]
         its = self.iterations
         return {
             "solver": "enthalpy form (2.55): nodal enthalpy, lumped P1, backward Euler, semi-smooth Newton",
             "units": {"volume": "m^2 per m of depth" if plane else "m^3",
                       "heat": "J per m of depth" if plane else "J"},
             "phase_change_regions": {r: {"phase_change_temperature": self.forms.setup.materials[r].melting_temperature,
-                                         "latent_heat_J_per_m3": self.latent[r], "volume": self.volume[r]}
+                                         "latent_heat_J_per_m3": self.latent[r], "volume": c * self.volume[r]}
                                      for r in self.regions},
             "output_times_s": rec["time_s"],
-            "melted_volume": rec["melted_volume"],
+            "melted_volume": melted,
             "melted_fraction": {r: [v / self.volume[r] for v in rec["melted_volume"][r]] for r in self.regions},
-            "latent_heat_stored": rec["latent_heat_stored"],
+            "latent_heat_stored": latent,
             "latent_heat_stored_total": total_latent,
-            "energy": {"heat_gain": gain, "latent_heat_gain": latent_gain,
-                       "sensible_heat_gain": [g - lg for g, lg in zip(gain, latent_gain)],
-                       "heat_supplied": heat_in, "heat_supplied_dirichlet": heat_in_dirichlet,
-                       "heat_supplied_sources_fluxes": [q - d for q, d in zip(heat_in, heat_in_dirichlet)],
-                       "imbalance_rel": imbalance[-1] if imbalance else 0.0,
-                       "imbalance_rel_max": max(imbalance) if imbalance else 0.0,
-                       **({"heat_transferred": moved,
-                           "transfer_note": "heat content changed by the enthalpy transfers between meshes "
-                                            "(front-following); imbalance_rel counts it: |gain - supplied - "
-                                            "transferred| / scale"} if self.transfers else {})},
+            "energy": self._energy(total_latent, whole),
             "newton_iterations": {"mean": float(np.mean(its)) if its else 0.0, "max": int(max(its, default=0)),
                                   "steps": len(its)},
             "step_halvings": self.halvings,
         }
+
+    def _energy(self, total_latent: list, whole) -> dict:
+        """The energy balance of :meth:`report` (``whole``: per-radian values to the whole body, axisymmetric)."""
+        rec = self.records
+        robin = bool(self.forms.setup.robin)
+        per_step = np.array(self.dirichlet_heat) + np.array(self.source_heat)
+        if robin:
+            per_step = per_step + np.array(self.robin_heat)
+        step_of_record = self._steps_at_record          # cumulative supply at each output time
+
+        def cumulated(values) -> list:
+            total = np.cumsum(values)
+            return whole([float(total[k - 1]) if k > 0 else 0.0 for k in step_of_record])
+        heat_in = cumulated(per_step)
+        heat_in_dirichlet = cumulated(self.dirichlet_heat)
+        heat_in_robin = cumulated(self.robin_heat) if robin else [0.0] * len(heat_in)
+        gain = whole([h - self.initial_heat for h in rec["heat_content"]])
+        # heat changed by the state transfers between meshes (front-following meshes) before each record
+        moved = whole([sum(dq for n, dq in self.transfers if n <= i) for i in range(len(gain))])
+        latent_gain = [v - total_latent[0] for v in total_latent] if total_latent else []
+        scale = max([abs(v) for v in heat_in + gain] + [1e-300])
+        imbalance = [abs(g - q - m) / scale for g, q, m in zip(gain, heat_in, moved)]
+        return {"heat_gain": gain, "latent_heat_gain": latent_gain,
+                "sensible_heat_gain": [g - lg for g, lg in zip(gain, latent_gain)],
+                "heat_supplied": heat_in, "heat_supplied_dirichlet": heat_in_dirichlet,
+                "heat_supplied_sources_fluxes": [q - d - rb for q, d, rb in zip(heat_in, heat_in_dirichlet,
+                                                                                 heat_in_robin)],
+                **({"heat_supplied_robin": heat_in_robin} if robin else {}),
+                "imbalance_rel": imbalance[-1] if imbalance else 0.0,
+                "imbalance_rel_max": max(imbalance) if imbalance else 0.0,
+                **({"heat_transferred": moved,
+                    "transfer_note": "heat content changed by the enthalpy transfers between meshes "
+                                     "(front-following); imbalance_rel counts it: |gain - supplied - "
+                                     "transferred| / scale"} if self.transfers else {})}
 
     def adopt(self, old: StefanRun, heat_change: float) -> None:
         """Continue the histories of ``old`` (the same scene on the previous mesh) after the state was carried
         over to this mesh with the heat content changed by ``heat_change`` (J per m of depth, or J)."""
         self.initial_heat = old.initial_heat
         self.halvings = old.halvings
-        for name in ("iterations", "newton_iterations", "dirichlet_heat", "source_heat", "_steps_at_record",
-                     "transfers"):
+        for name in ("iterations", "newton_iterations", "dirichlet_heat", "source_heat", "robin_heat",
+                     "_steps_at_record", "transfers"):
             setattr(self, name, getattr(old, name))
         self.records = old.records
         self.transfers.append((len(self.records["time_s"]), float(heat_change)))
@@ -427,7 +484,7 @@ class StefanRun(ThermalPart):
         return {"initial_heat": self.initial_heat, "iterations": self.iterations[:n],
                 "newton_iterations": self.newton_iterations[:lengths["newton"]],
                 "dirichlet_heat": self.dirichlet_heat[:n], "source_heat": self.source_heat[:n],
-                "steps_at_record": self._steps_at_record[:k],
+                "robin_heat": self.robin_heat[:n], "steps_at_record": self._steps_at_record[:k],
                 "records": {"time_s": rec["time_s"][:k], "heat_content": rec["heat_content"][:k],
                             "melted_volume": {r: v[:k] for r, v in rec["melted_volume"].items()},
                             "latent_heat_stored": {r: v[:k] for r, v in rec["latent_heat_stored"].items()}}}
@@ -439,6 +496,7 @@ class StefanRun(ThermalPart):
         self.newton_iterations[:] = [int(i) for i in meta["newton_iterations"]]
         self.dirichlet_heat[:] = [float(v) for v in meta["dirichlet_heat"]]
         self.source_heat[:] = [float(v) for v in meta["source_heat"]]
+        self.robin_heat[:] = [float(v) for v in meta.get("robin_heat", [0.0] * len(self.source_heat))]
         self._steps_at_record[:] = [int(v) for v in meta["steps_at_record"]]
         r = meta["records"]
         self.records["time_s"][:] = r["time_s"]

@@ -92,9 +92,10 @@ class StefanStepInfo:
     J/m^3), ``boundary_heat`` (heat that entered through the Dirichlet nodes during the step, J per metre of
     depth in 2D, J in 3D), ``source_heat`` (sources and fluxes, same units), ``phase_changes`` (nodes whose
     branch, solid/mushy/liquid, changed in the step), ``factorizations`` (sparse LU factorizations in the step;
-    on a distributed mesh the BDDC preconditioners built)
-    and ``corrections`` (new low-rank correction columns, one solve each; in window mode the solves for the
-    window's interface; see :class:`ColumnJacobian`)."""
+    on a distributed mesh the BDDC preconditioners built),
+    ``corrections`` (new low-rank correction columns, one solve each; in window mode the solves for the
+    window's interface; see :class:`ColumnJacobian`) and ``robin_heat`` (the heat that entered through the heat
+    transfer conditions, dt sum_i (h T_amb - h T)_i at t_new, same units as the other heats)."""
 
     iterations: int
     residual: float
@@ -103,6 +104,7 @@ class StefanStepInfo:
     phase_changes: int
     factorizations: int = 0
     corrections: int = 0
+    robin_heat: float = 0.0
 
 def _branch(st: NodalState) -> np.ndarray:
     """Per node: the interval index on a sensible branch, -1 - the flat part's index on a mushy one."""
@@ -249,7 +251,8 @@ class StefanSolver:
         return self._dirichlet_cache
 
     def step(self, t_old: float, t_new: float, extra_load: np.ndarray | None = None) -> StefanStepInfo:
-        """One backward Euler step from t_old to t_new (s): Dirichlet data, sources and fluxes at t_new.
+        """One backward Euler step from t_old to t_new (s): Dirichlet data, sources, fluxes and ambient
+        temperatures at t_new.
         ``extra_load`` (nodal, W per metre of depth in 2D, W in 3D; e.g. the deformation heating of (2.49)) is
         added to the loads and counted in ``source_heat``; on a distributed mesh it holds this rank's vertices with
         cumulated values (the full nodal value at a shared vertex, as a GridFunction's vector), and the call is
@@ -264,6 +267,8 @@ class StefanSolver:
         st_old = self._old_state(e_old)
         e = self._first_iterate(e_old, st_old, dt, t_new)
         F = self._loads(t_new, extra_load)
+        F_robin = f.robin_loads(t_new)              # the ambient side of the heat transfer conditions, or None
+        F_all = F if F_robin is None else F + F_robin
         dt_m = dt / f.mass
         history = []
         prev_st = None
@@ -272,9 +277,9 @@ class StefanSolver:
             st = f.nodal_state(e)
             if it == 0:
                 scale = self._scale(np.concatenate([st_old.T, st.T]))
-            R = f.mass * (e - e_old) / dt + f.conduction(st.T) - F
+            R = f.mass * (e - e_old) / dt + f.conduction(st.T) - F_all
             res = self._defect(R, dt_m, history, where)
-            if self._converged(res, scale, it, e, e_old, st, F, dt_m):
+            if self._converged(res, scale, it, e, e_old, st, F_all, dt_m):
                 break
             if it >= self.maxit:
                 self._fail(where, history, st, prev_st, scale)
@@ -282,15 +287,18 @@ class StefanSolver:
             e = self._newton_update(e, st, R, dt, dt_m, where)
             it += 1
         f.check_conductivity(st.T, f" at {where}")
+        robin_heat = 0.0 if F_robin is None else dt * f.robin_heat_rate(F_robin, st.T)
         if self.distributed:
-            return self._finish_distributed(e, e_old, st, st_old, R, F, dt, it, res, counts)
+            info = self._finish_distributed(e, e_old, st, st_old, R, F, dt, it, res, counts)
+            info.robin_heat = robin_heat
+            return info
         boundary_heat = float(dt * np.sum(R[~f.free]))
         self._keep(e, e_old, st, dt, it)
         return StefanStepInfo(iterations=max(it, 1), residual=res, boundary_heat=boundary_heat,
                               source_heat=float(dt * np.sum(F)),
                               phase_changes=int(np.count_nonzero(_branch(st) != _branch(st_old))),
                               factorizations=self.jac.factorizations - counts[0],
-                              corrections=self.jac.corrections - counts[1])
+                              corrections=self.jac.corrections - counts[1], robin_heat=robin_heat)
 
     def _first_iterate(self, e_old: np.ndarray, st_old: NodalState, dt: float, t_new: float) -> np.ndarray:
         """The Newton iteration's first iterate: the old state plus dt times the last step's rate (the predictor;

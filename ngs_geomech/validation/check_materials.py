@@ -11,8 +11,8 @@ from ..heat.materials import (
     conductivity_tensor,
     expression_keys,
     has_phase_change,
-    isotropic_conductivity,
     phase_change_problems,
+    phase_conductivities,
     volumetric_heat_capacity,
 )
 from ..mechanics.materials import axisymmetric, elastic_properties, elastic_structure, elastic_varying_keys
@@ -105,8 +105,9 @@ def _varying_refused(scene: Scene, mat, key: str) -> str:
 
 def check_phase_change(scene: Scene, problems: list[Problem]) -> None:
     """Phase-change keys of each material, and what the Stefan solver supports (seed (2.46)-(2.51), (2.55): P1,
-    lumped, backward Euler, isotropic conductivity per phase (constant or k (1 + b (T - T_ref))), no Robin
-    condition, plane or 3D)."""
+    lumped, backward Euler, constant material data per region, conductivity tensors k_phase K_hat per phase
+    (the phases scale one anisotropy; k (1 + b (T - T_ref)) allowed); plane, axisymmetric or 3D; temperature, flux
+    and heat transfer (Robin) conditions)."""
     pcm = [n for n, m in scene.materials.items() if has_phase_change(m)]
     for name, mat in scene.materials.items():
         for key, msg in phase_change_problems(mat):
@@ -124,19 +125,12 @@ def check_phase_change(scene: Scene, problems: list[Problem]) -> None:
                                 "or remove phase_change_temperature"))
         return
     why = f"the Stefan (phase change) solver, used because of the phase change in {pcm},"
-    if scene.scene.dimension == "axisymmetric":
-        problems.append(Problem("scene.dimension", f"'axisymmetric': {why} has no axisymmetric (r-weighted) form; "
-                                "use a plane or 3d scene"))
     if scene.mesh.order != 1:
         problems.append(Problem("mesh.order", f"{scene.mesh.order}: {why} uses lumped P1 elements; set "
                                 "mesh.order = 1 (refine with mesh.maxh instead)"))
     if scene.time is not None and scene.time.scheme != "backward_euler":
         problems.append(Problem("time.scheme", f"{scene.time.scheme!r}: {why} steps with backward Euler (seed "
                                 "(2.55)); set time.scheme = 'backward_euler'"))
-    for name, bc in scene.boundary_conditions.items():
-        if bc.heat_transfer_coefficient is not None:
-            problems.append(Problem(f"boundary_conditions.{name}.heat_transfer_coefficient", f"{why} does not "
-                                    "take a heat transfer (Robin) condition; give a temperature or a flux"))
     dim = scene_dim(scene)
     for name, mat in scene.materials.items():
         varying = expression_keys(mat)
@@ -153,11 +147,11 @@ def check_phase_change(scene: Scene, problems: list[Problem]) -> None:
             conductivity_tensor(mat, dim)
         except ValueError:
             continue                    # reported by check_materials
-        try:
-            isotropic_conductivity(mat, dim)
-        except ValueError as exc:
-            key = "conductivity_principal" if mat.conductivity_principal is not None else "conductivity"
-            problems.append(Problem(f"materials.{name}.{key}", str(exc)))
+        if has_phase_change(mat) and not phase_change_problems(mat):
+            try:                        # the liquid's tensor proportional to the solid's (one K_hat per region)
+                phase_conductivities(mat, dim)
+            except MaterialError as exc:
+                problems.append(Problem(f"materials.{name}.{exc.key}", exc.detail))
 
 
 def check_conductivity_range(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
