@@ -66,13 +66,16 @@ def _rows_2d(it: InterfaceState, seg: dict, vals: np.ndarray, b: np.ndarray, x: 
     ot = it.offset + it.m
     stick = A & it.stick
     slip = A & it.slip
-    vals[seg["rows_t"]] = seg["rows_t_values"] * stick[seg["rows_t_node"]]
-    vals[seg["diag_t"]] = np.where(stick & (not pen), 0.0, -it.w / it.ct)
+    # an exact stick row left out (dependent through the supports, :func:`.linear_algebra.dependent_rows`) fixes its
+    # multiplier at 0 like an open node's row: the supports carry that traction (slip rows stay: they are regular)
+    exact_stick = stick & ~(it.dropped[1] & (not pen))
+    vals[seg["rows_t"]] = seg["rows_t_values"] * exact_stick[seg["rows_t_node"]]
+    vals[seg["diag_t"]] = np.where(exact_stick & (not pen), 0.0, -it.w / it.ct)
     coulomb_slip = slip if it.law.kind == "coulomb" else np.zeros(it.m, dtype=bool)
     vals[seg["couple"]] = np.where(coulomb_slip, it.w / it.ct * it.law.friction * it.sign, 0.0)
     fixed_t = np.where(slip & (it.law.kind == "tresca"), it.bound0 * it.sign, 0.0)
     b[ot:ot + it.m] = -it.w / it.ct * fixed_t
-    x[ot:ot + it.m] = np.where(stick | coulomb_slip, x[ot:ot + it.m], fixed_t)
+    x[ot:ot + it.m] = np.where(exact_stick | coulomb_slip, x[ot:ot + it.m], fixed_t)
 
 
 def _rows_3d(it: InterfaceState, seg: dict, vals: np.ndarray, b: np.ndarray, x: np.ndarray, A: np.ndarray,

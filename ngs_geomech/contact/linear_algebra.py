@@ -17,34 +17,34 @@ def drop_prescribed_nodes(ifs: list, free: np.ndarray, n: int) -> None:
     for it in ifs:
         absB = abs(it.Bn[:, :n])
         it.keep = it.keep & ((absB @ freef) > 1e-10 * (absB @ np.ones(n)))
-        if it.dim3 and it.law.kind != "frictionless":
+        if it.law.kind != "frictionless":
             it.dropped = dependent_rows(it, freef, n)
             it.keep = it.keep & ~it.dropped[0]
 
 
 def dependent_rows(it, freef: np.ndarray, n: int) -> np.ndarray:
-    """3D: rows (normal, t1, t2 per node: a (3, m) bool array) to leave out so that the remaining rows are
+    """Rows (normal, t1 (, t2) per node: a (blocks, m) bool array) to leave out so that the remaining rows are
     linearly independent on the free dofs. Where the interface meets rollers the supports hold some relative
     motions already (a node's motion along the roller's normal, or a combination over the nodes on it): those rows
     are dependent, and exact stick rows there make the matrix singular. Only the rows of nodes that touch a
     prescribed dof can take part (the others' rows are independent: the mortar's D block). Their left null space
     W on the free dofs is taken densely, and k rows with a regular k x k block of W are left out (QR with column
     pivoting, tangential rows first): the rest spans the same forces on the free dofs."""
-    m = it.m
-    out = np.zeros((3, m), dtype=bool)
-    B = sp.vstack([it.Bn[:, :n], it.Bt[:, :n], it.Bt2[:, :n]]).tocsr()
-    touches = (abs(B) @ (1.0 - freef) > 0).reshape(3, m).any(axis=0) & it.keep
+    m, nb = it.m, it.blocks
+    out = np.zeros((nb, m), dtype=bool)
+    B = sp.vstack([M[:, :n] for M in (it.Bn, it.Bt, it.Bt2) if M is not None]).tocsr()
+    touches = (abs(B) @ (1.0 - freef) > 0).reshape(nb, m).any(axis=0) & it.keep
     if not touches.any():
         return out
     nodes = np.nonzero(touches)[0]
-    rows = np.concatenate([nodes + k * m for k in range(3)])
+    rows = np.concatenate([nodes + k * m for k in range(nb)])
     sub = B[rows][:, freef > 0]
     sub = sub[:, np.unique(sub.nonzero()[1])].toarray()
     u, sv, _ = np.linalg.svd(sub, full_matrices=True)
     rank = int(np.sum(sv > 1e-10 * max(float(sv.max(initial=0.0)), 1e-300)))
     if rank == len(rows):
         return out
-    W = u[:, rank:] * np.repeat([1e-3, 1.0, 1.0], len(nodes))[:, None]    # tangential rows first
+    W = u[:, rank:] * np.repeat([1e-3] + [1.0] * (nb - 1), len(nodes))[:, None]    # tangential rows first
     pivots = scipy.linalg.qr(W.T, pivoting=True, mode="r")[1][:W.shape[1]]
     out.reshape(-1)[rows[pivots]] = True
     return out

@@ -560,6 +560,10 @@ class ContactSolver(ContactSolverBase):
         slip directions, :func:`.floating.walk_slip`), or too few nodes in contact (e.g. the single first node of a
         curved side: add the nearest open nodes). Returns whether the penalty phase goes on."""
         ifs, info, n = s.ifs, s.info, s.n
+        if not s.rigid.shape[1]:
+            raise SolverError(f"{s.what}, iteration {it_nr}: the refinement of the Newton step did not converge: the "
+                              "saddle-point matrix is singular or badly conditioned (no floating body); check the "
+                              "supports next to the contacts")
         info.unheld_sets += 1
         grow = all(not (it.slip & it.active).any() for it in ifs)
         if info.unheld_sets > 3 or (grow and not any((it.keep & ~it.active).any() for it in ifs)):

@@ -99,8 +99,8 @@ class InterfaceState:
         # 3D slip rows: the unit direction e = z / |z| and kappa = b / max(|z|, b) of the current iterate
         self.dir = np.zeros((m, 2))
         self.kappa = np.zeros(m)
-        self.dropped = np.zeros((3, m), dtype=bool)
-        """3D: the rows (normal, t1, t2 per node) left out as dependent on the free dofs through the supports
+        self.dropped = np.zeros((self.blocks, m), dtype=bool)
+        """The rows (normal, t1 (, t2) per node) left out as dependent on the free dofs through the supports
         (:func:`.linear_algebra.dependent_rows`): a left-out exact tangential row's multiplier is 0."""
         self.flips = np.zeros(m, dtype=int)     # contact <-> separation switches of each node in this solve
 

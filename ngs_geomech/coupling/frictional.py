@@ -54,7 +54,7 @@ import numpy as np
 from ..contact.problem import supported_nodes
 from ..errors import Problem, SceneError
 from ..fem.mortar import boundary_transfer
-from ..heat.materials import isotropic_conductivity, volumetric_heat_capacity
+from ..heat.materials import conductivity_shape, conductivity_tensor, volumetric_heat_capacity
 
 NEGATIVE_WORK_REL = 1e-6
 """Negative nodal work of friction (clipped) above this fraction of the dissipated work is reported as a warning;
@@ -78,7 +78,12 @@ def side_regions(mesh, boundary: str) -> set[str]:
 def effusivity(material, dim: int) -> float:
     """sqrt(k rho c) (W s^(1/2) / (m^2 K)) of a material with a constant isotropic conductivity and heat capacity
     (a phase-change material: its solid phase); ValueError otherwise."""
-    k = isotropic_conductivity(material, dim)
+    kappa = conductivity_tensor(material, dim)
+    if kappa.dtype == object:
+        raise ValueError("needs a constant conductivity (a number)")
+    k, shape = conductivity_shape(kappa)
+    if shape is not None:
+        raise ValueError(f"conductivity {kappa.tolist()} is anisotropic")
     rho_c = volumetric_heat_capacity(material)
     if not isinstance(rho_c, float):
         raise ValueError("needs rho_c (or density and specific_heat) as numbers")
