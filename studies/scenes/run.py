@@ -41,6 +41,7 @@ PICTURES = {
     "contact_melting": "phase_boundary.png",
     "fault2d": "temperature.png",
     "fault_3d": "von_mises_section_across_fault.png",
+    "fault_heating": "temperature.png",
     "fault_wedge": "contact_fault.png",
     "heated_rock": "principal_stress.png",
     "melting_block": "phase_boundary.png",
