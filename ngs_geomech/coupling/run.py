@@ -1,7 +1,8 @@
 """The coupling part of a run (:class:`CouplingRun`, a :class:`~ngs_geomech.parts.Part`): the coupled time step of
 problem (P_c) (:mod:`.problem`: the heat or Stefan step with the deformation heating of the last displacement
 rate, then the mechanics at the step's end; 'iterated' repeats the pair until neither changes), the mean
-pressure handed to the conductivities kappa(T, p) after each mechanics solve, its history and figure.
+pressure handed to the conductivities kappa(T, p) and the contact state (nodal pressure and gap) handed to the
+contact conductances after each mechanics solve, its history and figure.
 Units: s, W, J (per m of depth in plane scenes), Pa.
 """
 
@@ -36,10 +37,12 @@ class CouplingRun(Part):
         mechanics.records_every_step = True
         self.history: dict[str, list] = {"passes": [], "deformation_heat": [], "change_T": [], "change_u": [],
                                          "conductivity_factor": []}
+        self._warned: set[str] = set()
 
     # -- solving --------------------------------------------------------------------------------------------
     def start(self, t0: float, where: str) -> None:
         self.update_pressure(where)
+        self.update_contact()
 
     def advance(self, step: Step) -> None:
         """One step of problem (P_c) (module docstring); the passes' relative changes of T and u decide the end of
@@ -58,6 +61,7 @@ class CouplingRun(Part):
             T_now = self.thermal.temperature_values()
             self.mech.solve(step.b, f"{step.where}, coupling pass {p + 1}", record=False)
             factors = self.update_pressure(step.where)
+            self.update_contact()
             self.heating.set_rate(step.dt)
             u_now = self.mech.forms.gf.vec.FV().NumPy().copy()
             if prev is not None:
@@ -84,10 +88,22 @@ class CouplingRun(Part):
         except ValueError as exc:
             raise SolverError(f"coupled step at {where}: {exc}; reduce the load or the pressure coefficient") from None
 
+    def update_contact(self, recorded: bool = False) -> None:
+        """Give the thermal part the contact state of the last mechanics solve (``recorded``: of the last recorded
+        one) for its contact conductances; keep a warning (once per interface) where it closes an interface that
+        carries no heat."""
+        for w in self.thermal.set_contact_state(self.mech.contact_state(recorded)):
+            name = w.split(":", 1)[0]
+            if name not in self._warned:
+                self._warned.add(name)
+                self.warnings.append(w)
+
     def mechanics_changed(self, step: Step | None, where: str) -> None:
         """The mechanics was solved again on a new mesh (contact-zone following) at the start time (``step``
-        None) or at the end of ``step``: the pressure and the step's displacement rate from that solve."""
+        None) or at the end of ``step``: the pressure, the contact state and the step's displacement rate from
+        that solve."""
         self.update_pressure(where)
+        self.update_contact()
         if step is not None:
             self.heating.set_rate(step.dt)
 
@@ -103,6 +119,7 @@ class CouplingRun(Part):
         for n, v in meta.items():
             self.history[n][:] = v
         self.update_pressure("resume")
+        self.update_contact(recorded=True)
 
     # -- reporting ------------------------------------------------------------------------------------------
     def summary(self) -> dict:

@@ -93,6 +93,9 @@ class DynamicsRun(MechanicsPart):
         """The viscous dissipation density (W/m^3) as a CoefficientFunction: a heat source of (2.6)."""
         return self.vforms.dissipation_density()
 
+    def contact_multipliers(self) -> list:
+        return self.solver.multipliers if self.contacts else []
+
     # -- stepping -------------------------------------------------------------------------------------------
     def _start(self, t: float) -> None:
         s = self.solver

@@ -35,8 +35,15 @@ from ..errors import Problem, SceneError, SolverError
 from ..fem.coefficients import Steady, expression_function
 from ..geometry.assemble import GeometryModel
 from ..geometry.isolines import IsoLines, iso_segments
+from ..heat.conductance import heatless_closed, unfollowed_closed
 from ..heat.materials import has_phase_change, isotropic_conductivity, phase_change_properties, volumetric_heat_capacity
-from ..heat.problem import initial_temperature, pressure_coefficients, region_measure, source_function
+from ..heat.problem import (
+    initial_temperature,
+    interface_conductances,
+    pressure_coefficients,
+    region_measure,
+    source_function,
+)
 from ..heat.run import temperature_figures
 from ..io.meshdata import mesh_arrays, vertex_values
 from ..linalg.iterative import choose_solver
@@ -100,9 +107,11 @@ def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> Stefan
     interfaces heat passes through (touching blocks; the jump penalty of :mod:`ngs_geomech.stefan.forms`)."""
     setup = StefanSetup(materials=stefan_materials(scene), pressure_coefficients=pressure_coefficients(scene))
     if geo is not None:
+        conducting = interface_conductances(scene, geo, mesh)      # contact conductance instead of the penalty
+        setup.conductances = list(conducting.values())
         penalty = {itf.name: itf.thermal_penalty for itf in scene.interfaces}
         setup.interfaces = [(cs.master, cs.minion, penalty.get(cs.name) or DEFAULT_INTERFACE_PENALTY)
-                            for cs in geo.contacts.values() if not cs.initial_gap]
+                            for cs in geo.contacts.values() if not cs.initial_gap and cs.name not in conducting]
     for name, bc in scene.boundary_conditions.items():
         if bc.temperature is not None:
             setup.dirichlet[name] = expression_function(bc.temperature)
@@ -171,6 +180,7 @@ class StefanRun(ThermalPart):
         self.halvings = 0                                # steps split because Newton failed
         self.dirichlet_heat: list[float] = []            # per step: heat in through the Dirichlet nodes
         self.source_heat: list[float] = []               # per step: sources and fluxes
+        self.interface_heat: list[dict] = []             # per step: heat across each conductance interface (J)
         self.records: dict = {"time_s": [], "melted_volume": {r: [] for r in self.regions},
                               "latent_heat_stored": {r: [] for r in self.regions}, "heat_content": []}
         self._steps_at_record: list[int] = []            # steps completed at each record
@@ -301,6 +311,8 @@ class StefanRun(ThermalPart):
         times (the front crossing too many element layers in one step is the usual cause; the output times stay);
         the halvings taken are counted in ``halvings``."""
         mark = self.mark() if _depth < MAX_HALVINGS else None
+        if self.forms.conductances is not None:           # linearized radiation: h_rad at the start of the step
+            self.forms.lag_radiation(self.forms.nodal_state(self.solver.e).T)
         try:
             info = self.solver.step(a, b) if extra_load is None else self.solver.step(a, b, extra_load)
         except ConductivityRangeError as exc:       # the temperatures reached: a shorter step does not help
@@ -318,7 +330,23 @@ class StefanRun(ThermalPart):
         self.iterations.append(int(info.iterations))
         self.dirichlet_heat.append(float(info.boundary_heat))
         self.source_heat.append(float(info.source_heat))
+        if self.forms.conductances is not None:
+            T = self.forms.nodal_state(self.solver.e).T
+            self.interface_heat.append({n: (b - a) * q for n, q in self.forms.conductances.flows(T).items()})
         return info
+
+    def set_contact_state(self, states) -> list[str]:
+        """The mechanics' contact state per interface (:class:`~ngs_geomech.heat.conductance.ContactNodes`) for the
+        contact-conductance interfaces; returns the interfaces closed in it that carry no heat."""
+        self.forms.set_contact_state(states)
+        s = self.forms.setup
+        return heatless_closed(states, s.conductances, {m for m, _, _ in s.interfaces})
+
+    def contact_warnings(self, states) -> list[str]:
+        """The interfaces ``states`` closes that carry no heat, this part keeping the geometry's state."""
+        s = self.forms.setup
+        return (heatless_closed(states, s.conductances, {m for m, _, _ in s.interfaces})
+                + unfollowed_closed(states, s.conductances))
 
     def mark(self) -> tuple:
         """The state before a step, to repeat the step with :meth:`rewind` (coupling iterations)."""
@@ -328,7 +356,7 @@ class StefanRun(ThermalPart):
         """Back to the state of :meth:`mark` (the step's histories dropped)."""
         self.solver.rewind(mark[0])
         n = mark[1]
-        del self.iterations[n:], self.dirichlet_heat[n:], self.source_heat[n:]
+        del self.iterations[n:], self.dirichlet_heat[n:], self.source_heat[n:], self.interface_heat[n:]
 
     def record(self, t: float) -> None:
         """The melted volume and latent heat per region and the heat content at an output time (after the
@@ -400,7 +428,21 @@ class StefanRun(ThermalPart):
             "newton_iterations": {"mean": float(np.mean(its)) if its else 0.0, "max": int(max(its, default=0)),
                                   "steps": len(its)},
             "step_halvings": self.halvings,
+            **self._conductance_report(),
         }
+
+    def _conductance_report(self) -> dict:
+        """The contact-conductance interfaces: the heat across each (master -> minion, J per m of depth or J) and
+        their last conductances ({} without)."""
+        c = self.forms.conductances
+        if c is None:
+            return {}
+        ranges = c.ranges()
+        return {"interface_heat": {it.spec.name: float(sum(h.get(it.spec.name, 0.0) for h in self.interface_heat))
+                                   for it in c.items},
+                "interface_conductance": {it.spec.name: {"state": it.source, "conductance_min": ranges[it.spec.name][0],
+                                                         "conductance_max": ranges[it.spec.name][1],
+                                                         "units": "W/(m^2 K)"} for it in c.items}}
 
     def adopt(self, old: StefanRun, heat_change: float) -> None:
         """Continue the histories of ``old`` (the same scene on the previous mesh) after the state was carried
