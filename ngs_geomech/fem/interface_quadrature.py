@@ -11,9 +11,11 @@ is then J^T diag(weights h) J with J = master - minion (nq x ndof), and a quanti
 the segment-based mortar integrals (:mod:`ngs_geomech.fem.mortar`): in 2D every master segment is cut where the
 minion nodes project onto it and each piece gets a Gauss rule of ``order + 2`` points; in 3D the master triangles
 are clipped against the minion triangles projected onto their plane. The partner of a master point is its closest
-point on the minion element opposite; ``distance`` holds |x_s - x_m| (m), the geometric gap where the sides are
+point on the minion element opposite (in 2D the nearest one where several minion segments project onto the same
+piece, e.g. across a wide reach); ``distance`` holds |x_s - x_m| (m), the geometric gap where the sides are
 apart. Points whose partner lies farther than ``reach`` (m) have none: they are left out (no heat crosses there)
-and ``covered`` is the fraction of the master side that has a partner.
+and ``covered`` is the fraction of the master side that has a partner. 3D assumes one layer of minion triangles
+opposite each master triangle within the reach.
 """
 
 from __future__ import annotations
@@ -36,7 +38,8 @@ class InterfaceQuadrature:
     m^2 per radian; m^2 in 3D); ``points`` (nq, dim), m; ``master``, ``minion``: (nq x ndof) values of the space's
     basis functions on the two sides; ``nodal``: (nq x nv) the P1 hat functions of the master side's vertices
     (columns: mesh vertex numbers); ``distance`` (nq,), m; ``vertices``: the master side's vertex numbers;
-    ``covered``: the fraction of the master side (by measure, without w) that has a partner."""
+    ``covered``: the fraction of the master side (by measure, without w) that has a partner; ``touching`` (nq,):
+    the partner lies within half an element (the sides touch there up to the discretization of the geometry)."""
 
     weights: np.ndarray
     points: np.ndarray
@@ -46,6 +49,7 @@ class InterfaceQuadrature:
     distance: np.ndarray
     vertices: np.ndarray
     covered: float
+    touching: np.ndarray
 
     @property
     def jump(self) -> sp.csr_matrix:
@@ -61,14 +65,15 @@ class _Rows:
     """COO lists of the three point matrices, one row per accepted point."""
 
     def __init__(self):
-        self.w, self.pts, self.dist = [], [], []
+        self.w, self.pts, self.dist, self.near = [], [], [], []
         self.coo = {"master": ([], [], []), "minion": ([], [], []), "nodal": ([], [], [])}
 
-    def add(self, wt: float, p, d: float, master, minion, nodal) -> None:
+    def add(self, wt: float, p, d: float, master, minion, nodal, near: bool) -> None:
         q = len(self.w)
         self.w.append(wt)
         self.pts.append(np.asarray(p, dtype=float))
         self.dist.append(d)
+        self.near.append(bool(near))
         for key, (vals, dofs) in (("master", master), ("minion", minion), ("nodal", nodal)):
             rows, cols, data = self.coo[key]
             for v, dof in zip(np.asarray(vals, dtype=float).ravel(), dofs):
@@ -85,7 +90,7 @@ class _Rows:
             return sp.csr_matrix((data, (rows, cols)), shape=(nq, ncols))
         return InterfaceQuadrature(np.array(self.w), np.array(self.pts).reshape(nq, dim), matrix("master", ndof),
                                    matrix("minion", ndof), matrix("nodal", nv), np.array(self.dist),
-                                   np.array(sorted(vertices), dtype=int), covered)
+                                   np.array(sorted(vertices), dtype=int), covered, np.array(self.near, dtype=bool))
 
 
 def interface_quadrature(mesh, V, master: str, minion: str, *, order: int, axisymmetric: bool = False,
@@ -119,24 +124,45 @@ def _quadrature_2d(mesh, V, P1, master, minion, order, axisymmetric, reach) -> I
         pad = max(0.25 * float(np.linalg.norm(sm.p1 - sm.p0)), reach or 0.0)
         lo, hi = np.minimum(sm.p0, sm.p1) - pad, np.maximum(sm.p0, sm.p1) + pad
         total += sum(gw[k] * sm.speed(gx[k]) for k in range(len(gx)))
-        for j in np.where(np.all(mins <= hi, axis=1) & np.all(maxs >= lo, axis=1))[0]:
+        cand = np.where(np.all(mins <= hi, axis=1) & np.all(maxs >= lo, axis=1))[0]
+        for s0, s1, j in _pieces(sm, [minions[j] for j in cand], cand):
             ss = minions[j]
-            a, b = sorted((sm.locate(ss.p0), sm.locate(ss.p1)))
-            if b - a <= 1e-12:
-                continue
-            limit = reach if reach is not None else 0.5 * max(pad, lengths[j]) + 1e-12
+            near = 0.5 * max(0.25 * float(np.linalg.norm(sm.p1 - sm.p0)), lengths[j])
+            limit = reach if reach is not None else near + 1e-12
             for xq, wq in zip(gx, gw):
-                s = a + (b - a) * xq
+                s = s0 + (s1 - s0) * xq
                 p = sm.point(s)
                 t = ss.locate(p)
                 d = float(np.linalg.norm(ss.point(t) - p))
                 if d > limit:
                     continue
-                ds = wq * (b - a) * sm.speed(s)
+                ds = wq * (s1 - s0) * sm.speed(s)
                 covered += ds
                 rows.add(ds * (p[0] if axisymmetric else 1.0), p, d, (sm.shape(s), sm.dofs),
-                         (ss.shape(t), ss.dofs), (fe1.CalcShape(s), dofs1))
+                         (ss.shape(t), ss.dofs), (fe1.CalcShape(s), dofs1), d <= near + 1e-12)
     return rows.finish(V.ndof, mesh.nv, 2, vertices, covered / total if total > 0 else 0.0)
+
+
+def _pieces(sm: Segment, cands: list[Segment], index) -> list[tuple[float, float, int]]:
+    """The master segment ``sm`` cut where the candidate minion segments' ends project onto it: (s0, s1, the index
+    of the nearest minion segment whose projection covers the piece) per piece that one covers."""
+    spans = [tuple(sorted((sm.locate(ss.p0), sm.locate(ss.p1)))) for ss in cands]
+    cuts = sorted({0.0, 1.0, *[x for span in spans for x in span]})
+    out = []
+    for s0, s1 in zip(cuts, cuts[1:]):
+        if s1 - s0 <= 1e-12:
+            continue
+        mid = 0.5 * (s0 + s1)
+        p = sm.point(mid)
+        best, dist = None, np.inf
+        for ss, (a, b), j in zip(cands, spans, index):
+            if a - 1e-12 <= mid <= b + 1e-12 and b - a > 1e-12:
+                d = float(np.linalg.norm(ss.point(ss.locate(p)) - p))
+                if d < dist:
+                    best, dist = j, d
+        if best is not None:
+            out.append((s0, s1, int(best)))
+    return out
 
 
 def _quadrature_3d(mesh, V, P1, master, minion, order, reach) -> InterfaceQuadrature:
@@ -155,7 +181,8 @@ def _quadrature_3d(mesh, V, P1, master, minion, order, reach) -> InterfaceQuadra
         fe1, dofs1 = P1.GetFE(tm.ei), list(P1.GetDofNrs(tm.ei))
         vertices.update(dofs1)
         pad = max(0.1 * math.sqrt(tm.area2), reach or 0.0)
-        limit = reach if reach is not None else 0.5 * math.sqrt(tm.area2) + 1e-12
+        near = 0.5 * math.sqrt(tm.area2)
+        limit = reach if reach is not None else near + 1e-12
         lo, hi = tm.corners.min(axis=0) - pad, tm.corners.max(axis=0) + pad
         total += tm.area2 / 2
         for j in np.where(np.all(mins <= hi, axis=1) & np.all(maxs >= lo, axis=1))[0]:
@@ -182,5 +209,6 @@ def _quadrature_3d(mesh, V, P1, master, minion, order, reach) -> InterfaceQuadra
                     wt = w * jac * tm.area2
                     covered += wt
                     rows.add(wt, p, d, (tm.fe.CalcShape(ref[0], ref[1]), tm.dofs),
-                             (ts.fe.CalcShape(rs[0], rs[1]), ts.dofs), (fe1.CalcShape(ref[0], ref[1]), dofs1))
+                             (ts.fe.CalcShape(rs[0], rs[1]), ts.dofs), (fe1.CalcShape(ref[0], ref[1]), dofs1),
+                             d <= near + 1e-12)
     return rows.finish(V.ndof, mesh.nv, 3, vertices, covered / total if total > 0 else 0.0)

@@ -124,7 +124,7 @@ class InterfaceConductance:
     interface's), ``master``/``minion`` (its two boundaries), ``law`` (h_c of the closed parts or None),
     ``gap_conductivity`` (k_gap, W/(m K), or None), ``minimum_gap`` (g_min, m), ``emissivity`` (the effective
     eps, or None: no radiation), ``radiation`` ('exact' or 'linearized'), ``initial_gap`` (the sides are apart in
-    the geometry), ``reach`` (m: the farthest partner point across the gap; None between touching blocks) and
+    the geometry), ``reach`` (m: the farthest partner point on the other side; None: half an element) and
     ``kelvin`` (added to the temperatures for radiation: 273.15 in degC scenes)."""
 
     name: str
@@ -221,9 +221,11 @@ class ConductanceTerm:
         self.set_geometry()
 
     def set_geometry(self) -> None:
-        """The state of the geometry: p = 0, g = 0 between touching blocks, the distance across an initial gap."""
+        """The state of the geometry: p = 0, g = 0 where touching blocks touch (the partner within half an element),
+        else the distance to the other side."""
         self.pressure = np.zeros(self.quad.size)
-        self.gap = self.quad.distance.copy() if self.spec.initial_gap else np.zeros(self.quad.size)
+        d = self.quad.distance
+        self.gap = d.copy() if self.spec.initial_gap else np.where(self.quad.touching, 0.0, d)
         self.source = "geometry"
         self.h = self.spec.conductance(self.pressure, self.gap)
 

@@ -426,9 +426,8 @@ class HeatForms:
     def set_contact_state(self, states) -> None:
         """The contact state of the mechanics per interface name (:class:`~.conductance.ContactNodes`; None or a
         missing name: the state of the geometry) for the contact-conductance interfaces."""
-        if self.interface_terms is not None:
-            self.interface_terms.set_state(states)
-            self._bump()
+        if self.interface_terms is not None and self.interface_terms.set_state(states):
+            self.version += 1             # the step matrix changes (the mass and stiffness matrices do not)
 
     def prepare_step(self) -> None:
         """Before a solve: the lagged radiation conductances at the old temperature (steady: the current one)."""
@@ -436,7 +435,7 @@ class HeatForms:
         if terms is not None and terms.lagged_radiation:
             gf = self.gf if self.setup.steady else self.gf_old
             terms.lag(gf.vec.FV().NumPy()[:self.V.ndof])
-            self._bump()
+            self.version += 1
 
     def add_coupling(self, vec, res) -> None:
         """Add to ``res`` the interface terms at the state ``vec`` (the coupling matrix, and theta times the exact

@@ -44,16 +44,20 @@ class InterfaceTerms:
         self._C = None
         self.version += 1
 
-    def set_state(self, states: dict[str, ContactNodes] | None) -> None:
+    def set_state(self, states: dict[str, ContactNodes] | None) -> bool:
         """The contact state per interface name (the mechanics'); interfaces not in ``states`` (or None) take the
-        state of the geometry."""
+        state of the geometry. Returns whether a conductance changed."""
+        before = [t.h.copy() for t in self.terms]
         for t in self.terms:
             node = (states or {}).get(t.spec.name)
             if node is None:
                 t.set_geometry()
             else:
                 t.set_nodes(node)
+        if all(np.array_equal(h, t.h) for h, t in zip(before, self.terms)):
+            return False
         self._changed()
+        return True
 
     def lag(self, T: np.ndarray) -> None:
         """The lagged radiation conductances at the temperature dofs ``T``."""

@@ -96,8 +96,9 @@ def has_conductance(itf) -> bool:
 
 def interface_conductances(scene: Scene, geo: GeometryModel, mesh) -> dict[str, InterfaceConductance]:
     """Interface name -> :class:`InterfaceConductance` of the validated scene's contact interfaces with a
-    conductance (:func:`has_conductance`). Across an initial gap the partner points are searched up to the
-    interface's search_distance (default a quarter of the extent of its master side, as the mechanics')."""
+    conductance (:func:`has_conductance`). The partner points of the other side are searched up to the interface's
+    search_distance (default a quarter of the extent of its master side, as the mechanics'): the mechanics may
+    close parts that are apart in the geometry (a Hertz contact, an initial gap)."""
     out = {}
     byname = {i.name: i for i in scene.interfaces}
     kelvin = KELVIN if scene.scene.temperature_unit == "C" else 0.0
@@ -105,12 +106,10 @@ def interface_conductances(scene: Scene, geo: GeometryModel, mesh) -> dict[str, 
         itf = byname[name]
         if not has_conductance(itf):
             continue
-        reach = None
-        if cs.initial_gap:
-            reach = itf.search_distance
-            if reach is None:
-                pts = np.array([mesh[v].point for el in mesh.Boundaries(cs.master).Elements() for v in el.vertices])
-                reach = 0.25 * float(np.max(np.ptp(pts, axis=0)))
+        reach = itf.search_distance
+        if reach is None:
+            pts = np.array([mesh[v].point for el in mesh.Boundaries(cs.master).Elements() for v in el.vertices])
+            reach = 0.25 * float(np.max(np.ptp(pts, axis=0)))
         eps = effective_emissivity(*itf.emissivities) if itf.emissivities is not None else None
         out[name] = InterfaceConductance(
             name, cs.master, cs.minion, law=contact_law(itf.conductance, itf.conductance_coefficient,

@@ -69,8 +69,14 @@ class NodalConductances:
         it.h = it.spec.conductance(np.zeros(len(it.D)), it.gap0)
         it.source = "geometry"
 
-    def set_state(self, states: dict[str, ContactNodes] | None) -> None:
-        """The nodal contact state per interface name (None or a missing name: the geometry's)."""
+    def set_state(self, states: dict[str, ContactNodes] | None) -> bool:
+        """The nodal contact state per interface name (None or a missing name: the geometry's); returns whether a
+        conductance changed."""
+        before = [it.h.copy() for it in self.items]
+        self._set_state(states)
+        return not all(np.array_equal(h, it.h) for h, it in zip(before, self.items))
+
+    def _set_state(self, states: dict[str, ContactNodes] | None) -> None:
         for it in self.items:
             nodes = (states or {}).get(it.spec.name)
             if nodes is None:

@@ -339,10 +339,8 @@ class StefanForms:
         """The contact state of the mechanics per interface name (:class:`~ngs_geomech.heat.conductance.ContactNodes`;
         None or a missing name: the geometry's) for the contact-conductance interfaces: their matrix is assembled
         again (same pattern) and ``version`` changes."""
-        if self.conductances is None:
-            return
-        self.conductances.set_state(states)
-        self._conductances_changed()
+        if self.conductances is not None and self.conductances.set_state(states):
+            self._conductances_changed()
 
     def lag_radiation(self, T: np.ndarray) -> None:
         """The linearized radiation conductances at the nodal temperatures ``T`` (the start of a step)."""
