@@ -5,9 +5,10 @@ material, unphysical values, inconsistent settings. The declared type and range 
 (:func:`~ngs_geomech.scene.schema.recheck`), then the rules that join keys, by subject: names and temperatures
 (:mod:`.check_values`), settings (:mod:`.check_settings`, :mod:`.check_adaptivity`), materials
 (:mod:`.check_materials`) and, on the geometry (built cheaply: OCC shapes, no mesh), the names it must hold
-(:mod:`.check_geometry`), the interfaces' contact-conductance keys (:mod:`.check_conductance`), the values expressions take on it (:mod:`.expression_values`) and the material values that
-vary over their regions and the contact laws' values along their sides (:mod:`.material_values`). What distributed
-runs cannot do is :mod:`.check_distributed`.
+(:mod:`.check_geometry`), the interfaces' contact-conductance keys (:mod:`.check_conductance`), the values
+expressions take on it (:mod:`.expression_values`) and the material values that vary over their regions and the
+contact laws' values along their sides (:mod:`.material_values`). What distributed runs cannot do is
+:mod:`.check_distributed`.
 """
 
 from __future__ import annotations

@@ -59,7 +59,7 @@ SLABS = {"L1": 1.0, "L2": 0.5, "k1": 2.0, "k2": 1.0, "T_a": 100.0, "T_b": 0.0, "
 
 
 def slab_flux(h: float, L1: float, L2: float, k1: float, k2: float, T_a: float, T_b: float) -> float:
-    """q = (T_a - T_b) / (L1/k1 + 1/h + L2/k2), W/m^2 (verification.md section 8)."""
+    """The flux q = (T_a - T_b) / (L1/k1 + 1/h + L2/k2), W/m^2 (verification.md section 8)."""
     return (T_a - T_b) / (L1 / k1 + 1.0 / h + L2 / k2)
 
 
