@@ -277,3 +277,64 @@ def gap_closing(*, h: float = 50.0, gap: float = 5e-4, coupling: str = "staggere
             "warned_without_keys": any(warn in w for w in bare.summary["warnings"]),
             "warned_with_keys": any(warn in w for w in summ["warnings"]),
             "wall_s": wall, "wall_without_s": wall_bare, "steps": len(flows)}
+
+
+def gap_flux(k_gap: float | None, gap: float, eps: float | None, s: dict = SLABS, kelvin: float = 273.15) -> float:
+    """The steady flux (W/m^2) across two slabs (:data:`SLABS`) ``gap`` (m) apart that exchange heat by gas
+    conduction (k_gap / gap) and radiation (sigma eps (T_m^4 - T_s^4), absolute T): the root q of
+    q = h_g (T_m - T_s) + sigma eps (T_m^4 - T_s^4) with T_m = T_a - q L1/k1, T_s = T_b + q L2/k2."""
+    from scipy.optimize import brentq
+
+    from ..heat.conductance import STEFAN_BOLTZMANN
+    hg = k_gap / gap if k_gap else 0.0
+    se = STEFAN_BOLTZMANN * (eps or 0.0)
+
+    def f(q):
+        Tm = s["T_a"] - q * s["L1"] / s["k1"] + kelvin
+        Ts = s["T_b"] + q * s["L2"] / s["k2"] + kelvin
+        return hg * (Tm - Ts) + se * (Tm ** 4 - Ts ** 4) - q
+    top = (s["T_a"] - s["T_b"]) / (s["L1"] / s["k1"] + s["L2"] / s["k2"])
+    return brentq(f, 0.0, top, xtol=1e-14, rtol=1e-15)
+
+
+def gap_slabs_scene(*, gap: float = 1e-3, gap_conductivity: float | None = 0.03, emissivities=(0.8, 0.6),
+                    radiation: str = "exact", stefan: bool = False, maxh: float = 0.1) -> dict:
+    """Two slabs ``gap`` (m) apart (``sides``) exchanging heat across the open gap (no mechanics): steady heat, or
+    stepped to the steady state (linearized radiation, Stefan scenes)."""
+    s = SLABS
+    d = two_slabs_scene(stefan=stefan, maxh=maxh)
+    d["blocks"] = _slab_blocks("plane", s, maxh, gap)
+    itf = {"name": "joint", "blocks": ["left", "right"], "type": "contact", "sides": ["ls", "rs"],
+           "radiation": radiation}
+    if gap_conductivity is not None:
+        itf["gap_conductivity"] = gap_conductivity
+    if emissivities is not None:
+        itf["emissivities"] = list(emissivities)
+    d["interfaces"] = [itf]
+    d["scene"]["temperature_unit"] = "C"
+    if radiation == "linearized" and not stefan:
+        d["physics"]["thermal"] = "transient"
+        d["initial"] = {"temperature": 0.5 * (s["T_a"] + s["T_b"])}
+        d["time"] = {"end": 3e9, "dt": 1e8}
+    return d
+
+
+def gap_slabs(*, gap: float = 1e-3, gap_conductivity: float | None = 0.03, emissivities=(0.8, 0.6),
+              radiation: str = "exact", stefan: bool = False, maxh: float = 0.1) -> dict:
+    """Run :func:`gap_slabs_scene` and compare the flux across the gap with :func:`gap_flux`: {"q_ref", "q_num",
+    "gap_flux_rel_error", "newton_iterations_max", "wall_s"}."""
+    from ..heat.conductance import effective_emissivity
+    tic = time.perf_counter()
+    res = run_scene(scene_from_dict(gap_slabs_scene(gap=gap, gap_conductivity=gap_conductivity,
+                                                    emissivities=emissivities, radiation=radiation, stefan=stefan,
+                                                    maxh=maxh)), None, progress=False)
+    eps = effective_emissivity(*emissivities) if emissivities is not None else None
+    q_ref = gap_flux(gap_conductivity, gap, eps)
+    if stefan:
+        thermal = res.model.thermal
+        flow = thermal.forms.conductances.flows(thermal.forms.nodal_state(thermal.solver.e).T)["joint"]
+    else:
+        flow = res.summary["interface_heat_flow_W"]["ls"][-1]
+    q_num = flow / SLABS["H"]
+    return {"q_ref": q_ref, "q_num": q_num, "gap_flux_rel_error": abs(q_num - q_ref) / q_ref,
+            "newton_iterations_max": res.summary.get("newton_iterations_max"), "wall_s": time.perf_counter() - tic}
