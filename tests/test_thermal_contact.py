@@ -80,7 +80,8 @@ def test_crank_nicolson_steps_keep_the_body_balances():
     d["sources"] = [{"region": "right", "density": 50.0}]
     summ = run_scene(scene_from_dict(d), None, progress=False).summary
     bal = summ["heat_balance"]
-    print(f"\nCrank-Nicolson: imbalance {bal['imbalance_rel']:.2e}, interface heat {bal['interface_heat']['joint']:.6g} J/m")
+    print(f"\nCrank-Nicolson: imbalance {bal['imbalance_rel']:.2e}, interface heat "
+          f"{bal['interface_heat']['joint']:.6g} J/m")
     assert bal["imbalance_rel"] <= 1e-8
     assert bal["bodies"]["left"]["interface_heat_in"] == pytest.approx(-bal["interface_heat"]["joint"])
 
@@ -168,3 +169,33 @@ def test_scenes_without_the_keys_keep_the_mortar_coupling():
         assert "heat_balance" not in r.summary and "interface_conductance" not in r.summary
     a, b = (r.model.thermal.forms.gf.vec.FV().NumPy() for r in runs.values())
     assert np.array_equal(a, b)
+
+
+def test_a_coupled_conductance_run_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch):
+    """The gap-closing scene fails in its mechanics at step 6; resumed from the checkpoint it gives the
+    uninterrupted run's interface flows and energy balance (the contact state comes back from the recorded
+    mechanics)."""
+    from ngs_geomech.errors import SolverError
+    from ngs_geomech.mechanics.contact import ElasticContactSolver
+
+    d = tc.gap_closing_scene(end=2e6)
+    d["output"]["checkpoint_every"] = 2
+    ref = run_scene(scene_from_dict(d), tmp_path / "REF", progress=False).summary
+    original = ElasticContactSolver.solve
+    calls = {"n": 0}
+
+    def solve(self, where):
+        calls["n"] += 1
+        if calls["n"] == 7:
+            raise SolverError(f"contact solve at {where} diverged (injected)")
+        return original(self, where)
+    monkeypatch.setattr(ElasticContactSolver, "solve", solve)
+    with pytest.raises(SolverError):
+        run_scene(scene_from_dict(d), tmp_path / "DIR", progress=False)
+    monkeypatch.undo()
+    res = run_scene(scene_from_dict(d), tmp_path / "DIR", progress=False, resume=True).summary
+    assert res["resumed"]
+    assert res["interface_heat_flow_W"]["ls"] == pytest.approx(ref["interface_heat_flow_W"]["ls"], rel=1e-10)
+    for body, terms in ref["heat_balance"]["bodies"].items():
+        assert res["heat_balance"]["bodies"][body]["interface_heat_in"] == pytest.approx(
+            terms["interface_heat_in"], rel=1e-10)

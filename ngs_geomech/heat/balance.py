@@ -127,6 +127,15 @@ class HeatBalance:
         """Keep the terms of a step (:meth:`measure`)."""
         self.steps.append(terms)
 
+    def as_data(self, n: int) -> list[dict]:
+        """The first ``n`` steps' terms as JSON data (a checkpoint's)."""
+        return [{k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in s.items()} for s in self.steps[:n]]
+
+    def from_data(self, data: list[dict]) -> None:
+        """The steps' terms of :meth:`as_data` back."""
+        self.steps[:] = [{k: (np.asarray(v, dtype=float) if isinstance(v, list) else v) for k, v in s.items()}
+                         for s in data]
+
     @staticmethod
     def _apply(mat, x: np.ndarray) -> np.ndarray:
         vec = mat.CreateColVector()

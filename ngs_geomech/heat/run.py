@@ -186,11 +186,15 @@ class HeatRun(ThermalPart):
     # -- checkpoints ----------------------------------------------------------------------------------------
     def capture(self) -> tuple[dict, dict]:
         return ({"heat": np.array(self.forms.gf.vec.FV().NumPy())},
-                {"steps": len(self.newton_iterations), "flows": {n: len(v) for n, v in self.flows.items()}})
+                {"steps": len(self.newton_iterations), "flows": {n: len(v) for n, v in self.flows.items()},
+                 "balance": len(self.balance.steps) if self.balance is not None else 0})
 
     def meta(self, lengths: dict) -> dict:
-        return {"newton_iterations": self.newton_iterations[:lengths["steps"]],
-                "flows": {n: v[:lengths["flows"].get(n, 0)] for n, v in self.flows.items()}}
+        out = {"newton_iterations": self.newton_iterations[:lengths["steps"]],
+               "flows": {n: v[:lengths["flows"].get(n, 0)] for n, v in self.flows.items()}}
+        if self.balance is not None:
+            out["balance"] = self.balance.as_data(lengths["balance"])
+        return out
 
     def restore(self, arrays: dict, meta: dict) -> None:
         self.forms.gf.vec.FV().NumPy()[:] = arrays["heat"]
@@ -198,6 +202,8 @@ class HeatRun(ThermalPart):
         self.newton_iterations[:] = meta["newton_iterations"]
         self.flows.clear()
         self.flows.update(meta["flows"])
+        if self.balance is not None:
+            self.balance.from_data(meta.get("balance", []))
 
     # -- reporting ------------------------------------------------------------------------------------------
     @property

@@ -449,8 +449,8 @@ class StefanRun(ThermalPart):
         over to this mesh with the heat content changed by ``heat_change`` (J per m of depth, or J)."""
         self.initial_heat = old.initial_heat
         self.halvings = old.halvings
-        for name in ("iterations", "newton_iterations", "dirichlet_heat", "source_heat", "_steps_at_record",
-                     "transfers"):
+        for name in ("iterations", "newton_iterations", "dirichlet_heat", "source_heat", "interface_heat",
+                     "_steps_at_record", "transfers"):
             setattr(self, name, getattr(old, name))
         self.records = old.records
         self.transfers.append((len(self.records["time_s"]), float(heat_change)))
@@ -467,6 +467,7 @@ class StefanRun(ThermalPart):
         n, k = lengths["steps"], lengths["records"]
         rec = self.records
         return {"initial_heat": self.initial_heat, "iterations": self.iterations[:n],
+                "interface_heat": self.interface_heat[:n],
                 "newton_iterations": self.newton_iterations[:lengths["newton"]],
                 "dirichlet_heat": self.dirichlet_heat[:n], "source_heat": self.source_heat[:n],
                 "steps_at_record": self._steps_at_record[:k],
@@ -481,6 +482,7 @@ class StefanRun(ThermalPart):
         self.newton_iterations[:] = [int(i) for i in meta["newton_iterations"]]
         self.dirichlet_heat[:] = [float(v) for v in meta["dirichlet_heat"]]
         self.source_heat[:] = [float(v) for v in meta["source_heat"]]
+        self.interface_heat[:] = meta.get("interface_heat", [])
         self._steps_at_record[:] = [int(v) for v in meta["steps_at_record"]]
         r = meta["records"]
         self.records["time_s"][:] = r["time_s"]
