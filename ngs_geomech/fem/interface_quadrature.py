@@ -93,6 +93,30 @@ class _Rows:
                                    np.array(sorted(vertices), dtype=int), covered, np.array(self.near, dtype=bool))
 
 
+def _outward(mesh, nr: int, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centroid, unit outward normal) of boundary element ``nr`` with the vertex coordinates ``corners``: the
+    normal of its (flat) element pointing away from the volume element behind it."""
+    el = mesh[ngs.ElementId(ngs.BND, nr)]
+    node = el.edges[0] if mesh.dim == 2 else el.faces[0]
+    vol = mesh[mesh[node].elements[0]]
+    inner = np.mean([mesh[v].point[:mesh.dim] for v in vol.vertices], axis=0)
+    c = corners.mean(axis=0)
+    if mesh.dim == 2:
+        d = corners[1] - corners[0]
+        n = np.array([-d[1], d[0]])
+    else:
+        n = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+    n = n / np.linalg.norm(n)
+    return c, (n if float(np.dot(n, c - inner)) >= 0 else -n)
+
+
+def _in_front(cm: np.ndarray, nm: np.ndarray, cs: np.ndarray, size: float) -> bool:
+    """Whether a minion element with centroid ``cs`` lies on the outer side of a master element (centroid ``cm``,
+    outward normal ``nm``, size ``size``), up to half its size (touching sides of curved interfaces cross): the
+    elements behind it (the far side of a canister) are not its partners."""
+    return float(np.dot(cs - cm, nm)) >= -0.5 * size
+
+
 def interface_quadrature(mesh, V, master: str, minion: str, *, order: int, axisymmetric: bool = False,
                          reach: float | None = None) -> InterfaceQuadrature:
     """The points of the interface between the boundaries ``master`` and ``minion`` (module docstring) for the
@@ -124,7 +148,10 @@ def _quadrature_2d(mesh, V, P1, master, minion, order, axisymmetric, reach) -> I
         pad = max(0.25 * float(np.linalg.norm(sm.p1 - sm.p0)), reach or 0.0)
         lo, hi = np.minimum(sm.p0, sm.p1) - pad, np.maximum(sm.p0, sm.p1) + pad
         total += sum(gw[k] * sm.speed(gx[k]) for k in range(len(gx)))
-        cand = np.where(np.all(mins <= hi, axis=1) & np.all(maxs >= lo, axis=1))[0]
+        cm, nm = _outward(mesh, sm.ei.nr, np.array([sm.p0, sm.p1]))
+        size = float(np.linalg.norm(sm.p1 - sm.p0))
+        cand = [j for j in np.where(np.all(mins <= hi, axis=1) & np.all(maxs >= lo, axis=1))[0]
+                if _in_front(cm, nm, 0.5 * (minions[j].p0 + minions[j].p1), size)]
         for s0, s1, j in _pieces(sm, [minions[j] for j in cand], cand):
             ss = minions[j]
             near = 0.5 * max(0.25 * float(np.linalg.norm(sm.p1 - sm.p0)), lengths[j])
@@ -185,10 +212,12 @@ def _quadrature_3d(mesh, V, P1, master, minion, order, reach) -> InterfaceQuadra
         limit = reach if reach is not None else near + 1e-12
         lo, hi = tm.corners.min(axis=0) - pad, tm.corners.max(axis=0) + pad
         total += tm.area2 / 2
+        cm, nm = _outward(mesh, tm.ei.nr, tm.corners)
         for j in np.where(np.all(mins <= hi, axis=1) & np.all(maxs >= lo, axis=1))[0]:
             ts = minions[j]
-            if abs(float(np.dot(ts.normal, tm.normal))) < 0.5:
-                continue  # not opposite (another face of the interface)
+            if abs(float(np.dot(ts.normal, tm.normal))) < 0.5 or \
+                    not _in_front(cm, nm, ts.corners.mean(axis=0), math.sqrt(tm.area2)):
+                continue  # not opposite (another face of the interface, or behind the master triangle)
             poly = np.array([tm.reference(c) for c in ts.corners])
             if (poly[1, 0] - poly[0, 0]) * (poly[2, 1] - poly[0, 1]) - \
                     (poly[1, 1] - poly[0, 1]) * (poly[2, 0] - poly[0, 0]) < 0:
