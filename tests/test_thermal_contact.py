@@ -128,6 +128,7 @@ BASE = tc.two_slabs_scene()
     ({"conductance_exponent": 0.9}, "conductance_coefficient", "needs both"),
     ({"conductance": "perfect", "gap_conductivity": 0.1}, "gap_conductivity", "nothing adds"),
     ({"radiation": "linearized"}, "radiation", "emissivities"),
+    ({"conductance": 5.0, "minimum_gap": 1e-5}, "minimum_gap", "gap_conductivity"),
     ({"emissivities": [0.5, 1.5]}, "emissivities", "(0, 1]"),
     ({"type": "glued", "conductance": 3.0}, "conductance", "contact interfaces"),
 ])
@@ -145,6 +146,13 @@ def test_perfect_contact_across_an_initial_gap_is_refused():
     d = tc.gap_slabs_scene(gap_conductivity=None, emissivities=None)
     d["interfaces"][0]["conductance"] = "perfect"
     with pytest.raises(SceneError, match="needs touching blocks"):
+        validate(scene_from_dict(d))
+
+
+def test_a_contact_conductance_across_a_gap_nothing_closes_is_refused():
+    d = tc.gap_slabs_scene(gap_conductivity=None, emissivities=None)
+    d["interfaces"][0]["conductance"] = 50.0
+    with pytest.raises(SceneError, match="would never act"):
         validate(scene_from_dict(d))
 
 

@@ -94,9 +94,15 @@ def has_conductance(itf) -> bool:
             or itf.gap_conductivity is not None or itf.emissivities is not None)
 
 
-def interface_conductances(scene: Scene, geo: GeometryModel, mesh) -> dict[str, InterfaceConductance]:
+MINIMUM_GAP = 1e-6
+"""The default gap floor g_min of k_gap / max(g, g_min), m."""
+
+
+def interface_conductances(scene: Scene, geo: GeometryModel, mesh,
+                           radiation: str = "exact") -> dict[str, InterfaceConductance]:
     """Interface name -> :class:`InterfaceConductance` of the validated scene's contact interfaces with a
-    conductance (:func:`has_conductance`). The partner points of the other side are searched up to the interface's
+    conductance (:func:`has_conductance`); ``radiation`` is the default way radiation enters (exact in heat
+    scenes, linearized in Stefan ones). The partner points of the other side are searched up to the interface's
     search_distance (default a quarter of the extent of its master side, as the mechanics'): the mechanics may
     close parts that are apart in the geometry (a Hertz contact, an initial gap)."""
     out = {}
@@ -114,8 +120,9 @@ def interface_conductances(scene: Scene, geo: GeometryModel, mesh) -> dict[str, 
         out[name] = InterfaceConductance(
             name, cs.master, cs.minion, law=contact_law(itf.conductance, itf.conductance_coefficient,
                                                         itf.conductance_exponent),
-            gap_conductivity=itf.gap_conductivity, minimum_gap=itf.minimum_gap, emissivity=eps,
-            radiation=itf.radiation, initial_gap=cs.initial_gap, reach=reach, kelvin=kelvin)
+            gap_conductivity=itf.gap_conductivity,
+            minimum_gap=itf.minimum_gap if itf.minimum_gap is not None else MINIMUM_GAP, emissivity=eps,
+            radiation=itf.radiation or radiation, initial_gap=cs.initial_gap, reach=reach, kelvin=kelvin)
     return out
 
 

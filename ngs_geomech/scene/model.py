@@ -289,17 +289,19 @@ class Interface(ContactMechanics):
                                            doc="conductivity k_gap of the gap's fill (gas, water), W/(m K): the "
                                                "interface passes k_gap / max(g, minimum_gap) (W/(m^2 K)) more, g "
                                                "the gap (m)")
-    minimum_gap: float = field(positive(number, "m"), 1e-6,
-                               doc="the gap floor g_min of k_gap / max(g, g_min), m (about the surfaces' "
-                                   "roughness): a closed or nearly closed interface conducts as a gap of g_min")
+    minimum_gap: float | None = field(optional(positive(number, "m")), None,
+                                      doc="the gap floor g_min of k_gap / max(g, g_min), m (about the surfaces' "
+                                          "roughness; default 1e-6 m): a closed or nearly closed interface "
+                                          "conducts as a gap of g_min")
     emissivities: list | None = field(optional(list_of(bounded(number, 0, 1, lo_open=True), 2)), None,
                                       doc="radiation between the faces: [emissivity of the master side, of the "
                                           "minion side] (in (0, 1]); q_rad = sigma eps (T_m^4 - T_s^4), eps = "
                                           "1/(1/e1 + 1/e2 - 1), T absolute")
-    radiation: str = field(one_of("exact", "linearized"), "exact",
-                           doc="with emissivities: 'exact' (T^4 in Newton's method; heat scenes) or 'linearized' "
-                               "(h_rad = sigma eps (T_m^2 + T_s^2)(T_m + T_s) at the temperatures of the start of "
-                               "the step; required in Stefan scenes)")
+    radiation: str | None = field(optional(one_of("exact", "linearized")), None,
+                                  doc="with emissivities: 'exact' (T^4 in Newton's method; the default in heat "
+                                      "scenes) or 'linearized' (h_rad = sigma eps (T_m^2 + T_s^2)(T_m + T_s) at the "
+                                      "temperatures of the start of the step; the default and the only choice in "
+                                      "Stefan scenes)")
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -107,7 +107,7 @@ def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> Stefan
     interfaces heat passes through (touching blocks; the jump penalty of :mod:`ngs_geomech.stefan.forms`)."""
     setup = StefanSetup(materials=stefan_materials(scene), pressure_coefficients=pressure_coefficients(scene))
     if geo is not None:
-        conducting = interface_conductances(scene, geo, mesh)      # contact conductance instead of the penalty
+        conducting = interface_conductances(scene, geo, mesh, radiation="linearized")   # instead of the penalty
         setup.conductances = list(conducting.values())
         penalty = {itf.name: itf.thermal_penalty for itf in scene.interfaces}
         setup.interfaces = [(cs.master, cs.minion, penalty.get(cs.name) or DEFAULT_INTERFACE_PENALTY)

@@ -19,8 +19,11 @@ def check_conductance(scene: Scene, geo: GeometryModel, problems: list[Problem])
     """The contact-conductance keys of every interface (module docstring)."""
     for i, itf in enumerate(scene.interfaces):
         given = [k for k in KEYS if getattr(itf, k) is not None]
-        if itf.radiation != "exact" and itf.emissivities is None:
+        if itf.radiation is not None and itf.emissivities is None:
             problems.append(Problem(f"interfaces[{i}] ({itf.name}).radiation", "applies with emissivities only"))
+        if itf.minimum_gap is not None and itf.gap_conductivity is None:
+            problems.append(Problem(f"interfaces[{i}] ({itf.name}).minimum_gap", "applies with gap_conductivity "
+                                    "only (the floor of k_gap / g)"))
         if not given:
             continue
         p = f"interfaces[{i}] ({itf.name})"
@@ -33,7 +36,7 @@ def check_conductance(scene: Scene, geo: GeometryModel, problems: list[Problem])
             problems.append(Problem(f"{p}.{given[0]}", "the scene solves no heat problem (physics.thermal is off)"))
             continue
         _check_law(scene, itf, p, cs.initial_gap, problems)
-        if itf.emissivities is not None and itf.radiation == "exact" and stefan_scene(scene):
+        if itf.radiation == "exact" and stefan_scene(scene):
             problems.append(Problem(f"{p}.radiation", "'exact' radiation needs Newton's method on T^4, which the "
                                     "phase-change (Stefan) solver does not take: set radiation = 'linearized'"))
         if itf.thermal_penalty is not None and itf.conductance != "perfect":
@@ -59,6 +62,11 @@ def _check_law(scene: Scene, itf: Interface, p: str, initial_gap: bool, problems
                                 "number (conductance)"))
     if isinstance(c, list):
         _check_table(c, f"{p}.conductance", problems)
+    if (initial_gap and c not in (None, "perfect") and itf.gap_conductivity is None and itf.emissivities is None
+            and not _follows_mechanics(scene)):
+        problems.append(Problem(f"{p}.conductance", "the interface has an initial gap and nothing closes it (no "
+                                "mechanics coupled to the heat problem): the contact conductance would never act; "
+                                "add gap_conductivity or emissivities for the open gap, or couple the mechanics"))
     if c == "perfect":
         others = [k for k in ("conductance_coefficient", "gap_conductivity", "emissivities")
                   if getattr(itf, k) is not None]

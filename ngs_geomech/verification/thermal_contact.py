@@ -304,12 +304,12 @@ def gap_slabs_scene(*, gap: float = 1e-3, gap_conductivity: float | None = 0.03,
     s = SLABS
     d = two_slabs_scene(stefan=stefan, maxh=maxh)
     d["blocks"] = _slab_blocks("plane", s, maxh, gap)
-    itf = {"name": "joint", "blocks": ["left", "right"], "type": "contact", "sides": ["ls", "rs"],
-           "radiation": radiation}
+    itf = {"name": "joint", "blocks": ["left", "right"], "type": "contact", "sides": ["ls", "rs"]}
     if gap_conductivity is not None:
         itf["gap_conductivity"] = gap_conductivity
     if emissivities is not None:
         itf["emissivities"] = list(emissivities)
+        itf["radiation"] = radiation
     d["interfaces"] = [itf]
     d["scene"]["temperature_unit"] = "C"
     if radiation == "linearized" and not stefan:
