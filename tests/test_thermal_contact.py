@@ -207,3 +207,33 @@ def test_a_coupled_conductance_run_resumes_to_the_uninterrupted_result(tmp_path,
     for body, terms in ref["heat_balance"]["bodies"].items():
         assert res["heat_balance"]["bodies"][body]["interface_heat_in"] == pytest.approx(
             terms["interface_heat_in"], rel=1e-10)
+
+
+def test_the_balance_continues_across_a_mesh_transfer():
+    """A heat run carried to a finer mesh (as contact-zone following does): the flows and the body balances go
+    on, the heat content the interpolation changed counted per body."""
+    import dataclasses
+
+    from ngs_geomech.geometry.mesh import make_mesh
+    from ngs_geomech.heat.run import HeatRun
+    from ngs_geomech.parts import Step
+
+    d = tc.two_slabs_scene(h=20.0)
+    d["physics"]["thermal"] = "transient"
+    d["initial"] = {"temperature": 0.0}
+    d["time"] = {"end": 1e6, "dt": 1e5}
+    scene = scene_from_dict(d)
+    geo = validate(scene)
+    old = HeatRun(scene, geo, make_mesh(geo, scene.mesh))
+    old.start(0.0, "start")
+    for k in range(3):
+        old.advance(Step(k * 1e5, (k + 1) * 1e5, k, False, f"step {k}"))
+    fine = make_mesh(geo, dataclasses.replace(scene.mesh, maxh=0.05), [(1.0, 0.2, 0.0, 0.03)])
+    new = HeatRun(scene, geo, fine)
+    _, _, commit = new.take_state(old, None)
+    commit()
+    for k in range(3, 6):
+        new.advance(Step(k * 1e5, (k + 1) * 1e5, k, False, f"step {k}"))
+    bal = new.summary()["heat_balance"]
+    assert len(new.flows["joint__left"]) == 6
+    assert bal["imbalance_rel"] <= 1e-8 and bal["bodies"]["left"]["heat_transferred"] != 0.0

@@ -79,10 +79,26 @@ class HeatBalance:
         f = self.f
         th = f.theta.Get()
         c = f.capacity(th * T1 + (1 - th) * T0) if f.setup.capacity_uses_temperature else f.rho_c
+        return self._per_body(c * (T1 - T0))
+
+    def _per_body(self, cf) -> np.ndarray:
+        f = self.f
         order = 2 * f.setup.order + 1
-        return np.array([self.scale * float(ngs.Integrate(f.weight * c * (T1 - T0), f.mesh, order=order,
+        return np.array([self.scale * float(ngs.Integrate(f.weight * cf, f.mesh, order=order,
                                                           definedon=f.mesh.Materials("|".join(f"^{r}$" for r in b))))
                          for b in self.bodies])
+
+    def contents(self, T) -> np.ndarray:
+        """int_b rho c T dx per body (J; rho c at T when it depends on T), for the change of a mesh transfer."""
+        f = self.f
+        return self._per_body((f.capacity(T) if f.setup.capacity_uses_temperature else f.rho_c) * T)
+
+    def record_transfer(self, moved: np.ndarray) -> None:
+        """The heat content a transfer to another mesh changed per body (J): counted as a gain with its own term."""
+        zero = np.zeros(len(self.bodies))
+        self.steps.append({"gain": np.asarray(moved, dtype=float), "dirichlet": zero, "loads": zero, "robin": zero,
+                           "interface": zero, "transfer": np.asarray(moved, dtype=float), "flows": {},
+                           "steady": False})
 
     def measure(self, dt: float | None, flows: dict[str, tuple[str, str, float]]) -> dict:
         """The terms of the step just solved (for :meth:`record` once the step is kept): ``dt`` (s; None for a
@@ -151,20 +167,25 @@ class HeatBalance:
             return {}
         steady = self.steps[-1]["steady"]
         steps = [s for s in self.steps if s["steady"] == steady]
-        total = {k: np.sum([s[k] for s in steps], axis=0) for k in ("gain", "dirichlet", "loads", "robin",
-                                                                     "interface")}
+        zero = np.zeros(len(self.bodies))
+        total = {k: np.sum([s.get(k, zero) for s in steps], axis=0)
+                 for k in ("gain", "dirichlet", "loads", "robin", "interface", "transfer")}
         out, worst = {}, 0.0
         for k, label in enumerate(self.labels):
-            terms = [total[n][k] for n in ("gain", "dirichlet", "loads", "robin", "interface")]
+            terms = [total[n][k] for n in ("gain", "dirichlet", "loads", "robin", "interface", "transfer")]
             scale = max(max(abs(t) for t in terms), 1e-300)
-            imb = abs(terms[0] - terms[1] - terms[2] + terms[3] - terms[4]) / scale
+            imb = abs(terms[0] - terms[1] - terms[2] + terms[3] - terms[4] - terms[5]) / scale
             worst = max(worst, imb)
             out[label] = {"heat_gain": float(terms[0]), "dirichlet_heat": float(terms[1]),
                           "sources_fluxes": float(terms[2]), "robin_loss": float(terms[3]),
                           "interface_heat_in": float(terms[4]), "imbalance_rel": float(imb)}
-        flows = {n: float(sum(s["flows"][n] for s in steps)) for n in steps[-1]["flows"]}
+            if any(("transfer" in s) for s in steps):
+                out[label]["heat_transferred"] = float(terms[5])
+        names = dict.fromkeys(n for s in steps for n in s["flows"])
+        flows = {n: float(sum(s["flows"].get(n, 0.0) for s in steps)) for n in names}
         unit = ("W" if steady else "J") + (" per m of depth" if self.f.mesh.dim == 2 and not
                                            self.f.setup.axisymmetric else "")
-        return {"units": unit, "bodies": out, "interface_heat": flows, "imbalance_rel": worst,
-                "note": "per body: heat_gain = dirichlet_heat + sources_fluxes - robin_loss + interface_heat_in; "
-                        "interface_heat: master -> minion" + (" (steady: powers)" if steady else "")}
+        return {"units": unit, "bodies": out, "interface_heat": flows, "imbalance_rel": float(worst),
+                "note": "per body: heat_gain = dirichlet_heat + sources_fluxes - robin_loss + interface_heat_in "
+                        "(+ heat_transferred by mesh transfers); interface_heat: master -> minion"
+                        + (" (steady: powers)" if steady else "")}

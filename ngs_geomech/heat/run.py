@@ -181,7 +181,17 @@ class HeatRun(ThermalPart):
         w = 2 * np.pi * ngs.x if self.axisymmetric else 1.0
         before = float(ngs.Integrate(w * old.forms.rho_c * old.T, old.mesh))
         after = float(ngs.Integrate(w * self.forms.rho_c * self.T, self.mesh))
-        return before, after, None
+        if self.balance is None or old.balance is None or t0 is not None:
+            return before, after, None
+        moved = self.balance.contents(self.T) - old.balance.contents(old.T)
+        return before, after, lambda: self._adopt(old, moved)
+
+    def _adopt(self, old: HeatRun, moved: np.ndarray) -> None:
+        """Continue ``old``'s flows and energy balance here (contact-conductance runs), the heat content the
+        transfer changed per body (``moved``, J) counted in the balance."""
+        self.flows = old.flows
+        self.balance.steps = old.balance.steps
+        self.balance.record_transfer(moved)
 
     # -- checkpoints ----------------------------------------------------------------------------------------
     def capture(self) -> tuple[dict, dict]:
