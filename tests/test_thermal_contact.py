@@ -49,11 +49,12 @@ def test_heat_across_a_hertz_contact_follows_the_pressure_law():
     assert errs[1] <= 1e-2 and errs[1] < errs[0]
 
 
-def test_a_gap_closed_by_thermal_expansion_carries_heat_and_the_balance_closes():
-    r = tc.gap_closing()
-    print(f"\ngap closing: closed at mechanics solve {r['closing_step']}, flow while open {r['flow_while_open']}, "
-          f"after {r['flow_after_closing']:.4g}, steady {r['flow_final']:.10g} (closed form {r['flow_ref']:.10g}), "
-          f"imbalance {r['energy_imbalance_rel']:.2e}")
+@pytest.mark.parametrize("coupling", ["staggered", "iterated"])
+def test_a_gap_closed_by_thermal_expansion_carries_heat_and_the_balance_closes(coupling):
+    r = tc.gap_closing(coupling=coupling)
+    print(f"\ngap closing ({coupling}): closed at mechanics solve {r['closing_step']}, flow while open "
+          f"{r['flow_while_open']}, after {r['flow_after_closing']:.4g}, steady {r['flow_final']:.10g} (closed form "
+          f"{r['flow_ref']:.10g}), imbalance {r['energy_imbalance_rel']:.2e}")
     assert r["closing_step"] is not None and r["closing_step"] > 0
     assert r["flow_while_open"] == 0.0 and r["flow_after_closing"] > 0
     assert r["steady_flow_rel_error"] <= 1e-8

@@ -244,12 +244,13 @@ def gap_closing_scene(*, h: float | None = 50.0, gap: float = 5e-4, coupling: st
 def gap_closing(*, h: float = 50.0, gap: float = 5e-4, coupling: str = "staggered", maxh: float = 0.1) -> dict:
     """Run :func:`gap_closing_scene` with the conductance h and without conductance keys (module docstring).
 
-    Returns {"closing_step" (the first mechanics solve with contact pressure; the heat step after it is the first to
-    see it), "flow_while_open" (the largest |flow| before, W per m of depth), "flow_after_closing" (the flow of the
-    step after), "flow_final", "flow_ref" (the two-slab closed form times the height), "steady_flow_rel_error",
-    "max_pressure_Pa", "energy_imbalance_rel" (the largest of the bodies', ``heat_balance``), "warned_without_keys"
-    (the run without conductance keys warns that the closed interface carries no heat), "warned_with_keys" (the
-    run with them does not), "wall_s" (the run with the conductance), "wall_without_s", "steps"}."""
+    Returns {"closing_step" (the first mechanics solve with contact pressure, 0 the start's), "flow_while_open" (the
+    largest |flow| of the heat steps that saw the interface open, W per m of depth), "flow_after_closing" (the flow
+    of the first heat step that saw it closed), "flow_final", "flow_ref" (the two-slab closed form times the
+    height), "steady_flow_rel_error", "max_pressure_Pa", "energy_imbalance_rel" (the largest of the bodies',
+    ``heat_balance``), "warned_without_keys" (the run without conductance keys warns that the closed interface
+    carries no heat), "warned_with_keys" (the run with them does not), "wall_s" (the run with the conductance),
+    "wall_without_s", "steps"}."""
     s = SLABS
     tic = time.perf_counter()
     res = run_scene(scene_from_dict(gap_closing_scene(h=h, gap=gap, coupling=coupling, maxh=maxh)), None,
@@ -264,12 +265,14 @@ def gap_closing(*, h: float = 50.0, gap: float = 5e-4, coupling: str = "staggere
     pressures = [e["joint"]["max_pressure_Pa"] for e in history]
     closing = next((k for k, p in enumerate(pressures) if p > 0), None)
     flows = summ["interface_heat_flow_W"]["ls"]
-    # history[0] is the start's solve: heat step k saw the mechanics of solve k (the previous step's end)
-    open_steps = flows[:closing] if closing is not None else flows
+    # history[0] is the start's solve: heat step k saw the mechanics of solve k (the previous step's end;
+    # staggered) or k + 1 (its own end, the iterated step's last pass)
+    first = None if closing is None else closing - (0 if coupling == "staggered" else 1)
+    open_steps = flows[:first] if first is not None else flows
     q_ref = slab_flux(h, s["L1"], s["L2"], s["k1"], s["k2"], s["T_a"], s["T_b"]) * s["H"]
     warn = "the mechanics closes it"
     return {"closing_step": closing, "flow_while_open": float(np.max(np.abs(open_steps), initial=0.0)),
-            "flow_after_closing": float(flows[closing]) if closing is not None and closing < len(flows) else None,
+            "flow_after_closing": float(flows[first]) if first is not None and first < len(flows) else None,
             "flow_final": float(flows[-1]), "flow_ref": q_ref, "steady_flow_rel_error": abs(flows[-1] - q_ref) / q_ref,
             "max_pressure_Pa": float(max(pressures)),
             "energy_imbalance_rel": float(summ["heat_balance"]["imbalance_rel"]),
@@ -338,3 +341,37 @@ def gap_slabs(*, gap: float = 1e-3, gap_conductivity: float | None = 0.03, emiss
     q_num = flow / SLABS["H"]
     return {"q_ref": q_ref, "q_num": q_num, "gap_flux_rel_error": abs(q_num - q_ref) / q_ref,
             "newton_iterations_max": res.summary.get("newton_iterations_max"), "wall_s": time.perf_counter() - tic}
+
+
+def hertz_conductance_convergence(*, exponent: float = 0.95, order: int = 2, divisions=(10, 20)) -> dict:
+    """:func:`hertz_conductance` with the contact element size a/n for n in ``divisions``: {"h_contact" (m),
+    "errors" (pressure_conductance_rel_error per mesh), "observed_order" (log-log slope between the last two),
+    "pressure_conductance_rel_error" (the finest)}."""
+    a = R_HERTZ / 50
+    runs = [hertz_conductance(exponent=exponent, h_contact=a / n, order=order) for n in divisions]
+    errs = [r["pressure_conductance_rel_error"] for r in runs]
+    hs = [r["h_contact"] for r in runs]
+    slope = math.log(errs[-2] / errs[-1]) / math.log(hs[-2] / hs[-1]) if len(errs) > 1 else float("nan")
+    return {"h_contact": hs, "errors": errs, "observed_order": slope, "pressure_conductance_rel_error": errs[-1]}
+
+
+def figures() -> dict:
+    """The issue's figures of this module in one dict: ``conductance_rel_error`` (the largest of the two-slab
+    runs: heat plane P1 and P2, axisymmetric, 3D, Stefan plane and 3D), ``pressure_conductance_rel_error`` (the
+    Hertz contact, h = C p^0.95, P2, a/20) with its ``pressure_conductance_observed_order``, the gap closing's
+    ``energy_imbalance_rel`` and ``gap_closing_steady_flow_rel_error``, and ``gap_flux_rel_error`` (gas
+    conduction and exact radiation across an open gap)."""
+    slabs = [two_slabs(), two_slabs(order=2), two_slabs(dimension="axisymmetric"),
+             two_slabs(dimension="3d", maxh=0.2), two_slabs(stefan=True), two_slabs(stefan=True, dimension="3d",
+                                                                                   maxh=0.2)]
+    hertz = hertz_conductance_convergence()
+    gap = gap_closing()
+    return {"conductance_rel_error": max(r["conductance_rel_error"] for r in slabs),
+            "conductance_rel_error_stefan": max(r["conductance_rel_error"] for r in slabs[4:]),
+            "pressure_conductance_rel_error": hertz["pressure_conductance_rel_error"],
+            "pressure_conductance_observed_order": hertz["observed_order"],
+            "energy_imbalance_rel": gap["energy_imbalance_rel"],
+            "gap_closing_steady_flow_rel_error": gap["steady_flow_rel_error"],
+            "gap_closing_flow_while_open": gap["flow_while_open"],
+            "gap_closing_warned_without_keys": gap["warned_without_keys"],
+            "gap_flux_rel_error": gap_slabs()["gap_flux_rel_error"]}
