@@ -62,6 +62,20 @@ def test_a_gap_closed_by_thermal_expansion_carries_heat_and_the_balance_closes(c
     assert r["warned_without_keys"] and not r["warned_with_keys"]
 
 
+def test_a_gap_closed_by_thermal_expansion_conducts_in_a_stefan_scene():
+    """The gap-closing scene solved by the Stefan solver (solid slabs): the conductance follows the mechanics there
+    too, the interface passes heat, and the Stefan energy balance closes."""
+    res = run_scene(scene_from_dict(tc.gap_closing_scene(stefan=True)), None, progress=False).summary
+    st = res["stefan"]
+    q_ref = tc.slab_flux(50.0, *(tc.SLABS[k] for k in ("L1", "L2", "k1", "k2", "T_a", "T_b"))) * tc.SLABS["H"]
+    print(f"\nStefan gap closing: interface heat {st['interface_heat']['joint']:.6g} J/m, conductance "
+          f"{st['interface_conductance']['joint']}, imbalance {st['energy']['imbalance_rel']:.2e}")
+    assert st["interface_conductance"]["joint"]["state"] == "mechanics"
+    assert st["interface_conductance"]["joint"]["conductance_min"] == 50.0
+    assert st["interface_heat"]["joint"] > 0.9 * q_ref * 9e8 and st["energy"]["imbalance_rel"] <= 1e-8
+    assert not any("the mechanics closes it" in w for w in res["warnings"])
+
+
 @pytest.mark.parametrize("kw", [{}, {"emissivities": None}, {"gap_conductivity": None},
                                 {"radiation": "linearized"}, {"stefan": True, "radiation": "linearized"}])
 def test_gas_conduction_and_radiation_across_an_open_gap(kw):

@@ -212,11 +212,12 @@ def hertz_conductance(*, h_contact: float = None, exponent: float = 0.5, C: floa
 
 
 def gap_closing_scene(*, h: float | None = 50.0, gap: float = 5e-4, coupling: str = "staggered",
-                      maxh: float = 0.1, dt: float = 2e4, end: float = 1e9) -> dict:
+                      maxh: float = 0.1, dt: float = 2e4, end: float = 1e9, stefan: bool = False) -> dict:
     """The scene dict of :func:`gap_closing` (degC; ``h`` None: the interface without conductance keys). The slabs
     of :data:`SLABS` ``gap`` (m) apart, held by rollers (u_x = 0 on the outer faces, u_y = 0 on the bottoms), so
     the contact closes uniformly; E = 10 GPa, nu = 0.25, alpha = 1e-5 1/K, stress-free and initial temperature
-    T_b. Steps from ``dt`` (s) growing by 1.5 up to 1e8 s (the steady state by the end)."""
+    T_b. Steps from ``dt`` (s) growing by 1.5 up to 1e8 s (the steady state by the end). ``stefan``: both slabs of a
+    phase-change material that stays solid (the Stefan solver)."""
     s = SLABS
     blocks = _slab_blocks("plane", s, maxh, gap)
     blocks[0]["boundaries"]["b1"] = "ymin"
@@ -226,13 +227,18 @@ def gap_closing_scene(*, h: float | None = 50.0, gap: float = 5e-4, coupling: st
     itf = {"name": "joint", "blocks": ["left", "right"], "type": "contact", "sides": ["ls", "rs"]}
     if h is not None:
         itf["conductance"] = h
+    mats = {"left": {"conductivity": s["k1"], "rho_c": 2e6, **mech},
+            "right": {"conductivity": s["k2"], "rho_c": 1e6, **mech}}
+    if stefan:
+        for m in mats.values():
+            m.update(phase_change_temperature=1000.0, latent_heat_volumetric=1e8, rho_c_liquid=m["rho_c"],
+                     conductivity_liquid=m["conductivity"])
     return {"scene": {"name": "gap_closing", "temperature_unit": "C"},
             "physics": {"thermal": "transient", "mechanics": "static", "coupling": coupling},
             "mesh": {"maxh": maxh},
             "time": {"end": end, "dt": dt, "dt_growth": 1.5, "dt_max": 1e8},
             "blocks": blocks, "interfaces": [itf],
-            "materials": {"left": {"conductivity": s["k1"], "rho_c": 2e6, **mech},
-                          "right": {"conductivity": s["k2"], "rho_c": 1e6, **mech}},
+            "materials": mats,
             "initial": {"temperature": s["T_b"]},
             "mechanics": {"tolerance": 1e-10},
             "boundary_conditions": {"hot": {"temperature": s["T_a"], "symmetry": True},
