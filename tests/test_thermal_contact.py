@@ -145,6 +145,7 @@ BASE = tc.two_slabs_scene()
     ({"radiation": "linearized"}, "radiation", "emissivities"),
     ({"conductance": 5.0, "minimum_gap": 1e-5}, "minimum_gap", "gap_conductivity"),
     ({"emissivities": [0.5, 1.5]}, "emissivities", "(0, 1]"),
+    ({"emissivities": [0.5, 0.5], "radiation": "linearized"}, "radiation", "use 'exact'"),
     ({"type": "glued", "conductance": 3.0}, "conductance", "contact interfaces"),
 ])
 def test_bad_conductance_keys_are_refused_by_name(keys, item, message):

@@ -36,6 +36,9 @@ def check_conductance(scene: Scene, geo: GeometryModel, problems: list[Problem])
             problems.append(Problem(f"{p}.{given[0]}", "the scene solves no heat problem (physics.thermal is off)"))
             continue
         _check_law(scene, itf, p, cs.initial_gap, problems)
+        if itf.radiation == "linearized" and scene.physics.thermal == "steady":
+            problems.append(Problem(f"{p}.radiation", "'linearized' radiation takes h_rad from the previous step, "
+                                    "which a steady solve does not have: use 'exact' (Newton's method)"))
         if itf.radiation == "exact" and stefan_scene(scene):
             problems.append(Problem(f"{p}.radiation", "'exact' radiation needs Newton's method on T^4, which the "
                                     "phase-change (Stefan) solver does not take: set radiation = 'linearized'"))
