@@ -139,7 +139,7 @@ def _finish(entries, covered: float, total: float, master: str, minion: str):
     return np.array(rows, dtype=int), np.array(cols, dtype=int), np.array(vals)
 
 
-class Triangle:
+class _Triangle:
     """One (flat) boundary triangle: dofs, finite element, the affine map from reference coordinates."""
 
     def __init__(self, mesh, space, nr: int):
@@ -163,7 +163,11 @@ class Triangle:
         return np.linalg.lstsq(self.J, p - self.p0, rcond=None)[0]
 
 
-def clip_polygon(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
+Triangle = _Triangle
+"""The boundary triangle under its public name (:mod:`ngs_geomech.fem.interface_quadrature` uses it)."""
+
+
+def _clip(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
     """Sutherland-Hodgman: the part of polygon ``poly`` inside the convex counter-clockwise polygon ``clip``
     (both as (n, 2) arrays in one plane)."""
     out = poly
@@ -189,13 +193,17 @@ def clip_polygon(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
     return out
 
 
+clip_polygon = _clip
+"""Sutherland-Hodgman clipping under its public name (:mod:`ngs_geomech.fem.interface_quadrature` uses it)."""
+
+
 def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):
     """COO entries (rows, cols, values) of b(mu, T) = int mu (T_m - T_s) over the master surface, integrated
     segment-based: each master triangle is intersected with the minion triangles opposite (projected onto its
     plane, Sutherland-Hodgman clipping), and every piece is integrated with a Gauss rule exact for the
     polynomial integrand. Flat triangles are assumed (curved interfaces: an O(h^2) geometry error)."""
-    masters = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
-    minions = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+    masters = [_Triangle(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
+    minions = [_Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
     if not masters or not minions:
         raise ValueError(f"contact interface sides {master!r} / {minion!r} have no boundary elements")
     lfe = {el.nr: (L.GetFE(ngs.ElementId(ngs.BND, el.nr)), list(L.GetDofNrs(ngs.ElementId(ngs.BND, el.nr))))
@@ -222,7 +230,7 @@ def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):
             if (poly[1, 0] - poly[0, 0]) * (poly[2, 1] - poly[0, 1]) - \
                     (poly[1, 1] - poly[0, 1]) * (poly[2, 0] - poly[0, 0]) < 0:
                 poly = poly[::-1]
-            piece = clip_polygon(poly, ref_m)
+            piece = _clip(poly, ref_m)
             if len(piece) < 3:
                 continue
             for k in range(1, len(piece) - 1):   # fan triangulation of the convex piece
