@@ -93,8 +93,10 @@ class DynamicsRun(MechanicsPart):
         """The viscous dissipation density (W/m^3) as a CoefficientFunction: a heat source of (2.6)."""
         return self.vforms.dissipation_density()
 
-    def contact_multipliers(self) -> list:
-        return self.solver.multipliers if self.contacts else []
+    def contact_multipliers(self) -> list[tuple]:
+        """The multipliers of the last step's contact solve (zero while no contact was solved); the friction law
+        acts on the slip increment of the step (:mod:`ngs_geomech.dynamics.solver`)."""
+        return list(self.solver.multipliers)
 
     # -- stepping -------------------------------------------------------------------------------------------
     def _start(self, t: float) -> None:

@@ -122,20 +122,6 @@ class MechanicsPart(Part):
     def solve(self, t: float, where: str, record: bool = True) -> None:
         raise NotImplementedError
 
-    def derived_fields(self) -> dict:
-        """The principal stresses from the stress tensor's values (numpy's symmetric eigenvalues: NGSolve's
-        ``Eig`` per point costs most of an output time)."""
-        return {name: ("stress", functools.partial(principal_stress, index=k))
-                for k, name in enumerate(("sigma_3", "sigma_2", "sigma_1"))}
-
-    def dissipation_source(self):
-        """The heat source of (2.6) the mechanics dissipates (W/m^3), or None."""
-        return None
-
-    def contact_multipliers(self) -> list:
-        """(lam_n, lam_t) per contact of the last solve (Pa)."""
-        return []
-
     def contact_state(self, recorded: bool = False) -> dict:
         """The contact state of the interfaces (not the foundations) per interface name, as
         :class:`~ngs_geomech.heat.conductance.ContactNodes` (the nodal pressure and gap of the contact side S): of
@@ -156,6 +142,21 @@ class MechanicsPart(Part):
             lam_n, lam_t, prescribed = supported_nodes(spec, free, u, np.asarray(lam_n), np.asarray(lam_t))
             out.append(interface_results(spec, u, lam_n, lam_t, prescribed))
         return out
+
+    def derived_fields(self) -> dict:
+        """The principal stresses from the stress tensor's values (numpy's symmetric eigenvalues: NGSolve's
+        ``Eig`` per point costs most of an output time)."""
+        return {name: ("stress", functools.partial(principal_stress, index=k))
+                for k, name in enumerate(("sigma_3", "sigma_2", "sigma_1"))}
+
+    def dissipation_source(self):
+        """The heat source of (2.6) the mechanics dissipates (W/m^3), or None."""
+        return None
+
+    def contact_multipliers(self) -> list[tuple]:
+        """The contact multipliers (lam_n, lam_t) (Pa; nodal, :mod:`ngs_geomech.contact.problem`) of each of
+        ``contacts`` after the last solve (lam_t (m, 2) in 3D)."""
+        return []
 
     def line_names(self, scene: Scene) -> list[str]:
         if not (scene.output.contact_vtp and self.contact_output is not None):
@@ -231,9 +232,6 @@ class StaticMechanicsRun(MechanicsPart):
                                       "it, or a foundation")], source=f"scene {scene.scene.name!r}")
 
     # -- solving --------------------------------------------------------------------------------------------
-    def contact_multipliers(self) -> list:
-        return self.solver.contact.multipliers if self.contact_output is not None else []
-
     def solve(self, t: float, where: str, record: bool = True) -> None:
         self.forms.t.Set(t)
         if self.nested is not None:
@@ -244,6 +242,9 @@ class StaticMechanicsRun(MechanicsPart):
         watch_small_strain(self, where)
         if record:
             self.record(t)
+
+    def contact_multipliers(self) -> list[tuple]:
+        return list(self.solver.contact.multipliers) if self.contacts else []
 
     def steady(self, where: str) -> None:
         self.solve(0.0, where, record=False)
