@@ -179,7 +179,7 @@ def _hertz_contact(h_contact: float, order: int):
     return mesh, ref, op, lam_n, gap, abs(float(np.dot(op.weight, lam_n)) - P) / P
 
 
-def hertz_conductance(*, h_contact: float = None, exponent: float = 0.5, C: float = None, order: int = 1,
+def hertz_conductance(*, h_contact: float = None, exponent: float = 0.95, C: float = None, order: int = 2,
                       conductivity: float = 1e7, dT: float = 10.0) -> dict:
     """The heat flow across the Hertz contact (module docstring) with h = C p^m, m = ``exponent`` (``C``
     default: h = 1e4 W/(m^2 K) at p0), ``h_contact`` (m; default a/20) the element size along the contact,
