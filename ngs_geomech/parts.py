@@ -176,6 +176,17 @@ class ThermalPart(Part):
             return None
         return self.forms.set_pressure(pressure)
 
+    def set_contact_state(self, states: dict) -> list[str]:
+        """Give the contact conductances the mechanics' contact state per interface name (nodal pressure and gap,
+        :class:`~ngs_geomech.heat.conductance.ContactNodes`); returns warnings for the interfaces closed in it that
+        carry no heat."""
+        return []
+
+    def contact_warnings(self, states: dict) -> list[str]:
+        """Warnings for the interfaces ``states`` closes that carry no heat, the thermal part not following the
+        mechanics (an uncoupled run)."""
+        return []
+
     @abc.abstractmethod
     def heating_target(self) -> tuple:
         """(space, test function, volume measure, weight) a deformation-heating source is assembled against."""

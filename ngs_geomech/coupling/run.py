@@ -2,7 +2,8 @@
 problem (P_c) (:mod:`.problem`: the heat or Stefan step with the deformation heating of the last displacement
 rate and the frictional heating of sliding contacts (:mod:`.frictional`), then the mechanics at the step's end;
 'iterated' repeats the pair until neither changes), the mean pressure handed to the conductivities kappa(T, p)
-after each mechanics solve, its history and figure.
+and the contact state (nodal pressure and gap) handed to the contact conductances after each mechanics solve, its
+history and figure.
 Units: s, W, J (per m of depth in plane scenes), Pa.
 """
 
@@ -43,10 +44,12 @@ class CouplingRun(Part):
         self.sources = self.heating if self.friction is None else ThermalSources(self.heating, self.friction)
         if self.friction is not None:
             self.history["frictional_heat"] = []
+        self._warned: set[str] = set()
 
     # -- solving --------------------------------------------------------------------------------------------
     def start(self, t0: float, where: str) -> None:
         self.update_pressure(where)
+        self.update_contact()
 
     def advance(self, step: Step) -> None:
         """One step of problem (P_c) (module docstring); the passes' relative changes of T and u decide the end of
@@ -67,6 +70,7 @@ class CouplingRun(Part):
             T_now = self.thermal.temperature_values()
             self.mech.solve(step.b, f"{step.where}, coupling pass {p + 1}", record=False)
             factors = self.update_pressure(step.where)
+            self.update_contact()
             self.heating.set_rate(step.dt)
             if self.friction is not None:
                 self.friction.set_rate(step.dt)
@@ -97,10 +101,22 @@ class CouplingRun(Part):
         except ValueError as exc:
             raise SolverError(f"coupled step at {where}: {exc}; reduce the load or the pressure coefficient") from None
 
+    def update_contact(self, recorded: bool = False) -> None:
+        """Give the thermal part the contact state of the last mechanics solve (``recorded``: of the last recorded
+        one) for its contact conductances; keep a warning (once per interface) where it closes an interface that
+        carries no heat."""
+        for w in self.thermal.set_contact_state(self.mech.contact_state(recorded)):
+            name = w.split(":", 1)[0]
+            if name not in self._warned:
+                self._warned.add(name)
+                self.warnings.append(w)
+
     def mechanics_changed(self, step: Step | None, where: str) -> None:
         """The mechanics was solved again on a new mesh (contact-zone following) at the start time (``step``
-        None) or at the end of ``step``: the pressure and the step's displacement rate from that solve."""
+        None) or at the end of ``step``: the pressure, the contact state and the step's displacement rate from
+        that solve."""
         self.update_pressure(where)
+        self.update_contact()
         if step is not None:
             self.heating.set_rate(step.dt)
             if self.friction is not None:
@@ -123,6 +139,7 @@ class CouplingRun(Part):
         for n, v in meta.items():
             self.history[n][:] = v
         self.update_pressure("resume")
+        self.update_contact(recorded=True)
 
     # -- reporting ------------------------------------------------------------------------------------------
     def summary(self) -> dict:

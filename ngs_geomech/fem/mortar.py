@@ -163,6 +163,10 @@ class _Triangle:
         return np.linalg.lstsq(self.J, p - self.p0, rcond=None)[0]
 
 
+Triangle = _Triangle
+"""The boundary triangle under its public name (:mod:`ngs_geomech.fem.interface_quadrature` uses it)."""
+
+
 def _clip(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
     """Sutherland-Hodgman: the part of polygon ``poly`` inside the convex counter-clockwise polygon ``clip``
     (both as (n, 2) arrays in one plane)."""
@@ -187,6 +191,10 @@ def _clip(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
                 out.append(prev + (cur - prev) * (sp / (sp - sc)))
         out = np.array(out) if out else np.empty((0, 2))
     return out
+
+
+clip_polygon = _clip
+"""Sutherland-Hodgman clipping under its public name (:mod:`ngs_geomech.fem.interface_quadrature` uses it)."""
 
 
 def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):

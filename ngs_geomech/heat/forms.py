@@ -41,6 +41,8 @@ import numpy as np
 
 from ..fem.coefficients import Separable, TimeFunction, boundary_cf, material_cf, region_cf, regions_regex, tensor_cf
 from ..fem.mortar import mortar_coupling_2d, mortar_coupling_3d
+from .conductance import InterfaceConductance
+from .interface_terms import InterfaceTerms
 from .materials import ThermalProperties
 
 
@@ -64,6 +66,9 @@ class HeatSetup:
     robin: dict[str, tuple[float, TimeFunction]] = field(default_factory=dict)
     sources: dict[str, TimeFunction | list[TimeFunction]] = field(default_factory=dict)
     contacts: list[tuple[str, str]] = field(default_factory=list)
+    conductances: list[InterfaceConductance] = field(default_factory=list)
+    """Contact interfaces that pass heat by a contact conductance (:mod:`.conductance`) instead of the mortar
+    coupling of ``contacts``."""
     pressure_coefficients: dict[str, float] = field(default_factory=dict)
     """Region name -> c_p (1/Pa) of kappa(T, p) = kappa f(T) (1 + c_p p), p the mean pressure (compression > 0)
     set with :meth:`HeatForms.set_pressure` (the seed's remark on its model: k depends on the pressure)."""
@@ -141,6 +146,10 @@ class HeatForms:
         self.extra_load = None
         """An assembled source vector over X (W) added to every right-hand side, e.g. the deformation heating
         of problem (P_c) (lagged, full weight also with theta < 1), or None."""
+        self._mortar = self._mortar_coo = None
+        self.interface_terms = None
+        """The contact-conductance terms (:class:`.interface_terms.InterfaceTerms`, built with the mortar coupling
+        by :meth:`update_contact_pairs`), or None."""
         self._build_forms()
 
     def _free_dofs(self, dir_names: str):
@@ -371,11 +380,16 @@ class HeatForms:
         self._matrices_assembled = False
 
     def update_contact_pairs(self) -> None:
-        """(Re)build the mortar coupling matrix ``self.coupling`` of the contact interfaces (after creating the
-        forms and after every mesh change), integrated segment-based so that it is exact on non-matching
-        meshes (:mod:`ngs_geomech.fem.mortar`; 2D: master segments cut at the minion nodes, 3D: master
-        triangles clipped against the minion triangles)."""
-        self.coupling = None
+        """(Re)build the mortar coupling matrix of the contact interfaces (after creating the forms and after every
+        mesh change), integrated segment-based so that it is exact on non-matching meshes
+        (:mod:`ngs_geomech.fem.mortar`; 2D: master segments cut at the minion nodes, 3D: master triangles clipped
+        against the minion triangles), and the contact-conductance terms (:mod:`.interface_terms`)."""
+        self._mortar = self._mortar_coo = None
+        self.interface_terms = None
+        if self.setup.conductances:
+            self.interface_terms = InterfaceTerms(self.mesh, self.V, self.setup.conductances, order=self.setup.order,
+                                                  axisymmetric=self.setup.axisymmetric, ndof=self.X.ndof)
+            self._bump()
         if not self.setup.contacts:
             return
         rows, cols, vals = [], [], []
@@ -391,9 +405,58 @@ class HeatForms:
             vals += [v, v]
             offset += L.ndof
         n = self.X.ndof
-        self.coupling = ngs.la.SparseMatrixd.CreateFromCOO(
-            list(map(int, np.concatenate(rows))), list(map(int, np.concatenate(cols))),
-            list(map(float, np.concatenate(vals))), n, n)
+        self._mortar_coo = (np.concatenate(rows), np.concatenate(cols), np.concatenate(vals))
+        self._mortar = ngs.la.SparseMatrixd.CreateFromCOO(
+            list(map(int, self._mortar_coo[0])), list(map(int, self._mortar_coo[1])),
+            list(map(float, self._mortar_coo[2])), n, n)
+
+    @property
+    def coupling(self):
+        """The interface matrix added to the step matrix: the mortar coupling, plus theta times the conductance
+        matrix C of the contact-conductance interfaces (None without interfaces)."""
+        if self.interface_terms is None:
+            return self._mortar
+        return self.interface_terms.coupling(self._mortar_coo, self.theta.Get())
+
+    @property
+    def nonlinear(self) -> bool:
+        """Whether a step needs Newton's method: a k(T) law, or exact radiation across an interface."""
+        return self.setup.nonlinear or (self.interface_terms is not None and self.interface_terms.exact_radiation)
+
+    def set_contact_state(self, states) -> None:
+        """The contact state of the mechanics per interface name (:class:`~.conductance.ContactNodes`; None or a
+        missing name: the state of the geometry) for the contact-conductance interfaces."""
+        if self.interface_terms is not None and self.interface_terms.set_state(states):
+            self.version += 1             # the step matrix changes (the mass and stiffness matrices do not)
+
+    def prepare_step(self) -> None:
+        """Before a solve: the lagged radiation conductances at the old temperature (steady: the current one)."""
+        terms = self.interface_terms
+        if terms is not None and terms.lagged_radiation:
+            gf = self.gf if self.setup.steady else self.gf_old
+            terms.lag(gf.vec.FV().NumPy()[:self.V.ndof])
+            self.version += 1
+
+    def add_coupling(self, vec, res) -> None:
+        """Add to ``res`` the interface terms at the state ``vec`` (the coupling matrix, and theta times the exact
+        radiation vector)."""
+        coupling = self.coupling
+        if coupling is not None:
+            res.data += coupling * vec
+        terms = self.interface_terms
+        if terms is not None and terms.exact_radiation:
+            res.FV().NumPy()[:self.V.ndof] += self.theta.Get() * terms.radiation(vec.FV().NumPy()[:self.V.ndof])[0]
+
+    def coupling_jacobian(self, vec):
+        """The derivative of :meth:`add_coupling` at ``vec`` (an NGSolve matrix, or None)."""
+        terms = self.interface_terms
+        if terms is None or not terms.exact_radiation:
+            return self.coupling
+        jac = (self.theta.Get() * terms.radiation(vec.FV().NumPy()[:self.V.ndof])[1]).tocoo()
+        r, c, v = (np.array(a) for a in self.coupling.COO())
+        r, c, v = np.concatenate([r, jac.row]), np.concatenate([c, jac.col]), np.concatenate([v, jac.data])
+        return ngs.la.SparseMatrixd.CreateFromCOO(list(map(int, r)), list(map(int, c)), list(map(float, v)),
+                                                  self.X.ndof, self.X.ndof)
 
     def right_hand_side(self):
         """The right-hand side of the step from t_old to t_new (see the module docstring), W."""
@@ -421,6 +484,9 @@ class HeatForms:
             b.data += self.inv_dt.Get() * (self.mass.mat * self.gf_old.vec)
             if th < 1:
                 b.data -= (1 - th) * (self.stiffness.mat * self.gf_old.vec)
+        if th < 1 and self.interface_terms is not None:
+            nV = self.V.ndof
+            b.FV().NumPy()[:nV] -= (1 - th) * self.interface_terms.old_terms(self.gf_old.vec.FV().NumPy()[:nV])
         return b
 
     def dirichlet_values(self, t_param) -> object | None:

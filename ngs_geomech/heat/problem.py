@@ -6,6 +6,7 @@ import math
 from itertools import islice
 
 import ngsolve as ngs
+import numpy as np
 
 from ..errors import Problem, SceneError
 from ..fem.coefficients import Separable, expression_function, region_cf
@@ -14,6 +15,7 @@ from ..geometry.assemble import GeometryModel
 from ..linalg.direct import not_finite
 from ..scene.expressions import short
 from ..scene.model import Scene, Source
+from .conductance import KELVIN, InterfaceConductance, contact_law, effective_emissivity
 from .forms import HeatSetup
 from .materials import thermal_properties
 
@@ -75,11 +77,53 @@ def heat_setup(scene: Scene, geo: GeometryModel, mesh) -> HeatSetup:
     for src in scene.sources:
         setup.sources.setdefault(src.region, []).append(
             source_function(src, region_measure(mesh, src.region, axi)))
-    # an interface with an initial gap (Interface.sides) carries no heat: an open gap is insulating (thermal
-    # contact resistance is not modelled), its sides are outer boundaries of the heat problem
-    setup.contacts = [(cs.master, cs.minion) for cs in geo.contacts.values() if not cs.initial_gap]
+    # an interface with an initial gap (Interface.sides) and no conductance keys carries no heat (its sides are
+    # outer boundaries of the heat problem); one with conductance keys passes q = h(p, g) (T_m - T_s)
+    setup.conductances = list(interface_conductances(scene, geo, mesh).values())
+    conducting = {c.name for c in setup.conductances}
+    setup.contacts = [(cs.master, cs.minion) for cs in geo.contacts.values()
+                      if not cs.initial_gap and cs.name not in conducting]
     setup.pressure_coefficients = pressure_coefficients(scene)
     return setup
+
+
+def has_conductance(itf) -> bool:
+    """Whether an interface passes heat by a contact conductance (:mod:`.conductance`): a conductance other than
+    'perfect', a power law, a gap conductivity or emissivities."""
+    return ((itf.conductance is not None and itf.conductance != "perfect") or itf.conductance_coefficient is not None
+            or itf.gap_conductivity is not None or itf.emissivities is not None)
+
+
+MINIMUM_GAP = 1e-6
+"""The default gap floor g_min of k_gap / max(g, g_min), m."""
+
+
+def interface_conductances(scene: Scene, geo: GeometryModel, mesh,
+                           radiation: str = "exact") -> dict[str, InterfaceConductance]:
+    """Interface name -> :class:`InterfaceConductance` of the validated scene's contact interfaces with a
+    conductance (:func:`has_conductance`); ``radiation`` is the default way radiation enters (exact in heat
+    scenes, linearized in Stefan ones). The partner points of the other side are searched up to the interface's
+    search_distance (default a quarter of the extent of its master side, as the mechanics'): the mechanics may
+    close parts that are apart in the geometry (a Hertz contact, an initial gap)."""
+    out = {}
+    byname = {i.name: i for i in scene.interfaces}
+    kelvin = KELVIN if scene.scene.temperature_unit == "C" else 0.0
+    for name, cs in geo.contacts.items():
+        itf = byname[name]
+        if not has_conductance(itf):
+            continue
+        reach = itf.search_distance
+        if reach is None:
+            pts = np.array([mesh[v].point for el in mesh.Boundaries(cs.master).Elements() for v in el.vertices])
+            reach = 0.25 * float(np.max(np.ptp(pts, axis=0)))
+        eps = effective_emissivity(*itf.emissivities) if itf.emissivities is not None else None
+        out[name] = InterfaceConductance(
+            name, cs.master, cs.minion, law=contact_law(itf.conductance, itf.conductance_coefficient,
+                                                        itf.conductance_exponent),
+            gap_conductivity=itf.gap_conductivity,
+            minimum_gap=itf.minimum_gap if itf.minimum_gap is not None else MINIMUM_GAP, emissivity=eps,
+            radiation=itf.radiation or radiation, initial_gap=cs.initial_gap, reach=reach, kelvin=kelvin)
+    return out
 
 
 def pressure_coefficients(scene: Scene) -> dict[str, float]:

@@ -15,6 +15,8 @@ from ..io.meshdata import vertex_values
 from ..io.summary import finite
 from ..parts import Step, ThermalPart
 from ..scene.model import Scene
+from .balance import HeatBalance
+from .conductance import heatless_closed, unfollowed_closed
 from .forms import HeatForms
 from .problem import heat_setup, set_initial_temperature
 from .solver import HeatSolver
@@ -59,11 +61,16 @@ class HeatRun(ThermalPart):
             self.fields["kirchhoff_theta"] = self.forms.kirchhoff(self.T)
         self.probe_fields = {"temperature": self.T}
         self.flows: dict[str, list[float]] = {}
+        self.balance = HeatBalance(self.forms) if setup.conductances else None
+        """The energy balance per body (:mod:`.balance`), kept with contact-conductance interfaces."""
+        self._solved = None                      # (the conductance flows, the balance terms) of the last solve
 
     # -- solving --------------------------------------------------------------------------------------------
     def steady(self, where: str) -> None:
         self.forms.t_new.Set(0.0)
-        self.finish_step(self.solver.solve(where))
+        info = self.solver.solve(where)
+        self._measure(None)
+        self.finish_step(info)
 
     def steady_at(self, t: float, where: str) -> None:
         """The steady problem with the data at time t (s) of a transient scene (the step operator with
@@ -100,7 +107,44 @@ class HeatRun(ThermalPart):
         assembled source is added to the load. Returns the solver's step info."""
         if heating is not None:
             self.forms.extra_load = heating.vector()
-        return self.solver.solve(step.where)
+        info = self.solver.solve(step.where)
+        self._measure(step.dt)
+        return info
+
+    def _measure(self, dt: float | None) -> None:
+        """The contact-conductance flows (theta average over the step, W per m of depth or per radian) and the
+        balance terms of the solve just done, kept until :meth:`finish_step` (a coupled step may solve again)."""
+        terms = self.forms.interface_terms
+        if terms is None:
+            return
+        T1 = self.forms.gf.vec.FV().NumPy()[:self.forms.V.ndof]
+        flows = terms.flows(T1)
+        th = self.forms.theta.Get()
+        if dt is not None and th < 1:
+            old = terms.flows(self.forms.gf_old.vec.FV().NumPy()[:self.forms.V.ndof])
+            flows = {n: th * q + (1 - th) * old[n] for n, q in flows.items()}
+        sides = {c.name: (c.master, c.minion) for c in self.forms.setup.conductances}
+        items = {n: (*sides[n], q) for n, q in flows.items()}
+        for (master, minion), q in zip(self.forms.setup.contacts, self._mortar_flows()):
+            items[master] = (master, minion, q)
+        self._solved = (items, self.balance.measure(dt, items))
+
+    def _mortar_flows(self) -> list[float]:
+        """The flows int w lambda ds over each mortar interface (W per m of depth or per radian)."""
+        return [float(ngs.Integrate(self.forms.weight * lam * ngs.ds(definedon=self.mesh.Boundaries(m)), self.mesh))
+                for (m, _), lam in zip(self.forms.setup.contacts, self.forms.multipliers())]
+
+    def set_contact_state(self, states) -> list[str]:
+        """The mechanics' contact state per interface (:class:`~.conductance.ContactNodes`; None: the geometry's)
+        for the contact-conductance interfaces; returns the interfaces closed in it that carry no heat."""
+        self.forms.set_contact_state(states)
+        return heatless_closed(states, self.forms.setup.conductances, {m for m, _ in self.forms.setup.contacts})
+
+    def contact_warnings(self, states) -> list[str]:
+        """The interfaces ``states`` closes that carry no heat, this part keeping the geometry's state."""
+        s = self.forms.setup
+        return (heatless_closed(states, s.conductances, {m for m, _ in s.contacts})
+                + unfollowed_closed(states, s.conductances))
 
     def finish_step(self, info) -> None:
         """Keep a solved step's Newton iterations and interface heat flows."""
@@ -109,6 +153,13 @@ class HeatRun(ThermalPart):
         for (master, _), lam in zip(self.forms.setup.contacts, self.forms.multipliers()):
             q = float(ngs.Integrate(w * lam * ngs.ds(definedon=self.mesh.Boundaries(master)), self.mesh))
             self.flows.setdefault(master, []).append(q)
+        if self._solved is not None:
+            items, terms = self._solved
+            scale = 2 * math.pi if self.axisymmetric else 1.0
+            for c in self.forms.setup.conductances:
+                self.flows.setdefault(c.master, []).append(scale * items[c.name][2])
+            self.balance.record(terms)
+            self._solved = None
 
     def heating_target(self) -> tuple:
         """(space, test function, volume measure, weight) a deformation-heating source is assembled against."""
@@ -130,16 +181,30 @@ class HeatRun(ThermalPart):
         w = 2 * np.pi * ngs.x if self.axisymmetric else 1.0
         before = float(ngs.Integrate(w * old.forms.rho_c * old.T, old.mesh))
         after = float(ngs.Integrate(w * self.forms.rho_c * self.T, self.mesh))
-        return before, after, None
+        if self.balance is None or old.balance is None or t0 is not None:
+            return before, after, None
+        moved = self.balance.contents(self.T) - old.balance.contents(old.T)
+        return before, after, lambda: self._adopt(old, moved)
+
+    def _adopt(self, old: HeatRun, moved: np.ndarray) -> None:
+        """Continue ``old``'s flows and energy balance here (contact-conductance runs), the heat content the
+        transfer changed per body (``moved``, J) counted in the balance."""
+        self.flows = old.flows
+        self.balance.steps = old.balance.steps
+        self.balance.record_transfer(moved)
 
     # -- checkpoints ----------------------------------------------------------------------------------------
     def capture(self) -> tuple[dict, dict]:
         return ({"heat": np.array(self.forms.gf.vec.FV().NumPy())},
-                {"steps": len(self.newton_iterations), "flows": {n: len(v) for n, v in self.flows.items()}})
+                {"steps": len(self.newton_iterations), "flows": {n: len(v) for n, v in self.flows.items()},
+                 "balance": len(self.balance.steps) if self.balance is not None else 0})
 
     def meta(self, lengths: dict) -> dict:
-        return {"newton_iterations": self.newton_iterations[:lengths["steps"]],
-                "flows": {n: v[:lengths["flows"].get(n, 0)] for n, v in self.flows.items()}}
+        out = {"newton_iterations": self.newton_iterations[:lengths["steps"]],
+               "flows": {n: v[:lengths["flows"].get(n, 0)] for n, v in self.flows.items()}}
+        if self.balance is not None:
+            out["balance"] = self.balance.as_data(lengths["balance"])
+        return out
 
     def restore(self, arrays: dict, meta: dict) -> None:
         self.forms.gf.vec.FV().NumPy()[:] = arrays["heat"]
@@ -147,6 +212,8 @@ class HeatRun(ThermalPart):
         self.newton_iterations[:] = meta["newton_iterations"]
         self.flows.clear()
         self.flows.update(meta["flows"])
+        if self.balance is not None:
+            self.balance.from_data(meta.get("balance", []))
 
     # -- reporting ------------------------------------------------------------------------------------------
     @property
@@ -162,7 +229,19 @@ class HeatRun(ThermalPart):
         return self.forms.X.ndofglobal
 
     def summary(self) -> dict:
-        return {"interface_heat_flow_W": {k: finite(v) for k, v in self.flows.items()}}
+        out = {"interface_heat_flow_W": {k: finite(v) for k, v in self.flows.items()}}
+        terms = self.forms.interface_terms
+        if terms is not None:
+            ranges = terms.ranges()
+            out["interface_conductance"] = {
+                t.spec.name: {"law": t.spec.law.describe() if t.spec.law is not None else None,
+                              "gap_conductivity": t.spec.gap_conductivity, "emissivity": t.spec.emissivity,
+                              "radiation": t.spec.radiation if t.spec.emissivity is not None else None,
+                              "state": t.source, "conductance_min": ranges[t.spec.name][0],
+                              "conductance_max": ranges[t.spec.name][1], "units": "W/(m^2 K)"}
+                for t in terms.terms}
+            out["heat_balance"] = self.balance.report()
+        return out
 
     def figures(self, canvas) -> None:
         temperature_figures(canvas, self.T)

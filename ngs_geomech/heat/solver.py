@@ -43,8 +43,9 @@ class HeatSolver:
         self.f = forms
         self.preconditioner = preconditioner
         self.distributed = forms.mesh.comm.size > 1
-        if self.distributed and forms.setup.contacts:
-            raise ValueError("heat contact interfaces (mortar coupling) are not supported on a distributed mesh")
+        if self.distributed and (forms.setup.contacts or forms.setup.conductances):
+            raise ValueError("heat contact interfaces (mortar coupling, contact conductance) are not supported on a "
+                             "distributed mesh")
         self.solver = choose_solver(solver, forms.X.ndof, forms.mesh.dim, spd=self.symmetric_for(forms),
                                     distributed=self.distributed)
         self._pcg = PCG(tol, maxit) if self.solver == "iterative" else None
@@ -73,7 +74,7 @@ class HeatSolver:
     @staticmethod
     def symmetric_for(forms: HeatForms) -> bool:
         s = forms.setup
-        return not s.nonlinear and not s.contacts
+        return not s.nonlinear and not s.contacts and not s.conductances
 
     def set_dirichlet(self) -> None:
         """Put the Dirichlet temperatures at t_new into the state's Dirichlet dofs (other dofs untouched).
@@ -148,10 +149,11 @@ class HeatSolver:
     def _solve_step(self, where: str) -> StepInfo:
         """The new state with the forms' current inv_dt and theta."""
         self.set_dirichlet()
+        self.f.prepare_step()
         rhs = self.f.right_hand_side()
-        if self.solver == "iterative" and not self.f.setup.nonlinear:
+        if self.solver == "iterative" and not self.f.nonlinear:
             return self._solve_iterative(where, rhs)
-        if not self.f.setup.nonlinear:
+        if not self.f.nonlinear:
             mat, inv, fresh = self._system(f"{self.f.inv_dt.Get():.14g}:{self.f.theta.Get():g}:{self.f.version}")
             if self._free_mask is None:
                 self._free_mask = np.array(list(self.f.freedofs), dtype=bool)
@@ -192,12 +194,9 @@ class HeatSolver:
         du = gf.vec.CreateVector()
         trial = gf.vec.CreateVector()
 
-        coupling = f.coupling
-
         def residual(vec) -> float:
             f.lhs.Apply(vec, res)
-            if coupling is not None:
-                res.data += coupling * vec
+            f.add_coupling(vec, res)
             res.data -= rhs
             arr = res.FV().NumPy()
             arr[fixed] = 0.0
@@ -216,7 +215,7 @@ class HeatSolver:
                 self._linearized_solve(gf.vec, res, du, where)
             else:
                 f.lhs.AssembleLinearization(gf.vec)
-                inv = inverse(with_coupling(f.lhs.mat, coupling), free, symmetric=False)
+                inv = inverse(with_coupling(f.lhs.mat, f.coupling_jacobian(gf.vec)), free, symmetric=False)
                 du.data = inv * res
             self.factorizations += 1
             step, new_rel = 1.0, math.inf

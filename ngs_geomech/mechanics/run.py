@@ -16,10 +16,18 @@ import numpy as np
 from .. import parallel
 from ..contact.factory import build_contact_solver
 from ..contact.output import ContactOutput, contact_figures, contact_lines
-from ..contact.problem import check_supported, contact_options, contact_specs, contact_warnings
+from ..contact.problem import (
+    check_supported,
+    contact_options,
+    contact_specs,
+    contact_warnings,
+    interface_results,
+    supported_nodes,
+)
 from ..contact.solver import nodal_modulus
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel
+from ..heat.conductance import ContactNodes
 from ..io import scales, stress_figures
 from ..io.meshdata import vertex_average
 from ..parts import Part, Step
@@ -113,6 +121,27 @@ class MechanicsPart(Part):
 
     def solve(self, t: float, where: str, record: bool = True) -> None:
         raise NotImplementedError
+
+    def contact_state(self, recorded: bool = False) -> dict:
+        """The contact state of the interfaces (not the foundations) per interface name, as
+        :class:`~ngs_geomech.heat.conductance.ContactNodes` (the nodal pressure and gap of the contact side S): of
+        the last solve, or (``recorded``) of the last recorded one (a restored run); {} without interfaces."""
+        if not self.contacts:
+            return {}
+        results = self.contact_output.latest if recorded else self.contact_results()
+        return {spec.name: ContactNodes(spec.op.side, np.asarray(spec.op.nodes, dtype=int),
+                                        np.asarray(res["pressure"], dtype=float), np.asarray(res["gap"], dtype=float))
+                for spec, res in zip(self.contacts, results) if spec.kind == "interface"}
+
+    def contact_results(self) -> list[dict]:
+        """The nodal interface arrays (:func:`~ngs_geomech.contact.problem.interface_results`) of the last solve."""
+        u = np.array(self.forms.gf.vec.FV().NumPy())
+        free = np.array(list(self.forms.X.FreeDofs()), dtype=bool)[:self.forms.V.ndof]
+        out = []
+        for spec, (lam_n, lam_t) in zip(self.contacts, self.contact_multipliers()):
+            lam_n, lam_t, prescribed = supported_nodes(spec, free, u, np.asarray(lam_n), np.asarray(lam_t))
+            out.append(interface_results(spec, u, lam_n, lam_t, prescribed))
+        return out
 
     def derived_fields(self) -> dict:
         """The principal stresses from the stress tensor's values (numpy's symmetric eigenvalues: NGSolve's

@@ -65,10 +65,17 @@ class Model:
             p.advance(step)
 
     def record(self, t: float, output: bool) -> None:
-        """The parts keep the state at t (s): at the output times, and every step those that record every step."""
+        """The parts keep the state at t (s): at the output times, and every step those that record every step.
+        Without coupling the thermal part is told where the mechanics closes an interface that carries no heat."""
         for p in self.parts:
             if output or p.records_every_step:
                 p.record(t)
+        if output and self.coupling is None and self.thermal is not None and self.mechanics is not None:
+            known = {w.split(":", 1)[0] for w in self.thermal.warnings}
+            for w in self.thermal.contact_warnings(self.mechanics.contact_state(recorded=True)):
+                if w.split(":", 1)[0] not in known:
+                    known.add(w.split(":", 1)[0])
+                    self.thermal.warnings.append(w)
 
     def take_state(self, old: Model, t0: float | None) -> tuple[float, float, object]:
         """The thermal state of ``old`` (the same scene on another mesh) carried over

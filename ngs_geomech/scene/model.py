@@ -259,9 +259,13 @@ class Interface(ContactMechanics):
 
     A ``contact`` interface between blocks that do not touch (an initial gap, e.g. a canister in a borehole)
     names its two sides with ``sides``: the gap closes under load (mechanics, initial gaps measured along the
-    contact side's normal up to ``search_distance``); it carries no heat (an open gap is insulating: thermal
-    contact resistance is not modelled), so for heat both sides are outer boundaries (insulated unless a
-    thermal condition is given there)."""
+    contact side's normal up to ``search_distance``). Without conductance keys it carries no heat (for heat both
+    sides are outer boundaries, insulated unless a thermal condition is given there).
+
+    Contact conductance (``conductance``, ``conductance_coefficient``/``conductance_exponent``,
+    ``gap_conductivity``, ``emissivities``): heat crosses the interface as q = h(p, g) (T_m - T_s) plus
+    radiation, with h following the mechanics' contact pressure p and gap g at every coupled step
+    (:mod:`ngs_geomech.heat.conductance`); without mechanics p = 0 and g is the geometry's gap."""
 
     name: str = field(string, doc="interface name")
     blocks: list = field(list_of(string, 2), doc="the two block names")
@@ -278,6 +282,41 @@ class Interface(ContactMechanics):
                                    "the first block, boundary name on the second block], from the blocks' "
                                    "boundaries selectors or polygon/profile edge names; each name only on its "
                                    "block. Touching blocks leave it out (their shared side is found)")
+    # -- thermal contact conductance (heat and Stefan scenes; ngs_geomech.heat.conductance) --
+    conductance: object = field(optional(either(positive(number, "W/(m^2 K)"), one_of("perfect"),
+                                                list_of(list_of(number, 2)),
+                                                what="a positive number (W/(m^2 K)), 'perfect', or a table "
+                                                     "[[p (Pa), h (W/(m^2 K))], ...]")), None,
+                                doc="contact conductance h_c of the closed parts (heat crosses the interface as "
+                                    "q = h (T_m - T_s)): a number, W/(m^2 K); a table [[p, h], ...] of the contact "
+                                    "pressure p (Pa, increasing, >= 0) -> h (W/(m^2 K), >= 0), piecewise linear, "
+                                    "constant beyond its ends; or 'perfect' (T and the flux continuous: the mortar "
+                                    "coupling of heat scenes, the thermal_penalty of Stefan scenes; the default "
+                                    "between touching blocks when no conductance key is given)")
+    conductance_coefficient: float | None = field(optional(positive(number)), None,
+                                                  doc="power law h_c = C p^m of the closed parts: C, "
+                                                      "W/(m^2 K) Pa^-m (p the contact pressure of the mechanics, "
+                                                      "Pa; needs mechanics and coupling)")
+    conductance_exponent: float | None = field(optional(bounded(number, 0, 3)), None,
+                                               doc="power law h_c = C p^m: the exponent m (dimensionless, in "
+                                                   "[0, 3]; about 0.95 for rough metal surfaces)")
+    gap_conductivity: float | None = field(optional(positive(number, "W/(m K)")), None,
+                                           doc="conductivity k_gap of the gap's fill (gas, water), W/(m K): the "
+                                               "interface passes k_gap / max(g, minimum_gap) (W/(m^2 K)) more, g "
+                                               "the gap (m)")
+    minimum_gap: float | None = field(optional(positive(number, "m")), None,
+                                      doc="the gap floor g_min of k_gap / max(g, g_min), m (about the surfaces' "
+                                          "roughness; default 1e-6 m): a closed or nearly closed interface "
+                                          "conducts as a gap of g_min")
+    emissivities: list | None = field(optional(list_of(bounded(number, 0, 1, lo_open=True), 2)), None,
+                                      doc="radiation between the faces: [emissivity of the master side, of the "
+                                          "minion side] (in (0, 1]); q_rad = sigma eps (T_m^4 - T_s^4), eps = "
+                                          "1/(1/e1 + 1/e2 - 1), T absolute")
+    radiation: str | None = field(optional(one_of("exact", "linearized")), None,
+                                  doc="with emissivities: 'exact' (T^4 in Newton's method; the default in heat "
+                                      "scenes) or 'linearized' (h_rad = sigma eps (T_m^2 + T_s^2)(T_m + T_s) at the "
+                                      "temperatures of the start of the step; the default and the only choice in "
+                                      "Stefan scenes)")
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -100,6 +100,8 @@ import scipy.sparse as sp
 
 from .. import parallel
 from ..fem.coefficients import Steady, expression_function, regions_regex
+from ..heat.conductance import InterfaceConductance
+from .conductance import NodalConductances
 from .materials import (
     ConductivityRangeError,
     PhaseChangeMaterial,
@@ -142,6 +144,8 @@ class StefanSetup:
     pressure_coefficients: dict[str, float] = field(default_factory=dict)
     robin: dict[str, tuple[float, object]] = field(default_factory=dict)
     axisymmetric: bool = False
+    conductances: list[InterfaceConductance] = field(default_factory=list)
+    """Contact interfaces that pass heat by a contact conductance (:mod:`.conductance`) instead of the penalty."""
 
 
 DEFAULT_INTERFACE_PENALTY = 1e3
@@ -199,7 +203,7 @@ class StefanForms:
         bad = sorted(set(setup.sources) - regions)
         if bad:
             raise ValueError(f"Stefan problem: source region(s) {bad} not in the mesh")
-        if setup.interfaces and parallel.distributed(mesh):
+        if (setup.interfaces or setup.conductances) and parallel.distributed(mesh):
             raise ValueError("Stefan problem: contact interfaces (the heat penalty on the temperature jump between "
                              f"touching blocks, {[m for m, _, _ in setup.interfaces]}) are not supported on a "
                              "distributed mesh (MPI): run this scene serially")
@@ -296,7 +300,15 @@ class StefanForms:
             a += self.group_integrand(g, indicator, u, v) * ngs.dx
             self._group_forms.append(a)
         self.interface_conductance: list[float] = []
-        self._interface = self._interface_matrix() if self.setup.interfaces else None
+        self._interface = self._penalty = self._interface_matrix() if self.setup.interfaces else None
+        self._interface_structure = self._interface
+        self.conductances = None
+        """The contact-conductance interfaces (:class:`.conductance.NodalConductances`), or None."""
+        if self.setup.conductances:
+            self.conductances = NodalConductances(self.mesh, self.V, self.setup.conductances,
+                                                  axisymmetric=self.setup.axisymmetric)
+            self._interface_structure = self._with_penalty(self.conductances.matrix(structure=True))
+            self._interface = self._with_penalty(self.conductances.matrix())
         self._robin = self._robin_matrix() if self.setup.robin else None
         pattern = self._collect_stiffness()
         self.pattern_cols = pattern[0]
@@ -350,8 +362,8 @@ class StefanForms:
             KG = linear[0] if len(linear) == 1 else (linear[0] + linear[1]).tocsr()
             K0 = self.stiffness[0]
             ones = [sp.csr_matrix((np.ones(len(M.indices)), M.indices, M.indptr), shape=(self.n, self.n))
-                    for M in (K0, KG)]
-            union = (ones[0] + ones[1]).tocsr()              # structural union (no cancellation)
+                    for M in (K0, self._interface_structure, self._robin) if M is not None]
+            union = sum(ones[1:], ones[0]).tocsr()           # structural union (no cancellation)
             union.sort_indices()
             rows = np.repeat(np.arange(self.n), np.diff(union.indptr))
 
@@ -378,6 +390,28 @@ class StefanForms:
             self._collect_stiffness()
             self.version += 1
         return check_pressure_factors(self.mesh, self.gf_pressure, self.setup.pressure_coefficients, changed)
+
+    def _with_penalty(self, K: sp.csr_matrix) -> sp.csr_matrix:
+        """K plus the penalty interfaces' matrix (when there are any)."""
+        return (K + self._penalty).tocsr() if self._penalty is not None else K
+
+    def set_contact_state(self, states) -> None:
+        """The contact state of the mechanics per interface name (:class:`~ngs_geomech.heat.conductance.ContactNodes`;
+        None or a missing name: the geometry's) for the contact-conductance interfaces: their matrix is assembled
+        again (same pattern) and ``version`` changes."""
+        if self.conductances is not None and self.conductances.set_state(states):
+            self._conductances_changed()
+
+    def lag_radiation(self, T: np.ndarray) -> None:
+        """The linearized radiation conductances at the nodal temperatures ``T`` (the start of a step)."""
+        if self.conductances is not None and self.conductances.lagged_radiation:
+            self.conductances.lag(T)
+            self._conductances_changed()
+
+    def _conductances_changed(self) -> None:
+        self._interface = self._with_penalty(self.conductances.matrix())
+        self._collect_stiffness()
+        self.version += 1
 
     def _interface_matrix(self) -> sp.csr_matrix:
         """gamma_c B^T D^-1 B summed over the contact interfaces (module docstring), W/K per metre of depth in
@@ -459,7 +493,7 @@ class StefanForms:
         self.e_hi = self.weights @ e_hi
         self.jump = self.e_hi - self.e_lo
         self.capacity = self.weights @ cap
-        if self.setup.interfaces or self.setup.robin:    # the linear "group": theta = T (its matrix is last)
+        if self._interface is not None or self.setup.robin:    # the linear "group": theta = T (its matrix is last)
             cond = np.vstack([cond, np.ones((1, K + 1))])
         self.group_conductivity = cond              # G (+ 1 with interfaces) x (K + 1), W/(m K), at T_ref
         coef = np.array([m.conductivity_temperature_coefficient for m in self.groups]

@@ -38,6 +38,7 @@ from ..errors import Problem, SceneError, SolverError
 from ..fem.coefficients import Steady, expression_function
 from ..geometry.assemble import GeometryModel
 from ..geometry.isolines import IsoLines, iso_segments
+from ..heat.conductance import heatless_closed, unfollowed_closed
 from ..heat.materials import (
     conductivity_shape,
     conductivity_tensor,
@@ -45,7 +46,13 @@ from ..heat.materials import (
     phase_change_properties,
     volumetric_heat_capacity,
 )
-from ..heat.problem import initial_temperature, pressure_coefficients, region_measure, source_function
+from ..heat.problem import (
+    initial_temperature,
+    interface_conductances,
+    pressure_coefficients,
+    region_measure,
+    source_function,
+)
 from ..heat.run import temperature_figures
 from ..io.meshdata import mesh_arrays, vertex_values
 from ..linalg.iterative import choose_solver
@@ -118,9 +125,11 @@ def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> Stefan
     setup = StefanSetup(materials=stefan_materials(scene), pressure_coefficients=pressure_coefficients(scene),
                         axisymmetric=axi)
     if geo is not None:
+        conducting = interface_conductances(scene, geo, mesh, radiation="linearized")   # instead of the penalty
+        setup.conductances = list(conducting.values())
         penalty = {itf.name: itf.thermal_penalty for itf in scene.interfaces}
         setup.interfaces = [(cs.master, cs.minion, penalty.get(cs.name) or DEFAULT_INTERFACE_PENALTY)
-                            for cs in geo.contacts.values() if not cs.initial_gap]
+                            for cs in geo.contacts.values() if not cs.initial_gap and cs.name not in conducting]
     for name, bc in scene.boundary_conditions.items():
         if bc.temperature is not None:
             setup.dirichlet[name] = expression_function(bc.temperature)
@@ -206,6 +215,7 @@ class StefanRun(ThermalPart):
         self.dirichlet_heat: list[float] = []            # per step: heat in through the Dirichlet nodes
         self.source_heat: list[float] = []               # per step: sources and fluxes
         self.robin_heat: list[float] = []                # per step: heat transfer (Robin) conditions
+        self.interface_heat: list[dict] = []             # per step: heat across each conductance interface (J)
         self.records: dict = {"time_s": [], "melted_volume": {r: [] for r in self.regions},
                               "latent_heat_stored": {r: [] for r in self.regions}, "heat_content": []}
         self._steps_at_record: list[int] = []            # steps completed at each record
@@ -336,6 +346,8 @@ class StefanRun(ThermalPart):
         times (the front crossing too many element layers in one step is the usual cause; the output times stay);
         the halvings taken are counted in ``halvings``."""
         mark = self.mark() if _depth < MAX_HALVINGS else None
+        if self.forms.conductances is not None:           # linearized radiation: h_rad at the start of the step
+            self.forms.lag_radiation(self.forms.nodal_state(self.solver.e).T)
         try:
             info = self.solver.step(a, b) if extra_load is None else self.solver.step(a, b, extra_load)
         except ConductivityRangeError as exc:       # the temperatures reached: a shorter step does not help
@@ -354,7 +366,23 @@ class StefanRun(ThermalPart):
         self.dirichlet_heat.append(float(info.boundary_heat))
         self.source_heat.append(float(info.source_heat))
         self.robin_heat.append(float(info.robin_heat))
+        if self.forms.conductances is not None:
+            T = self.forms.nodal_state(self.solver.e).T
+            self.interface_heat.append({n: (b - a) * q for n, q in self.forms.conductances.flows(T).items()})
         return info
+
+    def set_contact_state(self, states) -> list[str]:
+        """The mechanics' contact state per interface (:class:`~ngs_geomech.heat.conductance.ContactNodes`) for the
+        contact-conductance interfaces; returns the interfaces closed in it that carry no heat."""
+        self.forms.set_contact_state(states)
+        s = self.forms.setup
+        return heatless_closed(states, s.conductances, {m for m, _, _ in s.interfaces})
+
+    def contact_warnings(self, states) -> list[str]:
+        """The interfaces ``states`` closes that carry no heat, this part keeping the geometry's state."""
+        s = self.forms.setup
+        return (heatless_closed(states, s.conductances, {m for m, _, _ in s.interfaces})
+                + unfollowed_closed(states, s.conductances))
 
     def mark(self) -> tuple:
         """The state before a step, to repeat the step with :meth:`rewind` (coupling iterations)."""
@@ -365,6 +393,7 @@ class StefanRun(ThermalPart):
         self.solver.rewind(mark[0])
         n = mark[1]
         del self.iterations[n:], self.dirichlet_heat[n:], self.source_heat[n:], self.robin_heat[n:]
+        del self.interface_heat[n:]
 
     def record(self, t: float) -> None:
         """The melted volume and latent heat per region and the heat content at an output time (after the
@@ -423,6 +452,7 @@ class StefanRun(ThermalPart):
             "newton_iterations": {"mean": float(np.mean(its)) if its else 0.0, "max": int(max(its, default=0)),
                                   "steps": len(its)},
             "step_halvings": self.halvings,
+            **self._conductance_report(),
         }
 
     def _energy(self, total_latent: list, whole) -> dict:
@@ -459,13 +489,26 @@ class StefanRun(ThermalPart):
                                      "(front-following); imbalance_rel counts it: |gain - supplied - "
                                      "transferred| / scale"} if self.transfers else {})}
 
+    def _conductance_report(self) -> dict:
+        """The contact-conductance interfaces: the heat across each (master -> minion, J per m of depth or J) and
+        their last conductances ({} without)."""
+        c = self.forms.conductances
+        if c is None:
+            return {}
+        ranges = c.ranges()
+        return {"interface_heat": {it.spec.name: float(sum(h.get(it.spec.name, 0.0) for h in self.interface_heat))
+                                   for it in c.items},
+                "interface_conductance": {it.spec.name: {"state": it.source, "conductance_min": ranges[it.spec.name][0],
+                                                         "conductance_max": ranges[it.spec.name][1],
+                                                         "units": "W/(m^2 K)"} for it in c.items}}
+
     def adopt(self, old: StefanRun, heat_change: float) -> None:
         """Continue the histories of ``old`` (the same scene on the previous mesh) after the state was carried
         over to this mesh with the heat content changed by ``heat_change`` (J per m of depth, or J)."""
         self.initial_heat = old.initial_heat
         self.halvings = old.halvings
         for name in ("iterations", "newton_iterations", "dirichlet_heat", "source_heat", "robin_heat",
-                     "_steps_at_record", "transfers"):
+                     "interface_heat", "_steps_at_record", "transfers"):
             setattr(self, name, getattr(old, name))
         self.records = old.records
         self.transfers.append((len(self.records["time_s"]), float(heat_change)))
@@ -482,6 +525,7 @@ class StefanRun(ThermalPart):
         n, k = lengths["steps"], lengths["records"]
         rec = self.records
         return {"initial_heat": self.initial_heat, "iterations": self.iterations[:n],
+                "interface_heat": self.interface_heat[:n],
                 "newton_iterations": self.newton_iterations[:lengths["newton"]],
                 "dirichlet_heat": self.dirichlet_heat[:n], "source_heat": self.source_heat[:n],
                 "robin_heat": self.robin_heat[:n], "steps_at_record": self._steps_at_record[:k],
@@ -497,6 +541,7 @@ class StefanRun(ThermalPart):
         self.dirichlet_heat[:] = [float(v) for v in meta["dirichlet_heat"]]
         self.source_heat[:] = [float(v) for v in meta["source_heat"]]
         self.robin_heat[:] = [float(v) for v in meta.get("robin_heat", [0.0] * len(self.source_heat))]
+        self.interface_heat[:] = meta.get("interface_heat", [])
         self._steps_at_record[:] = [int(v) for v in meta["steps_at_record"]]
         r = meta["records"]
         self.records["time_s"][:] = r["time_s"]

@@ -109,9 +109,11 @@ def _check_steady_heat(scene: Scene, geo: GeometryModel, problems: list[Problem]
         problems.append(Problem("boundary_conditions", "a steady heat problem needs a temperature or a "
                                 "heat_transfer_coefficient condition somewhere, or its solution is not unique"))
         return
-    for members in _thermal_bodies(geo):
+    # an initial gap with a gap conductivity or radiation carries heat whatever the mechanics does
+    across = {i.name for i in scene.interfaces if i.gap_conductivity is not None or i.emissivities is not None}
+    for members in _thermal_bodies(geo, across):
         if not any(n in fixes for b in members for n in geo.block_boundaries.get(b, ())):
-            gaps = sorted(cs.name for cs in geo.contacts.values() if cs.initial_gap
+            gaps = sorted(cs.name for cs in geo.contacts.values() if cs.initial_gap and cs.name not in across
                           and {cs.master_block, cs.minion_block} & set(members))
             why = (f" (interface(s) {gaps} have an initial gap and carry no heat)" if gaps else "")
             problems.append(Problem("boundary_conditions", f"a steady heat problem needs a temperature or "
@@ -233,9 +235,9 @@ def check_mesh_size(scene: Scene, geo: GeometryModel, problems: list[Problem]) -
                             "or raise mesh.max_elements if the machine can take it"))
 
 
-def _thermal_bodies(geo: GeometryModel) -> list[list[str]]:
-    """The blocks heat can pass between (joined by glued interfaces or contact interfaces without a gap), as
-    sorted lists of block names."""
+def _thermal_bodies(geo: GeometryModel, across: set[str] = frozenset()) -> list[list[str]]:
+    """The blocks heat can pass between (joined by glued interfaces, contact interfaces without a gap and the
+    interfaces ``across`` an initial gap), as sorted lists of block names."""
     parent = {b: b for b in geo.regions}
 
     def find(b):
@@ -243,7 +245,7 @@ def _thermal_bodies(geo: GeometryModel) -> list[list[str]]:
             b = parent[b]
         return b
     pairs = list(geo.glued.values()) + [(cs.master_block, cs.minion_block) for cs in geo.contacts.values()
-                                        if not cs.initial_gap]
+                                        if not cs.initial_gap or cs.name in across]
     for a, b in pairs:
         parent[find(a)] = find(b)
     groups: dict[str, list[str]] = {}

@@ -5,9 +5,10 @@ unphysical values, inconsistent settings. The declared type and range of every k
 (:func:`~ngs_geomech.scene.schema.recheck`), then the rules that join keys, by subject: names and temperatures
 (:mod:`.check_values`), settings (:mod:`.check_settings`, :mod:`.check_adaptivity`, the contacts' frictional heating
 :mod:`.check_frictional`), materials (:mod:`.check_materials`) and, on the geometry (built cheaply: OCC shapes, no
-mesh), the names it must hold (:mod:`.check_geometry`), the values expressions take on it
-(:mod:`.expression_values`) and the material values that vary over their regions and the contact laws' values along
-their sides (:mod:`.material_values`). What distributed runs cannot do is :mod:`.check_distributed`.
+mesh), the names it must hold (:mod:`.check_geometry`), the interfaces' contact-conductance keys
+(:mod:`.check_conductance`), the values expressions take on it (:mod:`.expression_values`) and the material values
+that vary over their regions and the contact laws' values along their sides (:mod:`.material_values`). What
+distributed runs cannot do is :mod:`.check_distributed`.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel, build_geometry
 from ..scene.model import Scene
 from ..scene.schema import recheck
+from .check_conductance import check_conductance
 from .check_distributed import distributed_problems
 from .check_frictional import check_frictional_heating
 from .check_geometry import check_mesh_size, check_references
@@ -47,6 +49,7 @@ def validate(scene: Scene) -> GeometryModel:
             problems += exc.problems
     if geo is not None:
         check_references(scene, geo, problems)
+        check_conductance(scene, geo, problems)
         check_sections(scene, geo, problems)
         check_mesh_size(scene, geo, problems)
         check_expression_values(scene, geo, problems)

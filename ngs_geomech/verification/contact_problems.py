@@ -444,7 +444,7 @@ def cattaneo(h_contact: float, order: int = 1, *, Q_ratio: float = 0.5, friction
     Q = Q_ratio * mu * P
     ref = cc.hertz_line(P, R, E_star)
     c_ref = cc.cattaneo_stick_half_width(Q, P, mu, ref.a)
-    mesh = _cattaneo_mesh(a_ref, h_contact, order, maxh, grading)
+    mesh = cattaneo_mesh(a_ref, h_contact, order, maxh, grading)
     props = _props(E, nu, ["cylinder", "block"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order)
     setup.dirichlet["bottom"] = [expression_function(0.0), expression_function(0.0)]
@@ -482,7 +482,7 @@ def _cylinder_resultant(floating: list, op, lam_n: np.ndarray, lam_t: np.ndarray
     return fx, fy
 
 
-def _cattaneo_mesh(a_ref: float, h_contact: float, order: int, maxh: float | None, grading: float):
+def cattaneo_mesh(a_ref: float, h_contact: float, order: int, maxh: float | None, grading: float):
     """The mesh of :func:`cattaneo`: the half cylinder (fine arc |x| <= ~4a) and the block (contact edge
     |x| <= 3a) meshed independently, curved to order max(order, 2)."""
     R = R_HERTZ
