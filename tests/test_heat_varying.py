@@ -167,15 +167,23 @@ def test_valid_varying_materials_pass():
                                     conductivity_angle=30.0)))
 
 
-def test_phase_change_scenes_refuse_varying_data_naming_the_key():
-    data = _plate(conductivity="2 + x", phase_change_temperature=0.0, latent_heat_volumetric=1e6,
-                  rho_c_liquid=2e6, conductivity_liquid=1.0)
+@pytest.mark.parametrize("material, key, message", [
+    ({"conductivity": "2 + x", "conductivity_liquid": 1.0}, "conductivity_liquid", "times the solid's conductivity"),
+    ({"conductivity": "2 + x", "conductivity_liquid": "1 + x"}, "conductivity_liquid", "times the solid's"),
+    ({"conductivity": "2 + T", "conductivity_liquid": 1.0}, "conductivity", "depends on T"),
+    ({"rho_c": "2e6 + x"}, "rho_c", "takes the heat capacity as a number"),
+])
+def test_phase_change_scenes_refuse_varying_data_naming_the_key(material, key, message):
+    """Conductivities of x, y, z are taken when the phases share the variation (tests/test_stefan_varying.py);
+    a ratio that changes, a conductivity of T and a heat capacity expression are refused by key."""
+    data = _plate(**{"conductivity": 2.0, "phase_change_temperature": 0.0, "latent_heat_volumetric": 1e6,
+                     "rho_c_liquid": 2e6, "conductivity_liquid": 1.0, **material})
     with pytest.raises(SceneError) as info:
         validate(scene_from_dict(data))
     (problem,) = info.value.problems
     print(f"\n{problem}")
-    assert problem.item == "materials.rock.conductivity"
-    assert "Stefan (phase change) solver" in problem.message and "constant material data" in problem.message
+    assert problem.item == f"materials.rock.{key}"
+    assert "Stefan" in problem.message and message in problem.message
 
 
 def test_mechanics_takes_a_density_expression():

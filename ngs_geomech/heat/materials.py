@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import MaterialError
 from ..scene import expressions
 from ..scene.model import Material
-from ..scene.schema import Expression, first_problem
+from ..scene.schema import Expression, first_problem, material_at
 
 
 def check_declared(m: Material, keys: tuple[str, ...]) -> None:
@@ -323,6 +323,77 @@ def phase_conductivities(m: Material, dim: int) -> tuple[float, float, np.ndarra
     return k_s, k_l, shape
 
 
+CONDUCTIVITY_KEYS = ("conductivity", "conductivity_principal", "conductivity_liquid", "conductivity_liquid_principal")
+"""The keys of the phases' conductivity tensors (the keys that may vary in x, y, z in a Stefan scene)."""
+RATIO_RTOL = 1e-9
+"""Relative tolerance of a constant ratio k_l(x) / k_s(x) over a region (round-off of the two expressions)."""
+
+
+@dataclass(frozen=True)
+class ConductivityField:
+    """A conductivity that varies in x, y, z in a region of a Stefan scene: the tensors are k_s G(x) (solid, or the
+    only phase) and k_l G(x) (liquid; None without phase change), ``k_s`` the largest principal value of the solid's
+    tensor over the points it was read at (W/(m K)) and ``shape`` G(x) the solid's tensor divided by it (dim x dim
+    nested tuples of floats and expression strings of x, y, z, r; dimensionless)."""
+
+    k_s: float
+    k_l: float | None
+    shape: tuple
+
+
+def conductivity_field(m: Material, dim: int, points, where: str = "") -> ConductivityField:
+    """The :class:`ConductivityField` of a material whose conductivity keys (:data:`CONDUCTIVITY_KEYS`) hold
+    expressions of x, y, z, r, read at ``points`` (an iterable of (x, y, z)): each point's tensors are read as
+    numbers (:func:`conductivity_tensor`, :func:`phase_conductivities`: positive definite, the liquid's
+    proportional to the solid's). With a phase change the ratio k_l(x) / k_s(x) must be one constant over the points
+    (the Kirchhoff variable of the Stefan forms is per region): MaterialError naming the liquid's key and the two
+    points where it differs, or the key at fault at a point (``where``, e.g. " of region 'a'", follows the
+    points in the messages)."""
+    keys = [k for k in CONDUCTIVITY_KEYS if _holds_expression(getattr(m, k))]
+    functions: dict = {}
+    k_max, first = 0.0, None
+    for p in points:
+        values = {"x": float(p[0]), "y": float(p[1]), "z": float(p[2]), "r": float(p[0]), "T": 0.0}
+        point = ", ".join(f"{n}={values[n] + 0.0:.6g}" for n in ("x", "y", "z")[:dim])
+        at = point + where
+        try:
+            mp = material_at(m, keys, functions, values)
+            kappa = conductivity_tensor(mp, dim)
+            k, _ = conductivity_shape(kappa)
+            ratio = None
+            if has_phase_change(m):
+                k_s, k_l, _ = phase_conductivities(mp, dim)
+                ratio = k_l / k_s
+        except MaterialError as exc:
+            raise MaterialError(exc.key, f"{exc.detail.removeprefix(': ')} at {at}") from None
+        except (ArithmeticError, ValueError) as exc:
+            raise MaterialError(keys[0], f"{exc} at {at}") from None
+        k_max = max(k_max, k)
+        if first is None:
+            first = (ratio, point)
+        elif ratio is not None and not math.isclose(ratio, first[0], rel_tol=RATIO_RTOL):
+            key = "conductivity_liquid" if m.conductivity_liquid is not None else "conductivity_liquid_principal"
+            raise MaterialError(key, f"is {ratio:.12g} times the solid's conductivity at {at} but {first[0]:.12g} "
+                                f"times at {first[1]}: the Stefan solver takes conductivities that vary "
+                                "in x, y, z when both phases share the variation, k_l(x) = c k_s(x) with one constant "
+                                "c per region (its Kirchhoff variable is per region); give the liquid's conductivity "
+                                "as a constant multiple of the solid's expression")
+    if first is None:
+        raise ValueError("conductivity_field: no points to read the conductivity at")
+    solid = conductivity_tensor(m, dim)
+    shape = tuple(tuple(_scaled(v, 1.0 / k_max) for v in row) for row in np.asarray(solid, dtype=object))
+    return ConductivityField(k_s=k_max, k_l=None if first[0] is None else first[0] * k_max, shape=shape)
+
+
+def _holds_expression(v) -> bool:
+    return is_expression(v) or isinstance(v, (list, tuple)) and any(_holds_expression(e) for e in v)
+
+
+def _scaled(v, factor: float):
+    """The product factor * v of a number or an expression (an expression string)."""
+    return Expression(f"({v})*{factor!r}") if is_expression(v) else float(v) * factor
+
+
 def phase_change_problems(m: Material) -> list[tuple[str, str]]:
     """Every problem of how a material's phase-change keys go together as (key, message); empty when they are
     consistent (also when the material has no phase change and sets none of them). The range of each key is
@@ -361,9 +432,12 @@ def phase_change_problems(m: Material) -> list[tuple[str, str]]:
     return out
 
 
-def phase_change_properties(m: Material, dim: int) -> PhaseChangeProperties | None:
+def phase_change_properties(m: Material, dim: int, field: ConductivityField | None = None
+                            ) -> PhaseChangeProperties | None:
     """The phase change of a material (None without phase_change_temperature); ValueError naming the key at
-    fault when a key is outside its declared range or the keys are inconsistent (see :func:`phase_change_problems`)."""
+    fault when a key is outside its declared range or the keys are inconsistent (see :func:`phase_change_problems`).
+    ``field``: the conductivity read at points when it varies in x, y, z (:func:`conductivity_field`; its k_s, k_l
+    are taken, ``anisotropy`` is then None)."""
     if not has_phase_change(m):
         return None
     check_declared(m, ("phase_change_temperature",) + PHASE_CHANGE_KEYS)
@@ -375,7 +449,7 @@ def phase_change_properties(m: Material, dim: int) -> PhaseChangeProperties | No
         raise ValueError("rho_c: a phase change needs the solid's rho_c (or density and specific_heat)")
     latent = m.latent_heat_volumetric if m.latent_heat_volumetric is not None else m.density * m.latent_heat
     c_l = m.rho_c_liquid if m.rho_c_liquid is not None else m.density * m.specific_heat_liquid
-    k_s, k_l, shape = phase_conductivities(m, dim)
+    k_s, k_l, shape = phase_conductivities(m, dim) if field is None else (field.k_s, field.k_l, None)
     return PhaseChangeProperties(temperature=float(m.phase_change_temperature), latent_heat=float(latent),
                                  rho_c_solid=rho_c, rho_c_liquid=float(c_l), conductivity_solid=k_s,
                                  conductivity_liquid=k_l, anisotropy=shape)

@@ -388,8 +388,10 @@ class Material:
     L = density * ``latent_heat`` (J/kg) or ``latent_heat_volumetric`` (J/m^3); the conductivity is
     ``conductivity`` (or ``conductivity_principal``: solid) and ``conductivity_liquid`` (or
     ``conductivity_liquid_principal``), W/(m K): numbers or tensors, the liquid's proportional to the solid's (the
-    phases scale one anisotropy). The phase boundary is where the liquid fraction is 1/2. Only transient,
-    backward Euler, P1 (mesh.order = 1) scenes, with numbers as material data (plane, axisymmetric or 3D).
+    phases scale one anisotropy). The conductivities may vary in x, y, z when the two phases share the variation
+    (k_l(x) = c k_s(x), c one constant per region); the heat capacities and the latent heat are numbers. The phase
+    boundary is where the liquid fraction is 1/2. Only transient, backward Euler, P1 (mesh.order = 1) scenes (plane,
+    axisymmetric or 3D).
     """
 
     conductivity: object = field(optional(conductivity_value), None,
@@ -477,16 +479,21 @@ class Material:
     specific_heat_liquid: float | None = field(optional(positive(number, "J/(kg K)")), None,
                                                doc="specific heat of the liquid phase, J/(kg K), with density "
                                                    "(instead of rho_c_liquid; the density is that of both phases)")
-    conductivity_liquid: object = field(optional(either(positive(number, "W/(m K)"), matrix,
+    conductivity_liquid: object = field(optional(either(material_value(positive(number, "W/(m K)")),
+                                                        list_of(list_of(material_value(number))),
                                                         what="a positive number or a symmetric positive definite "
-                                                             "matrix [[kxx, kxy], [kxy, kyy]] (W/(m K))")), None,
+                                                             "matrix [[kxx, kxy], [kxy, kyy]] (W/(m K)); the number "
+                                                             "and each entry may be an expression of x, y, z, r")),
+                                        None,
                                         doc="thermal conductivity of the liquid phase, W/(m K): a number (isotropic) "
                                             "or a tensor proportional to the solid's (conductivity); the Kirchhoff "
-                                            "variable (2.50) is piecewise linear")
+                                            "variable (2.50) is piecewise linear. Expressions of x, y, z, r: the "
+                                            "ratio to the solid's conductivity must be one constant over the region")
     conductivity_liquid_principal: list | None = field(
-        optional(list_of(positive(number, "W/(m K)"))), None,
+        optional(list_of(material_value(positive(number, "W/(m K)")))), None,
         doc="principal conductivities of the liquid phase, W/(m K), in the axes of conductivity_angle (instead of "
-            "conductivity_liquid): proportional to the solid's conductivity_principal")
+            "conductivity_liquid): proportional to the solid's conductivity_principal (numbers or expressions of "
+            "x, y, z, r, the ratio one constant over the region)")
 
 
 @dataclass(frozen=True, kw_only=True)

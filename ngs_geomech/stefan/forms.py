@@ -46,6 +46,12 @@ phase-change temperature of the touching PCMs), whose inverse beta_i is what the
 regions; the Kirchhoff variable is taken per region, so different conductivity laws may meet.
 With lumping and a non-obtuse mesh the scheme keeps the discrete maximum principle (K_r is an M-matrix).
 
+Conductivities that vary in x, y, z (``variation`` G(x) of :mod:`ngs_geomech.stefan.materials`: the phases' tensors
+k_s G(x), k_l G(x), sharing the variation) give K_r = int G grad phi_j . grad phi_i (the element rule of P1
+gradients: G at the element's centroid, a positive multiple of the element's constant stiffness): the conduction
+term is div(G grad theta) with the same Kirchhoff variable, exact for this class; K_r stays an M-matrix on a
+non-obtuse mesh when G = g(x) I with g > 0, and its columns still sum to zero (energy conservation unchanged).
+
 Contact interfaces (two bodies meshed independently, non-matching nodes on the two sides) pass heat by a
 penalty on the temperature jump, approximating the continuity T^k = T^l, equal fluxes of (2.43):
 
@@ -99,7 +105,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import parallel
-from ..fem.coefficients import Steady, expression_function, regions_regex
+from ..fem.coefficients import Steady, expression_function, regions_regex, tensor_cf
 from ..heat.conductance import InterfaceConductance
 from .conductance import NodalConductances
 from .materials import (
@@ -160,6 +166,16 @@ def vertex_rules(dim: int) -> dict:
     return {ngs.TET: ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [1 / 24] * 4)}
 
 
+def shape_cf(material: StefanMaterial, dim: int):
+    """The shape of a material's conductivity tensors as a dim x dim CoefficientFunction: K_hat (``anisotropy``)
+    or G(x) (``variation``, its expressions of x, y, z, r), None for the identity (isotropic, constant)."""
+    if material.variation is not None:
+        return tensor_cf(np.array(material.variation, dtype=object))
+    if material.anisotropy is not None:
+        return ngs.CoefficientFunction(tuple(float(c) for row in material.anisotropy for c in row), dims=(dim, dim))
+    return None
+
+
 @dataclass
 class NodalState:
     """The nodal temperature and its generalized derivative for a vector of nodal enthalpies.
@@ -218,9 +234,11 @@ class StefanForms:
             if not isinstance(mat, (PhaseChangeMaterial, PlainThermalMaterial)):
                 raise ValueError(f"Stefan problem: material of region {name!r} must be a PhaseChangeMaterial or a "
                                  f"PlainThermalMaterial, got {type(mat).__name__}")
-            if mat.anisotropy is not None and np.shape(mat.anisotropy) != (mesh.dim, mesh.dim):
-                raise ValueError(f"Stefan problem: the anisotropy of region {name!r} must be {mesh.dim}x{mesh.dim}, "
-                                 f"got shape {np.shape(mat.anisotropy)}")
+            for what in ("anisotropy", "variation"):
+                shape = getattr(mat, what)
+                if shape is not None and np.shape(np.array(shape, dtype=object)) != (mesh.dim, mesh.dim):
+                    raise ValueError(f"Stefan problem: the {what} of region {name!r} must be {mesh.dim}x{mesh.dim}, "
+                                     f"got shape {np.shape(np.array(shape, dtype=object))}")
         if setup.axisymmetric and mesh.dim != 2:
             raise ValueError(f"Stefan problem: an axisymmetric problem needs a 2D (r, z) mesh, got dim {mesh.dim}")
         self.dim = mesh.dim
@@ -332,12 +350,12 @@ class StefanForms:
 
     def group_integrand(self, g: int, coefficient, u, v):
         """The integrand of group g's stiffness for unit conductivity, ``coefficient`` (a CF) times
-        grad u . grad v, K_hat grad u . grad v for an anisotropic material, times r in axisymmetric problems."""
-        shape = self.groups[g].anisotropy
-        if shape is None:
+        grad u . grad v, K_hat grad u . grad v for an anisotropic material, G(x) grad u . grad v for a conductivity
+        that varies in x, y, z (``variation``), times r in axisymmetric problems."""
+        K = shape_cf(self.groups[g], self.dim)
+        if K is None:
             form = coefficient * ngs.grad(u) * ngs.grad(v)
         else:
-            K = ngs.CoefficientFunction(tuple(float(c) for row in shape for c in row), dims=(self.dim, self.dim))
             form = coefficient * ngs.InnerProduct(K * ngs.grad(u), ngs.grad(v))
         return form if self.weight is None else self.weight * form
 

@@ -7,6 +7,11 @@ Anisotropy. The conductivity tensor of each phase may be k_phase K_hat with one 
 K_hat per material (``anisotropy``; None: the identity): the phases scale the same anisotropy, so that the flux
 -k(T) K_hat grad T = -K_hat grad theta(T) keeps one Kirchhoff variable theta per material (the scalar k_s, k_l
 of the laws below are the factors of K_hat).
+
+Spatial variation. The shape may also vary in x, y, z: the tensors are then k_s G(x) and k_l G(x) with G =
+``variation`` (a tensor of numbers and expressions of x, y, z, r; dimensionless), so that the flux -k(T) G grad T =
+-G grad theta(T) keeps the same Kirchhoff variable: the phases share the variation, k_l(x) / k_s(x) = k_l / k_s is one
+constant per material. Exact for this class: the conduction term is div(G grad theta).
 """
 
 from __future__ import annotations
@@ -53,6 +58,24 @@ class _LinearConductivityLaw:
             raise ValueError(f"anisotropy {arr.tolist()} must be symmetric positive definite")
         object.__setattr__(self, "anisotropy", tuple(tuple(float(v) for v in row) for row in arr))
 
+    def _check_variation(self) -> None:
+        """``variation`` None or a square matrix of finite floats and expression strings (stored as nested tuples,
+        hashable), not with ``anisotropy`` (G(x) holds the shape then)."""
+        g = self.variation
+        if g is None:
+            return
+        if self.anisotropy is not None:
+            raise ValueError("give anisotropy (a constant shape) or variation (a shape of x, y, z), not both")
+        try:
+            rows = [list(row) for row in g]
+        except TypeError:
+            raise ValueError(f"variation must be a square matrix, got {g!r}") from None
+        if any(len(row) != len(rows) for row in rows):
+            raise ValueError(f"variation must be a square matrix, got {g!r}")
+        out = tuple(tuple(v if isinstance(v, str) else check_number("variation entry", v) for v in row)
+                    for row in rows)
+        object.__setattr__(self, "variation", out)
+
     @property
     def temperature_dependent(self) -> bool:
         """Whether k depends on T (b != 0)."""
@@ -72,7 +95,8 @@ class PhaseChangeMaterial(_LinearConductivityLaw):
     ``rho_c_liquid`` the volumetric heat capacities C_s, C_l (J/(m^3 K), > 0), ``conductivity_solid`` and
     ``conductivity_liquid`` k_s, k_l (W/(m K), > 0), the tensors k_s K_hat and k_l K_hat with K_hat =
     ``anisotropy`` (dimensionless, symmetric positive definite; None: isotropic). The enthalpy is measured from
-    the solid at Theta_R: e(T) = C_s (T - Theta_R) below, L + C_l (T - Theta_R) above (J/m^3).
+    the solid at Theta_R: e(T) = C_s (T - Theta_R) below, L + C_l (T - Theta_R) above (J/m^3). ``variation``
+    G(x) (module docstring) makes the tensors k_s G(x) and k_l G(x) instead (None: constant).
     """
 
     melting_temperature: float
@@ -84,6 +108,7 @@ class PhaseChangeMaterial(_LinearConductivityLaw):
     conductivity_temperature_coefficient: float = 0.0
     reference_temperature: float = 0.0
     anisotropy: tuple | None = None
+    variation: tuple | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "melting_temperature",
@@ -93,6 +118,7 @@ class PhaseChangeMaterial(_LinearConductivityLaw):
             object.__setattr__(self, name, check_number(name, getattr(self, name), positive=True))
         _check_law(self)
         self._check_anisotropy()
+        self._check_variation()
 
     @property
     def diffusivity_solid(self) -> float:
@@ -133,19 +159,22 @@ class PhaseChangeMaterial(_LinearConductivityLaw):
 @dataclass(frozen=True)
 class PlainThermalMaterial(_LinearConductivityLaw):
     """A material without phase change: ``rho_c`` C (J/(m^3 K), > 0), ``conductivity`` k (W/(m K), > 0; the
-    tensor k K_hat with K_hat = ``anisotropy``, None: isotropic); e = C T (J/m^3), theta = k T (W/m)."""
+    tensor k K_hat with K_hat = ``anisotropy``, None: isotropic; k G(x) with G = ``variation``, module docstring);
+    e = C T (J/m^3), theta = k T (W/m)."""
 
     rho_c: float
     conductivity: float
     conductivity_temperature_coefficient: float = 0.0
     reference_temperature: float = 0.0
     anisotropy: tuple | None = None
+    variation: tuple | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "rho_c", check_number("rho_c", self.rho_c, positive=True))
         object.__setattr__(self, "conductivity", check_number("conductivity", self.conductivity, positive=True))
         _check_law(self)
         self._check_anisotropy()
+        self._check_variation()
 
     def enthalpy(self, T, liquid_fraction=0.0):
         return self.rho_c * np.asarray(T, dtype=float)

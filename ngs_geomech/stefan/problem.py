@@ -12,8 +12,10 @@ both phases (``conductivity`` and ``conductivity_liquid`` are the values at T_re
 naming that key when k is not positive at a temperature reached. Heat transfer (Robin) conditions
 (``heat_transfer_coefficient``, ``ambient_temperature``) exchange h (T_amb - T) with the nodal T; anisotropic
 conductivities are taken as k_phase K_hat per phase (the liquid's tensor proportional to the solid's); axisymmetric
-scenes weight every integral by r. Validation refuses material values given as expressions (x- or T-dependent
-data), liquid tensors not proportional to the solid's, and P2.
+scenes weight every integral by r. Conductivities may be expressions of x, y, z when the phases share the
+variation (k_l(x) = c k_s(x), c constant per region: ``variation`` G(x), read at the region's vertices). Validation
+refuses conductivities of T (the linear law above carries the T dependence), heat capacities given as expressions,
+liquid tensors not proportional to the solid's, a ratio k_l / k_s that changes over a region, and P2.
 
 Volumes are m^2 per metre of depth in plane scenes (m^3 in 3D and axisymmetric: the whole body, 2 pi times the
 forms' per-radian integrals), heats J per metre of depth (J in 3D and axisymmetric).
@@ -40,6 +42,8 @@ from ..geometry.assemble import GeometryModel
 from ..geometry.isolines import IsoLines, iso_segments
 from ..heat.conductance import heatless_closed, unfollowed_closed
 from ..heat.materials import (
+    CONDUCTIVITY_KEYS,
+    conductivity_field,
     conductivity_shape,
     conductivity_tensor,
     has_phase_change,
@@ -59,8 +63,9 @@ from ..linalg.iterative import choose_solver
 from ..parts import Step, ThermalPart
 from ..scene.expressions import short
 from ..scene.model import Scene
+from ..scene.schema import holds_expression
 from ..scene.units import YEAR
-from .forms import DEFAULT_INTERFACE_PENALTY, StefanForms, StefanSetup
+from .forms import DEFAULT_INTERFACE_PENALTY, StefanForms, StefanSetup, shape_cf
 from .materials import ConductivityRangeError, PhaseChangeMaterial, PlainThermalMaterial
 from .solver import StefanSolver
 
@@ -84,14 +89,24 @@ TRANSFER_ORDER = 4
 piecewise linear on the old mesh)."""
 
 
-def stefan_materials(scene: Scene) -> dict:
-    """Region name -> :class:`PhaseChangeMaterial` or :class:`PlainThermalMaterial` of a validated scene."""
+VARIATION_POINTS = 2000
+"""Most mesh vertices of a region at which a conductivity varying in x, y, z is read for its scale k_s (the largest
+principal value there) and its ratio k_l / k_s (:func:`~ngs_geomech.heat.materials.conductivity_field`)."""
+
+
+def stefan_materials(scene: Scene, mesh=None) -> dict:
+    """Region name -> :class:`PhaseChangeMaterial` or :class:`PlainThermalMaterial` of a validated scene; a
+    conductivity that varies in x, y, z becomes k_s G(x) (``variation``), read at the region's vertices of ``mesh``
+    (needed then)."""
     dim = 3 if scene.scene.dimension == "3d" else 2
     out = {}
     for name, m in scene.materials.items():
-        pc = phase_change_properties(m, dim)
         law = {"conductivity_temperature_coefficient": m.conductivity_temperature_coefficient,
                "reference_temperature": m.reference_temperature}
+        if any(holds_expression(getattr(m, k)) for k in CONDUCTIVITY_KEYS):
+            out[name] = _varying_material(m, name, dim, mesh, law)
+            continue
+        pc = phase_change_properties(m, dim)
         if pc is not None:
             out[name] = PhaseChangeMaterial(melting_temperature=pc.temperature, latent_heat=pc.latent_heat,
                                             rho_c_solid=pc.rho_c_solid, rho_c_liquid=pc.rho_c_liquid,
@@ -103,6 +118,24 @@ def stefan_materials(scene: Scene) -> dict:
             out[name] = PlainThermalMaterial(rho_c=volumetric_heat_capacity(m), conductivity=k,
                                              anisotropy=_shape(shape), **law)
     return out
+
+
+def _varying_material(m, name: str, dim: int, mesh, law: dict):
+    """The Stefan material of a region whose conductivity varies in x, y, z (read at its vertices)."""
+    if mesh is None:
+        raise ValueError(f"stefan_materials: region {name!r} has a conductivity of x, y, z: the mesh is needed")
+    pts = np.array([mesh[ngs.NodeId(ngs.VERTEX, int(i))].point for i in _region_vertices(mesh, name)], dtype=float)
+    pts = np.pad(pts, ((0, 0), (0, 3 - pts.shape[1])))
+    pts = pts[::max(1, -(-len(pts) // VARIATION_POINTS))]
+    field = conductivity_field(m, dim, pts)
+    if field.k_l is None:
+        return PlainThermalMaterial(rho_c=volumetric_heat_capacity(m), conductivity=field.k_s,
+                                    variation=field.shape, **law)
+    pc = phase_change_properties(m, dim, field)
+    return PhaseChangeMaterial(melting_temperature=pc.temperature, latent_heat=pc.latent_heat,
+                               rho_c_solid=pc.rho_c_solid, rho_c_liquid=pc.rho_c_liquid,
+                               conductivity_solid=field.k_s, conductivity_liquid=field.k_l,
+                               variation=field.shape, **law)
 
 
 def _shape(shape) -> tuple | None:
@@ -122,7 +155,7 @@ def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> Stefan
     """The StefanSetup of a validated scene on its mesh; ``geo`` (the scene's geometry model) gives the contact
     interfaces heat passes through (touching blocks; the jump penalty of :mod:`ngs_geomech.stefan.forms`)."""
     axi = scene.scene.dimension == "axisymmetric"
-    setup = StefanSetup(materials=stefan_materials(scene), pressure_coefficients=pressure_coefficients(scene),
+    setup = StefanSetup(materials=stefan_materials(scene, mesh), pressure_coefficients=pressure_coefficients(scene),
                         axisymmetric=axi)
     if geo is not None:
         conducting = interface_conductances(scene, geo, mesh, radiation="linearized")   # instead of the penalty
@@ -146,19 +179,18 @@ def stefan_setup(scene: Scene, mesh, geo: GeometryModel | None = None) -> Stefan
 
 def _heat_flux(mesh, materials: dict, T):
     """The heat flux -k(T) K_hat grad T (W/m^2) of the nodal temperature T: per region the conductivity of the
-    phase at T (k_l above, k_s below Theta_R) times f(T) = 1 + b (T - T_ref), times K_hat when anisotropic."""
+    phase at T (k_l above, k_s below Theta_R) times f(T) = 1 + b (T - T_ref), times K_hat when anisotropic, G(x)
+    when it varies in x, y, z."""
     def k(m):
         base = (ngs.IfPos(T - m.melting_temperature, m.conductivity_liquid, m.conductivity_solid)
                 if isinstance(m, PhaseChangeMaterial) else m.conductivity)
         return base * (1 + m.conductivity_temperature_coefficient * (T - m.reference_temperature)
                        if m.temperature_dependent else 1)
-    if all(m.anisotropy is None for m in materials.values()):
+    if all(m.anisotropy is None and m.variation is None for m in materials.values()):
         return -mesh.MaterialCF({n: k(m) for n, m in materials.items()}, default=0.0) * ngs.grad(T)
     d = mesh.dim
-    eye = tuple(float(i == j) for i in range(d) for j in range(d))
-    tensors = {n: k(m) * ngs.CoefficientFunction(eye if m.anisotropy is None else
-                                                 tuple(c for row in m.anisotropy for c in row), dims=(d, d))
-               for n, m in materials.items()}
+    eye = ngs.CoefficientFunction(tuple(float(i == j) for i in range(d) for j in range(d)), dims=(d, d))
+    tensors = {n: k(m) * (shape_cf(m, d) if shape_cf(m, d) is not None else eye) for n, m in materials.items()}
     zero = ngs.CoefficientFunction((0.0,) * d * d, dims=(d, d))
     return -(mesh.MaterialCF(tensors, default=zero) * ngs.grad(T))
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 from ..errors import MaterialError, Problem
 from ..geometry.assemble import GeometryModel, scene_dim
 from ..heat.materials import (
+    CONDUCTIVITY_KEYS,
     conductivity_tensor,
     expression_keys,
     has_phase_change,
@@ -18,6 +19,7 @@ from ..heat.materials import (
 from ..mechanics.materials import axisymmetric, elastic_properties, elastic_structure, elastic_varying_keys
 from ..scene import expressions
 from ..scene.model import Scene
+from ..scene.schema import holds_expression
 from .expression_values import value_range
 
 
@@ -105,8 +107,9 @@ def _varying_refused(scene: Scene, mat, key: str) -> str:
 
 def check_phase_change(scene: Scene, problems: list[Problem]) -> None:
     """Phase-change keys of each material, and what the Stefan solver supports (seed (2.46)-(2.51), (2.55): P1,
-    lumped, backward Euler, constant material data per region, conductivity tensors k_phase K_hat per phase
-    (the phases scale one anisotropy; k (1 + b (T - T_ref)) allowed); plane, axisymmetric or 3D; temperature, flux
+    lumped, backward Euler, numbers for the heat capacities per region, conductivity tensors k_phase K_hat per phase
+    (the phases scale one anisotropy) or k_phase G(x) (the phases share a variation in x, y, z); k (1 + b (T - T_ref))
+    allowed; plane, axisymmetric or 3D; temperature, flux
     and heat transfer (Robin) conditions)."""
     pcm = [n for n, m in scene.materials.items() if has_phase_change(m)]
     for name, mat in scene.materials.items():
@@ -133,14 +136,14 @@ def check_phase_change(scene: Scene, problems: list[Problem]) -> None:
                                 "(2.55)); set time.scheme = 'backward_euler'"))
     dim = scene_dim(scene)
     for name, mat in scene.materials.items():
-        varying = expression_keys(mat)
+        varying = expression_keys(mat) + [k for k in ("conductivity_liquid", "conductivity_liquid_principal")
+                                          if holds_expression(getattr(mat, k))]
         for key in varying:
-            problems.append(Problem(f"materials.{name}.{key}", f"an expression: {why} takes constant material data "
-                                    "(a number per region and phase; its nodal enthalpy and Kirchhoff variable are "
-                                    "built from them); expressions of x, y, z, T are taken by the heat solver of "
-                                    "scenes without phase change"))
-        if varying:
-            continue
+            message = _stefan_expression_problem(mat, key, why)
+            if message:
+                problems.append(Problem(f"materials.{name}.{key}", message))
+        if any(k in CONDUCTIVITY_KEYS for k in varying):
+            continue                    # conductivities of x, y, z: sampled by material_values
         # conductivity_temperature_coefficient: k(T) = k (1 + b (T - T_ref)) in both phases (the Kirchhoff
         # variable is then piecewise quadratic); that k stays positive is checked at the temperatures reached
         try:
@@ -152,6 +155,34 @@ def check_phase_change(scene: Scene, problems: list[Problem]) -> None:
                 phase_conductivities(mat, dim)
             except MaterialError as exc:
                 problems.append(Problem(f"materials.{name}.{exc.key}", exc.detail))
+
+
+def _stefan_expression_problem(mat, key: str, why: str) -> str:
+    """Why the Stefan solver refuses the expression of ``key`` ("" when it takes it): conductivities of x, y, z are
+    taken (the phases sharing the variation, checked at sample points by
+    :func:`~ngs_geomech.validation.material_values.check_phase_conductivity_values`), not of T, and no heat capacity
+    (the nodal enthalpy graph holds numbers per region and phase)."""
+    if key in CONDUCTIVITY_KEYS:
+        if any(expressions.TEMPERATURE in expressions.uses(e) for e in _texts(getattr(mat, key))):
+            return (f"depends on T: {why} takes conductivities of x, y, z only (its Kirchhoff variable theta(T) is "
+                    "one piecewise law per region); give the temperature dependence as "
+                    "conductivity_temperature_coefficient (k (1 + b (T - T_ref)) in both phases)")
+        return ""
+    if key == "density" and mat.specific_heat is None and not (
+            has_phase_change(mat) and (mat.latent_heat is not None or mat.specific_heat_liquid is not None)):
+        return ""                       # the density of the mechanics only (rho_c, the volumetric latent heat given)
+    return (f"an expression: {why} takes the heat capacity as a number per region and phase (its nodal enthalpy "
+            "graph e(T) is built from C_s, C_l and L per material, one graph per material at every node); the "
+            "conductivities may vary in x, y, z, and expressions of x, y, z, T for the heat capacity are taken by the "
+            "heat solver of scenes without phase change")
+
+
+def _texts(value) -> list[str]:
+    if isinstance(value, str):
+        return [value]
+    if isinstance(value, (list, tuple)):
+        return [e for v in value for e in _texts(v)]
+    return []
 
 
 def check_conductivity_range(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:

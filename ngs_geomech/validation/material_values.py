@@ -25,11 +25,17 @@ import numpy as np
 
 from ..errors import MaterialError, Problem
 from ..geometry.assemble import GeometryModel, scene_dim
-from ..heat.materials import conductivity_tensor, volumetric_heat_capacity
+from ..heat.materials import (
+    CONDUCTIVITY_KEYS,
+    conductivity_field,
+    conductivity_tensor,
+    has_phase_change,
+    volumetric_heat_capacity,
+)
 from ..mechanics.materials import ELASTIC_KEYS, axisymmetric, elastic_properties
 from ..scene import expressions
 from ..scene.model import Material, Scene
-from ..scene.schema import first_problem
+from ..scene.schema import first_problem, holds_expression
 from ..scene.schema import material_at as schema_material_at
 from ..scene.schema import varying_keys as schema_varying_keys
 from ..scene.units import KELVIN
@@ -208,6 +214,30 @@ def _texts_of(m: Material, key: str) -> list[str]:
             if isinstance(value, (list, tuple)) and int(index) < len(value):
                 value = value[int(index)]
     return list(dict.fromkeys(_expressions(value)))
+
+
+def check_phase_conductivity_values(scene: Scene, geo: GeometryModel, problems: list[Problem]) -> None:
+    """Append a Problem for each phase-change material of a Stefan scene whose conductivities vary in x, y, z but
+    whose liquid and solid tensors are not c and 1 times one tensor field with one constant c over its region, read
+    at the region's sample points (:func:`~ngs_geomech.heat.materials.conductivity_field`; the Kirchhoff variable
+    of the Stefan forms is per region): the problem names the key and the two points where the ratio differs (or
+    the point where a tensor is refused). Materials with a problem already are left out."""
+    if not (scene.physics.thermal == "transient" and any(has_phase_change(m) for m in scene.materials.values())):
+        return
+    dim = scene_dim(scene)
+    named = {p.item for p in problems}
+    for name, m in scene.materials.items():
+        if not has_phase_change(m) or name not in geo.regions or not any(
+                holds_expression(getattr(m, k)) for k in CONDUCTIVITY_KEYS):
+            continue
+        if any(i == f"materials.{name}" or i.startswith(f"materials.{name}.") for i in named):
+            continue
+        pts = sample_points(geo, ("region", (name,)))
+        nodes = sum(expressions.node_count(e) for k in CONDUCTIVITY_KEYS for e in _expressions(getattr(m, k)))
+        try:
+            conductivity_field(m, dim, pts[::max(1, math.ceil(len(pts) * nodes / BUDGET))], f" of region {name!r}")
+        except MaterialError as exc:
+            problems.append(Problem(f"materials.{name}.{exc.key}", exc.detail))
 
 
 CONTACT_KEYS = (("friction", "coulomb", ""), ("slip_bound", "tresca", " Pa"))

@@ -26,7 +26,7 @@ from .check_output import check_sections
 from .check_settings import check_settings
 from .check_values import check_names, check_temperatures
 from .expression_values import check_expression_values
-from .material_values import check_contact_values, check_material_values
+from .material_values import check_contact_values, check_material_values, check_phase_conductivity_values
 
 __all__ = ["distributed_problems", "stefan_scene", "validate"]
 
@@ -54,6 +54,7 @@ def validate(scene: Scene) -> GeometryModel:
         check_mesh_size(scene, geo, problems)
         check_expression_values(scene, geo, problems)
         check_material_values(scene, geo, problems)
+        check_phase_conductivity_values(scene, geo, problems)
         check_contact_values(scene, geo, problems)
         if not problems:
             check_conductivity_range(scene, geo, problems)
