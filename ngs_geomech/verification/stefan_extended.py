@@ -160,7 +160,7 @@ class _Line:
     fixed: np.ndarray
 
 
-def _line(r: np.ndarray, weight_power: int, left: tuple, right: tuple) -> _Line:
+def _line(r: np.ndarray, weight_power: int, left: tuple, right: tuple, factor=None) -> _Line:
     a, b = r[:-1], r[1:]
     length = b - a
     m = np.zeros(len(r))
@@ -172,6 +172,10 @@ def _line(r: np.ndarray, weight_power: int, left: tuple, right: tuple) -> _Line:
         np.add.at(m, np.arange(len(a)), length / 2)
         np.add.at(m, np.arange(1, len(r)), length / 2)
         kel = 1.0 / length
+    if factor is not None:                      # k(x) = k g(x): the harmonic element mean of g (4-point Gauss)
+        gauss = np.polynomial.legendre.leggauss(4)
+        inv = sum(w / 2 / factor(0.5 * (a + b) + 0.5 * q * length) for q, w in zip(*gauss))
+        kel = kel / inv
     diag = np.zeros(len(r))
     np.add.at(diag, np.arange(len(a)), kel)
     np.add.at(diag, np.arange(1, len(r)), kel)
@@ -213,7 +217,7 @@ def _newton_1d(ln: _Line, mat: Phases, e_old, dt, F, tol, maxit, scale):
 
 
 def enthalpy_1d(nodes: np.ndarray, weight_power: int, mat: Phases, t_initial: float, steps, left: tuple,
-                right: tuple, tol: float = 1e-12, maxit: int = 30) -> dict:
+                right: tuple, tol: float = 1e-12, maxit: int = 30, factor=None) -> dict:
     """A 1D enthalpy solution independent of the mesh-based forms: lumped P1 on ``nodes`` (m) with the weight
     r^``weight_power`` (0: slab, J per m^2; 1: radial, J per m of the axis and per radian), nodal enthalpy, backward
     Euler over ``steps`` ((t0, t1) pairs, s), semi-smooth Newton with the tridiagonal Jacobian
@@ -221,11 +225,13 @@ def enthalpy_1d(nodes: np.ndarray, weight_power: int, mat: Phases, t_initial: fl
     Newton iteration does not converge is split in halves.
 
     ``left``: ("flux", q) (W/m^2 into the body), ("robin", h, T_amb) or ("dirichlet", T); ``right``:
-    ("dirichlet", T) or ("insulated",). Returns the final nodal ``T`` and liquid fraction ``phi``, ``melted``
+    ("dirichlet", T) or ("insulated",). ``factor``: a conductivity k_phase g(x) varying along the line, g a numpy
+    function of the coordinate (the element conductances take its harmonic element mean: exact for a steady
+    solution). Returns the final nodal ``T`` and liquid fraction ``phi``, ``melted``
     sum m_i phi_i, ``frozen`` sum m_i (1 - phi_i) (m^2 per radian radially, m in the slab), ``imbalance_rel``
     (|heat gain - heat in| / heat in), ``newton_max``, ``splits``."""
     r = np.asarray(nodes, dtype=float)
-    ln = _line(r, weight_power, left, right)
+    ln = _line(r, weight_power, left, right, factor)
     w0 = r[0] ** weight_power
     F = np.zeros(len(r))
     F[0] = w0 * left[1] if left[0] == "flux" else (w0 * left[1] * left[2] if left[0] == "robin" else 0.0)
@@ -270,7 +276,7 @@ def _pcm(m: Phases) -> dict:
             "latent_heat_volumetric": m.latent, "rho_c_liquid": m.c_liquid, "conductivity_liquid": m.k_liquid}
 
 
-def _fit(hs, errors) -> float:
+def fitted_order(hs, errors) -> float:
     """The observed order of |errors| over hs (nan with fewer than two nonzero errors)."""
     errs = np.abs(np.asarray(errors, dtype=float))
     return observed_order(hs, errs) if len(hs) > 1 and np.all(errs > 0) else float("nan")
@@ -302,7 +308,7 @@ def line_sink_reference(problem: LineSink, r0: float, t1: float, hs=(0.02, 0.01,
         imbalance = max(imbalance, out["imbalance_rel"])
     return {"h": list(hs), "r0": r0, "front_rel_error": errors,
             "front_rel_error_max": float(np.max(np.abs(errors))), "temperature_rel_error": t_errors,
-            "temperature_order": _fit(hs, t_errors), "imbalance_rel_max": float(imbalance),
+            "temperature_order": fitted_order(hs, t_errors), "imbalance_rel_max": float(imbalance),
             "wall_s": time.perf_counter() - tic}
 
 
@@ -340,11 +346,11 @@ def line_sink_freezing(problem: LineSink | None = None, hs=(0.1, 0.05, 0.025), r
     def front(st: dict) -> float:
         frozen = st["phase_change_regions"]["pcm"]["volume"] - st["melted_volume"]["pcm"][-1]
         return math.sqrt(r0 * r0 + frozen / (math.pi * height))
-    out["levels"] = _run_levels(lambda h: line_sink_scene(p, r0, r_out, height, h, t1), hs, front)
+    out["levels"] = run_levels(lambda h: line_sink_scene(p, r0, r_out, height, h, t1), hs, front)
     for lv in out["levels"]:
         lv["front_rel_error"] = abs(lv["front"] / p.front(t1) - 1.0)
     errors = [lv["front_rel_error"] for lv in out["levels"]]
-    out.update(h=list(hs), front_rel_error=errors, order=_fit(hs, errors),
+    out.update(h=list(hs), front_rel_error=errors, order=fitted_order(hs, errors),
                axisymmetric_stefan_front_rel_error=errors[-1],
                energy_imbalance_rel=max(lv["energy_imbalance_rel"] for lv in out["levels"]))
     return out
@@ -388,7 +394,7 @@ def robin_reference(problem: RobinSlab, hs=(1 / 100, 1 / 200, 1 / 400, 1 / 800, 
         fronts.append(out["melted"])
         imbalance = max(imbalance, out["imbalance_rel"])
     diffs = np.abs(np.diff(fronts))
-    return {"h": list(hs), "front": fronts, "differences": diffs.tolist(), "order": _fit(hs[1:], diffs),
+    return {"h": list(hs), "front": fronts, "differences": diffs.tolist(), "order": fitted_order(hs[1:], diffs),
             "front_reference": fronts[-1],
             "front_uncertainty_rel": float(np.max(np.abs(np.array(fronts[-3:-1]) - fronts[-1])) / fronts[-1]),
             "imbalance_rel_max": float(imbalance), "wall_s": time.perf_counter() - tic}
@@ -410,7 +416,7 @@ def robin_scene(problem: RobinSlab, height: float, h: float, dt: float) -> dict:
             "output": {"every": 10 ** 6}}
 
 
-def _run_levels(make, hs, front_of) -> list[dict]:
+def run_levels(make, hs, front_of) -> list[dict]:
     """Run the scene ``make(h)`` at each mesh size: the front (``front_of(summary)``, m), the energy imbalance,
     dofs, steps, Newton iterations and wall time (s) per level."""
     levels = []
@@ -436,13 +442,13 @@ def robin_melting(problem: RobinSlab | None = None, hs=(0.05, 0.025, 0.0125), he
     (the finest level's) and ``energy_imbalance_rel`` (the largest)."""
     p = problem or RobinSlab()
     ref = robin_reference(p)
-    levels = _run_levels(lambda h: robin_scene(p, height, h, dt_over_h * h), hs,
+    levels = run_levels(lambda h: robin_scene(p, height, h, dt_over_h * h), hs,
                          lambda st: st["melted_volume"]["pcm"][-1] / height)
     for lv in levels:
         lv["front_rel_error"] = abs(lv["front"] / ref["front_reference"] - 1.0)
     errors = [lv["front_rel_error"] for lv in levels]
     return {"reference": ref, "levels": levels, "h": list(hs), "front_rel_error": errors,
-            "order": _fit(hs, errors), "robin_stefan_front_rel_error": errors[-1],
+            "order": fitted_order(hs, errors), "robin_stefan_front_rel_error": errors[-1],
             "energy_imbalance_rel": max(lv["energy_imbalance_rel"] for lv in levels)}
 
 
@@ -498,12 +504,12 @@ def anisotropic_neumann(ratio: float = 4.0, angle: float = 30.0, hs=(0.05, 0.025
                              t_hot=TWO_PHASE.t_hot, t_cold=TWO_PHASE.t_cold)
     length = problem.domain_length(t1)
     exact = problem.front(t1)
-    levels = _run_levels(lambda h: anisotropic_scene(problem, ratio, angle, length, width, h, dt_over_h * h, t0, t1),
+    levels = run_levels(lambda h: anisotropic_scene(problem, ratio, angle, length, width, h, dt_over_h * h, t0, t1),
                          hs, lambda st: st["melted_volume"]["pcm"][-1] / width)
     for lv in levels:
         lv["front_rel_error"] = abs(lv["front"] / exact - 1.0)
     errors = [lv["front_rel_error"] for lv in levels]
     return {"ratio": ratio, "angle_deg": angle, "length": length, "front_exact": exact, "lam": problem.lam,
-            "levels": levels, "h": list(hs), "front_rel_error": errors, "order": _fit(hs, errors),
+            "levels": levels, "h": list(hs), "front_rel_error": errors, "order": fitted_order(hs, errors),
             "anisotropic_stefan_front_rel_error": errors[-1],
             "energy_imbalance_rel": max(lv["energy_imbalance_rel"] for lv in levels)}
