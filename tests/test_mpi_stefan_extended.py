@@ -1,6 +1,7 @@
-"""A Stefan scene with a heat transfer (Robin) condition, plane and axisymmetric, on a netgen distributed mesh
-(3 MPI ranks, 2 workers; tests/mpi_cases/stefan_robin_case.py) equals the serial run: the same Newton iterations,
-heats (the Robin exchange included) and melted volumes to round-off, the energy balance closed."""
+"""A Stefan scene with a heat transfer (Robin) condition, plane, axisymmetric and plane with conductivities of depth,
+on a netgen distributed mesh (3 MPI ranks, 2 workers; tests/mpi_cases/stefan_robin_case.py) equals the serial run:
+the same Newton iterations, heats (the Robin exchange included) and melted volumes to round-off, the energy balance
+closed."""
 
 from __future__ import annotations
 

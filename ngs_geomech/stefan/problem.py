@@ -124,9 +124,12 @@ def _varying_material(m, name: str, dim: int, mesh, law: dict):
     """The Stefan material of a region whose conductivity varies in x, y, z (read at its vertices)."""
     if mesh is None:
         raise ValueError(f"stefan_materials: region {name!r} has a conductivity of x, y, z: the mesh is needed")
-    pts = np.array([mesh[ngs.NodeId(ngs.VERTEX, int(i))].point for i in _region_vertices(mesh, name)], dtype=float)
-    pts = np.pad(pts, ((0, 0), (0, 3 - pts.shape[1])))
+    pts = np.array([mesh[ngs.NodeId(ngs.VERTEX, int(i))].point for i in _region_vertices(mesh, name)],
+                   dtype=float).reshape(-1, mesh.dim)
+    pts = np.pad(pts, ((0, 0), (0, 3 - mesh.dim)))
     pts = pts[::max(1, -(-len(pts) // VARIATION_POINTS))]
+    if parallel.distributed(mesh):          # every rank reads the same points: one k_s, k_l on all of them
+        pts = parallel.concat(mesh, pts)
     field = conductivity_field(m, dim, pts)
     if field.k_l is None:
         return PlainThermalMaterial(rho_c=volumetric_heat_capacity(m), conductivity=field.k_s,

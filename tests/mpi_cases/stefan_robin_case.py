@@ -1,6 +1,7 @@
 """The built-in scene ``melting_block`` with its ground surface as a heat transfer (Robin) condition (h = 20
-W/(m^2 K) to the scene's surface temperature), plane and axisymmetric, coarse and six steps of 5 days, on a serial
-or a netgen distributed mesh (:class:`ngs_geomech.stefan.problem.StefanRun`):
+W/(m^2 K) to the scene's surface temperature), plane, axisymmetric and plane with the silt's conductivities varying
+with depth (``varying``: read at the vertices of every rank, one k_s on all of them), coarse and six steps of 5
+days, on a serial or a netgen distributed mesh (:class:`ngs_geomech.stefan.problem.StefanRun`):
 
     mpiexec -n 3 python stefan_robin_case.py OUT.json     (netgen keeps no elements on rank 0: 2 workers)
 
@@ -14,7 +15,7 @@ from __future__ import annotations
 import json
 import sys
 
-VARIANTS = ("plane", "axisymmetric")
+VARIANTS = ("plane", "axisymmetric", "varying")
 DT = 5 * 86400.0
 STEPS = 6
 
@@ -27,6 +28,9 @@ def scene(variant: str):
     surface = data["boundary_conditions"]["surface"]["temperature"]
     data["boundary_conditions"]["surface"] = {"heat_transfer_coefficient": 20.0, "ambient_temperature": surface}
     data["scene"]["dimension"] = variant if variant == "axisymmetric" else "plane"
+    if variant == "varying":            # the silt's conductivities of depth, the phases sharing the variation
+        silt = data["materials"]["silt"]
+        silt["conductivity"], silt["conductivity_liquid"] = "2.0*(1 - 0.2*y)", "1.4*(1 - 0.2*y)"
     return scene_from_dict(data)
 
 
