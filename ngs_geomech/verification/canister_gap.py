@@ -71,8 +71,9 @@ def canister_gap(*, overrides: list[str] | None = None) -> dict:
     "open_drop_K" (q / (k_gap / g0 + h_rad) at the open run's peak), "closing_time_y", "reopening_time_y",
     "initial_closed_m" (closed length at the start: the floor), "final_closed_m", "surface_m" (the canister's
     outline, m), "initial_gap_m" (the largest), "h_first_step", "h_open_max", "h_closed_min" (effective
-    conductances of the gap run, W/(m^2 K)), "h_expected_first" (k_gap / g0 + h_rad), "h_closed_floor"
-    (k_gap / minimum_gap), "open_steps" (heat steps before the closing), "max_pressure_Pa",
+    conductances of the gap run, W/(m^2 K), over the heat steps with at most / more than half the surface closed),
+    "h_open_increasing" (over the steps before the closing), "h_expected_first" (k_gap / g0 + h_rad),
+    "h_closed_floor" (k_gap / minimum_gap), "open_steps" (heat steps with at most half closed), "max_pressure_Pa",
     "energy_imbalance_rel" (the largest of the three runs'), "force_imbalance_rel", "dofs", "steps", "wall_s" (the
     gap run)}."""
     over = (COARSE if overrides is None else list(overrides)) + QUIET
@@ -107,7 +108,7 @@ def canister_gap(*, overrides: list[str] | None = None) -> dict:
             "h_open_max": float(h[~shut].max()), "h_closed_min": float(h[shut].min()),
             "h_expected_first": h_air(series["canister_surface_mean"][1]),
             "h_closed_floor": itf.gap_conductivity / itf.minimum_gap, "open_steps": int((~shut).sum()),
-            "h_open_increasing": bool(np.all(np.diff(h[~shut]) > 0)),
+            "h_open_increasing": bool(np.all(np.diff(h[:int(np.argmax(shut))]) > 0)) if shut.any() else None,
             "max_pressure_Pa": float(max(e[ITF]["max_pressure_Pa"] for e in c["history"])),
             "energy_imbalance_rel": max(r.summary["heat_balance"]["imbalance_rel"] for r in runs.values()),
             "force_imbalance_rel": float(c["force_balance"]["imbalance_rel"]),
