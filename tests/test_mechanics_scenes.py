@@ -325,3 +325,30 @@ def test_axisymmetric_solid_cylinder_touching_the_axis(order):
     for x, y in ((0.0, 1.0), (0.3, 1.0), (0.15, 0.5), (0.0, 0.4)):
         val = np.array(u(mesh(x, y))).ravel()
         assert val == pytest.approx([nu * p * x / E, -p * y / E], abs=1e-9 * p / E)
+
+
+def test_axisymmetric_stress_output_is_finite_on_the_axis(tmp_path):
+    """The stress at points of the axis (VTK vertices, probes) takes the hoop strain's limit du_r/dr there, not
+    u_r / r = 0 / 0: the rod of the test above gives its uniaxial stress also on the axis, in the VTK file too."""
+    import meshio
+    E, nu, p = 20e9, 0.25, 1e6
+    d = {"scene": {"name": "rod", "dimension": "axisymmetric"},
+         "physics": {"thermal": "steady", "mechanics": "static", "coupling": "none"},
+         "mesh": {"maxh": 0.15, "order": 2},
+         "blocks": [{"name": "rod", "shape": "rectangle", "origin": [0, 0], "size": [0.3, 1.0],
+                     "boundaries": {"base": "ymin", "cap": "ymax"}}],
+         "materials": {"rod": {"youngs_modulus": E, "poisson_ratio": nu, "conductivity": 1.0,
+                               "thermal_expansion": 1e-5}},
+         "boundary_conditions": {"base": {"symmetry": True, "temperature": 0.0},
+                                 "cap": {"pressure": p, "temperature": 0.0}},
+         "output": {"vtk": True, "figures": False}}
+    res = run(scene_from_dict(d), tmp_path / "out", progress=False)
+    sig = np.array(res.mechanics.sigma(res.mesh(0.0, 0.4))).reshape(3, 3)
+    assert sig == pytest.approx(np.diag([0.0, -p, 0.0]), abs=1e-6 * p)
+    vtu = meshio.read(next((tmp_path / "out").glob("*.vtu")))
+    on_axis = np.abs(vtu.points[:, 0]) < 1e-12
+    stress = vtu.point_data["stress"].reshape(-1, 3, 3)
+    print(f"\nstress at {on_axis.sum()} axis vertices: max |sigma_zz + p| / p "
+          f"{np.max(np.abs(stress[on_axis, 1, 1] + p)) / p:.1e}")
+    assert on_axis.any() and np.all(np.isfinite(vtu.point_data["sigma_1"]))
+    np.testing.assert_allclose(stress[on_axis, 1, 1], -p, rtol=1e-6)

@@ -87,8 +87,10 @@ def test_gas_conduction_and_radiation_across_an_open_gap(kw):
         assert r["newton_iterations_max"] <= 4           # Newton on T^4 with its exact Jacobian
 
 
-def test_crank_nicolson_steps_keep_the_body_balances():
-    d = tc.two_slabs_scene(h=20.0)
+@pytest.mark.parametrize("order", [1, 2])
+def test_crank_nicolson_steps_keep_the_body_balances(order):
+    """With a source in one slab; P2: the balance sums the vertex dofs (the test function 1), not the bubbles."""
+    d = tc.two_slabs_scene(h=20.0, order=order)
     d["physics"]["thermal"] = "transient"
     d["initial"] = {"temperature": 0.0}
     d["time"] = {"end": 4e5, "dt": 5e4, "scheme": "crank_nicolson"}

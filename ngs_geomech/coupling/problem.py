@@ -55,8 +55,6 @@ class DeformationHeating:
         V = mech_forms.V
         self.rate = ngs.GridFunction(V)
         self.u_prev = ngs.GridFunction(V)           # u^n: the displacement at the start of the step
-        e = mech_forms.strain_vector(self.rate)
-        terms = {}
         self.theta0 = {}
         for name, props in mech_forms.setup.props.items():
             th0 = float(props.T0) + offset
@@ -65,20 +63,30 @@ class DeformationHeating:
                                  f"{th0:g} K (stress-free temperature {props.T0:g} + {offset:g}); it must be > 0 K "
                                  "(a scene in degC needs temperature_unit = 'C')")
             self.theta0[name] = th0
-            b = mech_forms.b[name]
-            if props.varying is not None:      # Theta_0(x) and beta(x): the smallest T0 was checked above
-                terms[name] = -(mech_forms.T0[name] + offset) * ngs.InnerProduct(mech_forms.cf_vector(b), e)
-                continue
-            terms[name] = -th0 * ngs.InnerProduct(ngs.CoefficientFunction(tuple(float(x) for x in b)), e)
-        self.source = mech_forms.mesh.MaterialCF(terms, default=0.0)
-        if extra is not None:                      # e.g. the viscous dissipation of dynamic mechanics (2.6)
-            self.source = self.source + extra
+        self.source = self._source(mech_forms.strain_vector(self.rate), offset, extra)
         """Q_def (plus ``extra``), W/m^3."""
+        self.field = (self._source(mech_forms.strain_vector(self.rate, on_axis=True), offset, extra)
+                      if mech_forms.setup.model == "axisymmetric" else self.source)
+        """Q_def for output at points (axisymmetric: finite on the axis, :meth:`ElasticForms.strain_vector`)."""
         self.space = space
         self.lf = ngs.LinearForm(space)
         self.lf += weight * self.source * v * dx
         self._zero = True
         self._owned = None                     # distributed meshes: the dofs this rank owns (power), once
+
+    def _source(self, e, offset: float, extra):
+        """-Theta_0 beta . e per region (plus ``extra``), W/m^3, for the strain-rate vector ``e``."""
+        mf = self.mech
+        terms = {}
+        for name, props in mf.setup.props.items():
+            b = mf.b[name]
+            if props.varying is not None:      # Theta_0(x) and beta(x): the smallest T0 was checked
+                terms[name] = -(mf.T0[name] + offset) * ngs.InnerProduct(mf.cf_vector(b), e)
+                continue
+            terms[name] = -self.theta0[name] * ngs.InnerProduct(ngs.CoefficientFunction(tuple(float(x) for x in b)),
+                                                                e)
+        source = mf.mesh.MaterialCF(terms, default=0.0)
+        return source if extra is None else source + extra     # e.g. the viscous dissipation of dynamic mechanics
 
     def start_step(self) -> None:
         """Remember u^n (the displacement at the start of the step)."""

@@ -35,7 +35,7 @@ class CouplingRun(Part):
         # the viscous dissipation of dynamic mechanics (2.6) adds to the thermoelastic source
         self.heating = DeformationHeating(mechanics.forms, space, v, dx, weight, offset,
                                           mechanics.dissipation_source())
-        self.fields = {"deformation_heating": self.heating.source}
+        self.fields = {"deformation_heating": self.heating.field}
         mechanics.records_every_step = True
         self.history: dict[str, list] = {"passes": [], "deformation_heat": [], "change_T": [], "change_u": [],
                                          "conductivity_factor": []}
@@ -164,7 +164,7 @@ class CouplingRun(Part):
     def figures(self, canvas) -> None:
         if canvas.arrays is None:
             return
-        canvas.draw.field_figure(canvas.arrays, vertex_average(self.mech.mesh, self.heating.source),
+        canvas.draw.field_figure(canvas.arrays, vertex_average(self.mech.mesh, self.heating.field),
                                  canvas.path("deformation_heating.png"),
                                  title=f"{canvas.title}: deformation heating, {canvas.when}",
                                  label="-Theta_0 beta : e(u_t) (W/m^3)", axis_labels=canvas.labels, cmap="coolwarm")

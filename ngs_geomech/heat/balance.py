@@ -2,8 +2,9 @@
 appears as heat leaving one body and entering the other.
 
 A body is a set of regions joined by shared vertices (glued interfaces); contact interfaces separate bodies.
-Summing the equations of one theta step (:mod:`ngs_geomech.heat.forms`) over the dofs of a body (the test
-function 1 on the body) leaves, with the conduction terms summing to zero,
+Summing the equations of one theta step (:mod:`ngs_geomech.heat.forms`) over the vertex dofs of a body (the
+test function 1 on the body; the higher-order dofs of the hierarchical basis have coefficient 0) leaves, with
+the conduction terms summing to zero,
 
     int_b rho c (T1 - T0) dx = dt [ R_b + F_b - int_Robin,b h T_theta ds - sum_interfaces Q_out ],
 
@@ -60,6 +61,12 @@ class HeatBalance:
         for el in mesh.Elements(ngs.VOL):
             self.masks[region_body[el.mat], [d for d in forms.V.GetDofNrs(el) if d >= 0]] = True
         self.fixed = ~np.array(list(forms.V.FreeDofs()), dtype=bool)
+        # the test function 1 on a body: its coefficients are 1 at the vertex dofs and 0 at the higher-order ones
+        # (NGSolve's hierarchical H1 basis), so the sums over a body weight the vertex dofs only
+        ones = np.zeros(nV)
+        for vert in mesh.vertices:
+            ones[[d for d in forms.V.GetDofNrs(ngs.NodeId(ngs.VERTEX, vert.nr)) if d >= 0]] = 1.0
+        self.weights = self.masks * ones
         self.side_body = {}
         for el in mesh.Elements(ngs.BND):
             if el.mat not in self.side_body:
@@ -134,9 +141,8 @@ class HeatBalance:
         s = self.scale * (dt if dt is not None else 1.0)
         gain = (self._gain(f.temperature(), f.temperature(f.gf_old)) if dt is not None
                 else np.zeros(len(self.bodies)))
-        return {"gain": gain, "dirichlet": s * np.array([r[m & self.fixed].sum() for m in self.masks]),
-                "loads": s * np.array([loads[m].sum() for m in self.masks]),
-                "robin": s * np.array([robin[m].sum() for m in self.masks]),
+        return {"gain": gain, "dirichlet": s * np.array([w[self.fixed] @ r[self.fixed] for w in self.weights]),
+                "loads": s * (self.weights @ loads), "robin": s * (self.weights @ robin),
                 "interface": s * interface, "flows": {k: s * v for k, v in per_itf.items()}, "steady": dt is None}
 
     def record(self, terms: dict) -> None:

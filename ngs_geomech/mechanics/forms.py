@@ -320,6 +320,10 @@ class ElasticForms:
         self.X = ngs.FESpace([self.V, *extra]) if extra else self.V
         self.gf = ngs.GridFunction(self.X)
         self.weight = ngs.x if setup.model == "axisymmetric" else ngs.CoefficientFunction(1.0)
+        # output points closer to the axis than this (m) take the hoop strain's limit (:meth:`strain_vector`):
+        # there u_r / r divides the round-off of u_r = 0 by a round-off r
+        self.axis_tolerance = (1e-8 * float(np.max(np.abs(np.asarray(mesh.ngmesh.Coordinates())[:, 0])))
+                               if setup.model == "axisymmetric" else 0.0)
         self.u_frozen = ngs.GridFunction(self.V)   # the last iterate u_n of the secant method
         # one quadrature (order 2 order) for every integral of the energy, the secant form and its right-hand
         # side: NGSolve's default orders differ between energies and linear forms (a P2 temperature in the
@@ -442,14 +446,18 @@ class ElasticForms:
         m = _TRACE[self.setup.model]
         return sum(e[k] for k, c in enumerate(m) if c)
 
-    def strain_vector(self, u):
-        """Reduced Voigt strain: (exx, eyy, gxy) plane; (err, ezz, ett, grz) axisymmetric; 6 in 3D."""
+    def strain_vector(self, u, on_axis: bool = False):
+        """Reduced Voigt strain: (exx, eyy, gxy) plane; (err, ezz, ett, grz) axisymmetric; 6 in 3D. ``on_axis``
+        (output at points, e.g. the vertices of VTK files): the hoop strain u_r / r takes its limit du_r/dr on the
+        axis r = 0 (closer than :attr:`axis_tolerance`) instead of 0 / 0 (the forms integrate at interior points
+        and keep u_r / r)."""
         G = ngs.grad(u)
         if self.setup.model == "3d":
             return ngs.CoefficientFunction((G[0, 0], G[1, 1], G[2, 2], G[1, 2] + G[2, 1], G[0, 2] + G[2, 0],
                                             G[0, 1] + G[1, 0]))
         if self.setup.model == "axisymmetric":
-            return ngs.CoefficientFunction((G[0, 0], G[1, 1], u[0] / ngs.x, G[0, 1] + G[1, 0]))
+            hoop = ngs.IfPos(ngs.x - self.axis_tolerance, u[0] / ngs.x, G[0, 0]) if on_axis else u[0] / ngs.x
+            return ngs.CoefficientFunction((G[0, 0], G[1, 1], hoop, G[0, 1] + G[1, 0]))
         return ngs.CoefficientFunction((G[0, 0], G[1, 1], G[0, 1] + G[1, 0]))
 
     def cf_matrix(self, a: np.ndarray):
@@ -502,10 +510,11 @@ class ElasticForms:
         """A1 = e : c : e (Pa) of region ``name`` for the reduced strain vector e (2.2)."""
         return ngs.InnerProduct(e, self.cf_matrix(self.D[name]) * e)
 
-    def stress_vector(self, name: str, u):
+    def stress_vector(self, name: str, u, on_axis: bool = False):
         """Reduced Voigt stress of region ``name`` (Pa), the law (2.18) with the lambda factor. In a region of
-        the mixed formulation the volumetric part is the solution's pressure (:meth:`pressure`), whatever u."""
-        e = self.strain_vector(u)
+        the mixed formulation the volumetric part is the solution's pressure (:meth:`pressure`), whatever u.
+        ``on_axis``: the strain of :meth:`strain_vector` with the axis limit (output)."""
+        e = self.strain_vector(u, on_axis)
         dT = self.delta_T(name)
         if name in self.mixed:
             mx = self.mixed[name]
@@ -813,7 +822,7 @@ class ElasticForms:
         u = u if u is not None else self.displacement()
         per_region = {}
         for name in self.setup.props:
-            sv = self.stress_vector(name, u)
+            sv = self.stress_vector(name, u, on_axis=True)
             m = self.setup.model
             if m == "3d":
                 comps = (sv[0], sv[5], sv[4], sv[5], sv[1], sv[3], sv[4], sv[3], sv[2])
@@ -846,7 +855,7 @@ class ElasticForms:
         u = u if u is not None else self.displacement()
         vals = {}
         for name, p in self.setup.props.items():
-            e = self.strain_vector(u)
+            e = self.strain_vector(u, on_axis=True)
             if name in self.mixed:    # 1/2 e : C : e = mu dev e : dev e + (K tr e)^2 / (2K), K tr e = p + b_m dT
                 mx = self.mixed[name]
                 dT = self.delta_T(name)

@@ -38,6 +38,7 @@ STUDY = "scenes"
 PICTURES = {
     "block3d": "temperature_section_y.png",
     "canister": "probes.png",
+    "canister_gap": "probes_displacement_x.png",
     "contact_melting": "phase_boundary.png",
     "fault2d": "temperature.png",
     "fault_3d": "von_mises_section_across_fault.png",
