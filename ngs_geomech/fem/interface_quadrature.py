@@ -27,7 +27,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
-from .mortar import Segment, Triangle, clip_polygon
+from .mortar import Segment, Triangle, overlap_points
 
 
 @dataclass
@@ -200,7 +200,6 @@ def _quadrature_3d(mesh, V, P1, master, minion, order, reach) -> InterfaceQuadra
     qw = np.array(list(ir.weights))
     mins = np.array([t.corners.min(axis=0) for t in minions])
     maxs = np.array([t.corners.max(axis=0) for t in minions])
-    ref_m = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
     rows = _Rows()
     covered = total = 0.0
     vertices = set()
@@ -218,26 +217,13 @@ def _quadrature_3d(mesh, V, P1, master, minion, order, reach) -> InterfaceQuadra
             if abs(float(np.dot(ts.normal, tm.normal))) < 0.5 or \
                     not _in_front(cm, nm, ts.corners.mean(axis=0), math.sqrt(tm.area2)):
                 continue  # not opposite (another face of the interface, or behind the master triangle)
-            poly = np.array([tm.reference(c) for c in ts.corners])
-            if (poly[1, 0] - poly[0, 0]) * (poly[2, 1] - poly[0, 1]) - \
-                    (poly[1, 1] - poly[0, 1]) * (poly[2, 0] - poly[0, 0]) < 0:
-                poly = poly[::-1]
-            piece = clip_polygon(poly, ref_m)
-            for k in range(1, len(piece) - 1):   # fan triangulation of the convex piece
-                a, b, c = piece[0], piece[k], piece[k + 1]
-                jac = abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
-                if jac < 1e-14:
+            for ref, p, wt in overlap_points(tm, ts, qp, qw):
+                rs = ts.reference(p)
+                d = float(np.linalg.norm(ts.p0 + ts.J @ rs - p))
+                if d > limit:
                     continue
-                for (s, t), w in zip(qp, qw):
-                    ref = a + s * (b - a) + t * (c - a)
-                    p = tm.p0 + tm.J @ ref
-                    rs = ts.reference(p)
-                    d = float(np.linalg.norm(ts.p0 + ts.J @ rs - p))
-                    if d > limit:
-                        continue
-                    wt = w * jac * tm.area2
-                    covered += wt
-                    rows.add(wt, p, d, (tm.fe.CalcShape(ref[0], ref[1]), tm.dofs),
-                             (ts.fe.CalcShape(rs[0], rs[1]), ts.dofs), (fe1.CalcShape(ref[0], ref[1]), dofs1),
-                             d <= near + 1e-12)
+                covered += wt
+                rows.add(wt, p, d, (tm.fe.CalcShape(ref[0], ref[1]), tm.dofs),
+                         (ts.fe.CalcShape(rs[0], rs[1]), ts.dofs), (fe1.CalcShape(ref[0], ref[1]), dofs1),
+                         d <= near + 1e-12)
     return rows.finish(V.ndof, mesh.nv, 3, vertices, covered / total if total > 0 else 0.0)

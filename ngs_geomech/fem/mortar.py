@@ -139,7 +139,7 @@ def _finish(entries, covered: float, total: float, master: str, minion: str):
     return np.array(rows, dtype=int), np.array(cols, dtype=int), np.array(vals)
 
 
-class _Triangle:
+class Triangle:
     """One (flat) boundary triangle: dofs, finite element, the affine map from reference coordinates."""
 
     def __init__(self, mesh, space, nr: int):
@@ -163,11 +163,10 @@ class _Triangle:
         return np.linalg.lstsq(self.J, p - self.p0, rcond=None)[0]
 
 
-Triangle = _Triangle
 """The boundary triangle under its public name (:mod:`ngs_geomech.fem.interface_quadrature` uses it)."""
 
 
-def _clip(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
+def clip_polygon(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
     """Sutherland-Hodgman: the part of polygon ``poly`` inside the convex counter-clockwise polygon ``clip``
     (both as (n, 2) arrays in one plane)."""
     out = poly
@@ -193,8 +192,29 @@ def _clip(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
     return out
 
 
-clip_polygon = _clip
-"""Sutherland-Hodgman clipping under its public name (:mod:`ngs_geomech.fem.interface_quadrature` uses it)."""
+
+
+REFERENCE_TRIANGLE = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+"""The reference triangle (a master triangle in its own coordinates)."""
+
+
+def overlap_points(tm: Triangle, ts: Triangle, qp: np.ndarray, qw: np.ndarray):
+    """The quadrature points of the part of triangle ``tm`` that ``ts`` covers (``ts`` projected onto ``tm``'s
+    plane, clipped, the convex piece fanned into triangles with the rule ``qp``, ``qw``): yields (ref, p, wt),
+    the point in ``tm``'s reference coordinates, in space, and its weight (m^2)."""
+    poly = np.array([tm.reference(c) for c in ts.corners])
+    if (poly[1, 0] - poly[0, 0]) * (poly[2, 1] - poly[0, 1]) - \
+            (poly[1, 1] - poly[0, 1]) * (poly[2, 0] - poly[0, 0]) < 0:
+        poly = poly[::-1]
+    piece = clip_polygon(poly, REFERENCE_TRIANGLE)
+    for k in range(1, len(piece) - 1):   # fan triangulation of the convex piece
+        a, b, c = piece[0], piece[k], piece[k + 1]
+        jac = abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+        if jac < 1e-14:
+            continue
+        for (s, t), w in zip(qp, qw):
+            ref = a + s * (b - a) + t * (c - a)
+            yield ref, tm.p0 + tm.J @ ref, w * jac * tm.area2
 
 
 def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):
@@ -202,8 +222,8 @@ def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):
     segment-based: each master triangle is intersected with the minion triangles opposite (projected onto its
     plane, Sutherland-Hodgman clipping), and every piece is integrated with a Gauss rule exact for the
     polynomial integrand. Flat triangles are assumed (curved interfaces: an O(h^2) geometry error)."""
-    masters = [_Triangle(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
-    minions = [_Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+    masters = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
+    minions = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
     if not masters or not minions:
         raise ValueError(f"contact interface sides {master!r} / {minion!r} have no boundary elements")
     lfe = {el.nr: (L.GetFE(ngs.ElementId(ngs.BND, el.nr)), list(L.GetDofNrs(ngs.ElementId(ngs.BND, el.nr))))
@@ -220,33 +240,17 @@ def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):
         pad = 0.1 * math.sqrt(tm.area2)
         total += tm.area2 / 2
         cand = np.where(np.all(mins <= hi + pad, axis=1) & np.all(maxs >= lo - pad, axis=1))[0]
-        ref_m = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])      # the master triangle in its own coordinates
         lshape_fe, ldofs = lfe[tm.ei.nr]
         for j in cand:
             ts = minions[j]
             if abs(float(np.dot(ts.normal, tm.normal))) < 0.5:
                 continue  # not opposite (another face of the interface)
-            poly = np.array([tm.reference(c) for c in ts.corners])
-            if (poly[1, 0] - poly[0, 0]) * (poly[2, 1] - poly[0, 1]) - \
-                    (poly[1, 1] - poly[0, 1]) * (poly[2, 0] - poly[0, 0]) < 0:
-                poly = poly[::-1]
-            piece = _clip(poly, ref_m)
-            if len(piece) < 3:
-                continue
-            for k in range(1, len(piece) - 1):   # fan triangulation of the convex piece
-                a, b, c = piece[0], piece[k], piece[k + 1]
-                jac = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-                if abs(jac) < 1e-14:
-                    continue
-                for (s, t), w in zip(qp, qw):
-                    ref = a + s * (b - a) + t * (c - a)
-                    p = tm.p0 + tm.J @ ref
-                    wt = w * abs(jac) * tm.area2
-                    covered += wt
-                    rs = ts.reference(p)
-                    _add_point(entries, wt, np.array(lshape_fe.CalcShape(ref[0], ref[1])), ldofs,
-                               np.array(tm.fe.CalcShape(ref[0], ref[1])), tm.dofs,
-                               np.array(ts.fe.CalcShape(rs[0], rs[1])), ts.dofs)
+            for ref, p, wt in overlap_points(tm, ts, qp, qw):
+                covered += wt
+                rs = ts.reference(p)
+                _add_point(entries, wt, np.array(lshape_fe.CalcShape(ref[0], ref[1])), ldofs,
+                           np.array(tm.fe.CalcShape(ref[0], ref[1])), tm.dofs,
+                           np.array(ts.fe.CalcShape(rs[0], rs[1])), ts.dofs)
     return _finish(entries, covered, total, master, minion)
 
 
@@ -330,8 +334,8 @@ def _add_product(entries, wt, phi, rows, v, cols) -> None:
 def _transfer_3d(mesh, P1, V, side, opposite, order, reach):
     """COO entries (vertex rows), weights and covered weights (per mesh vertex) of :func:`boundary_transfer`, 3D:
     each side triangle clipped against the opposite triangles projected onto its plane."""
-    sides = [_Triangle(mesh, P1, el.nr) for el in mesh.Boundaries(side).Elements()]
-    opps = [_Triangle(mesh, V, el.nr) for el in mesh.Boundaries(opposite).Elements()]
+    sides = [Triangle(mesh, P1, el.nr) for el in mesh.Boundaries(side).Elements()]
+    opps = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(opposite).Elements()]
     if not sides or not opps:
         raise ValueError(f"interface sides {side!r} / {opposite!r} have no boundary elements")
     ir = ngs.IntegrationRule(ngs.TRIG, order + 3)
@@ -341,7 +345,6 @@ def _transfer_3d(mesh, P1, V, side, opposite, order, reach):
     maxs = np.array([t.corners.max(axis=0) for t in opps])
     entries = ([], [], [])
     weight, covered = np.zeros(mesh.nv), np.zeros(mesh.nv)
-    ref_m = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
     for tm in sides:
         h = math.sqrt(tm.area2)
         grow = max(0.1 * h, reach or 0.0)
@@ -352,24 +355,11 @@ def _transfer_3d(mesh, P1, V, side, opposite, order, reach):
             ts = opps[j]
             if abs(float(np.dot(ts.normal, tm.normal))) < 0.5:
                 continue
-            poly = np.array([tm.reference(c) for c in ts.corners])
-            if (poly[1, 0] - poly[0, 0]) * (poly[2, 1] - poly[0, 1]) - \
-                    (poly[1, 1] - poly[0, 1]) * (poly[2, 0] - poly[0, 0]) < 0:
-                poly = poly[::-1]
-            piece = _clip(poly, ref_m)
-            for k in range(1, len(piece) - 1):
-                a, b, c = piece[0], piece[k], piece[k + 1]
-                jac = abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
-                if jac < 1e-14:
+            for ref, p, wt in overlap_points(tm, ts, qp, qw):
+                if abs(float(np.dot(p - ts.p0, ts.normal))) > far + 1e-12:
                     continue
-                for (s, t), w in zip(qp, qw):
-                    ref = a + s * (b - a) + t * (c - a)
-                    p = tm.p0 + tm.J @ ref
-                    if abs(float(np.dot(p - ts.p0, ts.normal))) > far + 1e-12:
-                        continue
-                    wt = w * jac * tm.area2
-                    phi = np.array(tm.fe.CalcShape(ref[0], ref[1]))
-                    rs = ts.reference(p)
-                    covered[tm.dofs] += wt * phi
-                    _add_product(entries, wt, phi, tm.dofs, np.array(ts.fe.CalcShape(rs[0], rs[1])), ts.dofs)
+                phi = np.array(tm.fe.CalcShape(ref[0], ref[1]))
+                rs = ts.reference(p)
+                covered[tm.dofs] += wt * phi
+                _add_product(entries, wt, phi, tm.dofs, np.array(ts.fe.CalcShape(rs[0], rs[1])), ts.dofs)
     return entries, weight, covered

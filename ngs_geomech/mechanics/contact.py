@@ -149,6 +149,7 @@ class InSituTraction:
         self.ops = ops
         self.fits = [self._fit(op) for op in ops]
         self.normals: dict = {}
+        self._last: tuple | None = None        # (time, c) of the last load
         self.multipliers: list[np.ndarray] = []
         """lam_ref of each interface at the last :meth:`load` (the blocks of B's rows: normal, t1 (, t2))."""
 
@@ -187,11 +188,16 @@ class InSituTraction:
         return out
 
     def load(self, ndof: int) -> np.ndarray:
-        """C (N) at the current time as a vector of the solve's space X (``ndof``; V's dofs first)."""
+        """c (N) at the current time as a vector of the solve's space X (``ndof``; V's dofs first); kept for the
+        solves at the same time (the secant iterations, the coupling passes)."""
+        t = float(self.forms.t.Get())
+        if self._last is not None and self._last[0] == t and len(self._last[1]) == ndof:
+            return self._last[1]
         c = np.zeros(ndof)
         self.multipliers = []
         for (B, sdofs, Bs, solve), F in zip(self.fits, self.tractions()):
             lam = solve(Bs @ F[sdofs]) if solve is not None else np.zeros(0)
             c[:B.shape[1]] += F - B.T @ lam
             self.multipliers.append(lam)
+        self._last = (t, c)
         return c

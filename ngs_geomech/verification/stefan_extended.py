@@ -382,15 +382,25 @@ def robin_reference(problem: RobinSlab, hs=(1 / 100, 1 / 200, 1 / 400, 1 / 800, 
     ``front_reference`` (the finest level's) and ``front_uncertainty_rel`` (the largest difference of the two
     next finer levels from it, relative: at fine levels the nodal melted volume moves by steps, so the differences
     stop falling smoothly at ~1e-4)."""
+    return slab_reference(problem.length, problem.material, problem.t_solid, problem.t1, hs, dt_over_h,
+                          ("robin", problem.h, problem.t_ambient))
+
+
+def slab_reference(length: float, material, t_initial: float, t1: float, hs, dt_over_h: float, left: tuple,
+                   factor=None) -> dict:
+    """A slab 0 < x < length (m) in 1D (:func:`enthalpy_1d`, uniform elements of size h, steps dt = dt_over_h h,
+    from ``t_initial`` to ``t1`` s, the condition ``left`` at x = 0, insulated at x = length, the conductivity
+    times ``factor`` if given) at the sizes ``hs`` (m): ``front`` per level (the melted volume, m), the successive
+    ``differences`` with their ``order``, ``front_reference`` (the finest level's), ``front_uncertainty_rel`` (the
+    largest difference of the two next finer levels from it, relative), ``imbalance_rel_max``, ``wall_s``."""
     from ..fem.timesteps import schedule
 
     tic = time.perf_counter()
     fronts, imbalance = [], 0.0
     for h in hs:
-        n = int(round(problem.length / h))
-        out = enthalpy_1d(np.linspace(0.0, problem.length, n + 1), 0, problem.material, problem.t_solid,
-                          list(schedule(0.0, problem.t1, dt_over_h * h)),
-                          ("robin", problem.h, problem.t_ambient), ("insulated",))
+        n = int(round(length / h))
+        out = enthalpy_1d(np.linspace(0.0, length, n + 1), 0, material, t_initial,
+                          list(schedule(0.0, t1, dt_over_h * h)), left, ("insulated",), factor=factor)
         fronts.append(out["melted"])
         imbalance = max(imbalance, out["imbalance_rel"])
     diffs = np.abs(np.diff(fronts))

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..api import run
 from ..scene.parse import scene_from_dict
-from .stefan_extended import ROBIN_SLAB, Phases, enthalpy_1d, fitted_order, run_levels
+from .stefan_extended import ROBIN_SLAB, Phases, enthalpy_1d, fitted_order, run_levels, slab_reference
 from .study import one_ngsolve_thread
 
 
@@ -138,22 +138,8 @@ def varying_reference(p: VaryingSlab, hs=(1 / 100, 1 / 200, 1 / 400, 1 / 800, 1 
     volume, m), the successive ``differences`` with their ``order``, ``front_reference`` (the finest level's),
     ``front_uncertainty_rel`` (the largest difference of the two next finer levels from it, relative),
     ``imbalance_rel_max``, ``wall_s``."""
-    from ..fem.timesteps import schedule
-
-    tic = time.perf_counter()
-    fronts, imbalance = [], 0.0
-    for h in hs:
-        n = int(round(p.length / h))
-        out = enthalpy_1d(np.linspace(0.0, p.length, n + 1), 0, p.material, p.t_solid,
-                          list(schedule(0.0, p.t1, dt_over_h * h)), ("dirichlet", p.t_hot), ("insulated",),
+    return slab_reference(p.length, p.material, p.t_solid, p.t1, hs, dt_over_h, ("dirichlet", p.t_hot),
                           factor=p.factor)
-        fronts.append(out["melted"])
-        imbalance = max(imbalance, out["imbalance_rel"])
-    diffs = np.abs(np.diff(fronts))
-    return {"h": list(hs), "front": fronts, "differences": diffs.tolist(), "order": fitted_order(hs[1:], diffs),
-            "front_reference": fronts[-1],
-            "front_uncertainty_rel": float(np.max(np.abs(np.array(fronts[-3:-1]) - fronts[-1])) / fronts[-1]),
-            "imbalance_rel_max": float(imbalance), "wall_s": time.perf_counter() - tic}
 
 
 def varying_scene(p: VaryingSlab, height: float, h: float, dt: float) -> dict:
