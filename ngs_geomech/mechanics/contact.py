@@ -188,7 +188,7 @@ class InSituTraction:
         return out
 
     def load(self, ndof: int) -> np.ndarray:
-        """c (N) at the current time as a vector of the solve's space X (``ndof``; V's dofs first); kept for the
+        """C (N) at the current time as a vector of the solve's space X (``ndof``; V's dofs first); kept for the
         solves at the same time (the secant iterations, the coupling passes)."""
         t = float(self.forms.t.Get())
         if self._last is not None and self._last[0] == t and len(self._last[1]) == ndof:

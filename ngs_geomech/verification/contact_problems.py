@@ -46,11 +46,12 @@ from . import contact_closed_forms as cc
 E_HERTZ, NU_HERTZ, R_HERTZ = 200e9, 0.3, 1.0
 
 
-def _props(E: float, nu: float, regions) -> dict:
+def elastic_props(E: float, nu: float, regions) -> dict:
+    """Isotropic elastic properties E (Pa), nu of each region, without thermal expansion."""
     return {r: ElasticProperties(C=isotropic(E, nu), alpha=np.zeros((3, 3)), beta=np.zeros((3, 3))) for r in regions}
 
 
-def _system(mesh, setup: ElasticSetup):
+def linear_system(mesh, setup: ElasticSetup):
     """Forms, assembled bulk matrix, load vector, free-dof mask and Dirichlet vector of a linear problem."""
     forms = ElasticForms(mesh, setup)
     ElasticSolver(forms).set_dirichlet()
@@ -122,10 +123,10 @@ def hertz(h_contact: float, order: int = 1, *, method: str = "ssn", maxh: float 
     ref = cc.hertz_line(P, R, E_star)
     if mesh is None:
         mesh = hertz_mesh(h_contact, order, maxh)
-    props = _props(E, nu, ["cylinder"])
+    props = elastic_props(E, nu, ["cylinder"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order, symmetry=["sym"])
     setup.traction["top"] = [expression_function(0.0), expression_function(-P / (2 * R))]
-    forms, K, f, free, x0 = _system(mesh, setup)
+    forms, K, f, free, x0 = linear_system(mesh, setup)
     op = contact_operator_2d(mesh, forms.V, "hertz", "contact", None, axisymmetric=False,
                              obstacle=((0.0, 0.0), (0.0, 1.0)))
     floating = forms.floating_bodies()
@@ -193,7 +194,7 @@ def friction_block(push: str, *, law: str = "tresca", g_c: float = 1e6, friction
     vector), "info" (the solver's history)}. ``solver_factory(interfaces, modulus=, floating=)`` builds the solver
     (default :class:`ContactSolver`; e.g. :class:`ngs_geomech.contact.uzawa.UzawaSolver`)."""
     mesh = _foundation_block(L, H, h, order)
-    props = _props(E, nu, ["block"])
+    props = elastic_props(E, nu, ["block"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order)
     setup.pressure["top"] = expression_function(p_top)
     applied = None
@@ -205,7 +206,7 @@ def friction_block(push: str, *, law: str = "tresca", g_c: float = 1e6, friction
         setup.dirichlet["left"] = [expression_function(1e-3 * L), None]
     elif push != "none":
         raise ValueError(f"push must be 'traction' or 'displacement', got {push!r}")
-    forms, K, f, free, x0 = _system(mesh, setup)
+    forms, K, f, free, x0 = linear_system(mesh, setup)
     op = contact_operator_2d(mesh, forms.V, "foundation", "bottom", None, axisymmetric=False,
                              obstacle=((0.0, 0.0), (0.0, 1.0)))
     claw = {"tresca": lambda: ContactLaw("tresca", slip_bound=g_c),
@@ -251,10 +252,10 @@ def patch_test(p: float = 1e6, *, h_lower: float = 0.1, h_upper: float = 0.07, o
     y = 0, pressure ``p`` on top. Returns {"max_deviation" (max |lam_n - p| / p), "force_balance",
     "max_penetration", "iterations", "nodes"}."""
     mesh = _stacked_blocks(1.0, 0.5, 0.0, h_lower, h_upper, order, {"lower": ("left", None), "upper": ("left", None)})
-    props = _props(E, nu, ["lower", "upper"])
+    props = elastic_props(E, nu, ["lower", "upper"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order, symmetry=["left", "bottom"])
     setup.pressure["top"] = expression_function(p)
-    forms, K, f, free, x0 = _system(mesh, setup)
+    forms, K, f, free, x0 = linear_system(mesh, setup)
     op = contact_operator_2d(mesh, forms.V, "patch", "upper_bottom", "lower_top", axisymmetric=False)
     solver = ContactSolver([(op, ContactLaw())], modulus=nodal_modulus(props), floating=forms.floating_bodies())
     u, info = solver.solve(K, f, free, x0, "patch test")
@@ -295,13 +296,13 @@ def two_blocks_coulomb(h: float, order: int = 2, *, friction: float = 0.3, ratio
     "lam_t")."""
     mesh = _stacked_blocks(L, H, -H, h, h_ratio * h, order,
                            {"lower": ("lower_side", "lower_side"), "upper": ("left", "right")})
-    props = _props(E, nu, ["lower", "upper"])
+    props = elastic_props(E, nu, ["lower", "upper"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order)
     setup.dirichlet["bottom"] = [expression_function(0.0), expression_function(0.0)]
     setup.pressure["top"] = expression_function(p_top)
     applied = ratio * friction * p_top * L
     setup.traction["left"] = [expression_function(applied / H), expression_function(0.0)]
-    forms, K, f, free, x0 = _system(mesh, setup)
+    forms, K, f, free, x0 = linear_system(mesh, setup)
     floating = forms.floating_bodies()
     op = contact_operator_2d(mesh, forms.V, "blocks", "upper_bottom", "lower_top", axisymmetric=False)
     items = [(op, ContactLaw("coulomb", friction=friction))]
@@ -357,7 +358,7 @@ def punch_3d(h: float, order: int = 1, *, law: str = "coulomb", friction: float 
     lower.solids.maxh, upper.solids.maxh = h, h_ratio * h
     mesh = ngs.Mesh(OCCGeometry(Compound([lower, upper])).GenerateMesh(maxh=h))
     mesh.Curve(order)
-    props = _props(E, nu, ["block", "punch"])
+    props = elastic_props(E, nu, ["block", "punch"])
     setup = ElasticSetup(props=props, model="3d", order=order)
     setup.dirichlet["base"] = [expression_function(0.0)] * 3
     setup.pressure["punch_top"] = expression_function(p_top)
@@ -367,7 +368,7 @@ def punch_3d(h: float, order: int = 1, *, law: str = "coulomb", friction: float 
     if applied:
         setup.traction["punch_left"] = [expression_function(applied / (0.6 * 0.3)), expression_function(0.0),
                                         expression_function(0.0)]
-    forms, K, f, free, x0 = _system(mesh, setup)
+    forms, K, f, free, x0 = linear_system(mesh, setup)
     floating = forms.floating_bodies()
     op = contact_operator_3d(mesh, forms.V, "punch", "punch_bottom", "block_top")
     claw = {"coulomb": lambda: ContactLaw("coulomb", friction=friction),
@@ -445,12 +446,12 @@ def cattaneo(h_contact: float, order: int = 1, *, Q_ratio: float = 0.5, friction
     ref = cc.hertz_line(P, R, E_star)
     c_ref = cc.cattaneo_stick_half_width(Q, P, mu, ref.a)
     mesh = cattaneo_mesh(a_ref, h_contact, order, maxh, grading)
-    props = _props(E, nu, ["cylinder", "block"])
+    props = elastic_props(E, nu, ["cylinder", "block"])
     setup = ElasticSetup(props=props, model="plane_strain", order=order)
     setup.dirichlet["bottom"] = [expression_function(0.0), expression_function(0.0)]
     setup.traction["top"] = [expression_function(Q / (2 * R)),
                              expression_function(f"{-P / (2 * R)!r} + {3 * Q / (2 * R ** 2)!r} * x")]
-    forms, K, f, free, x0 = _system(mesh, setup)
+    forms, K, f, free, x0 = linear_system(mesh, setup)
     floating = forms.floating_bodies()
     op = contact_operator_2d(mesh, forms.V, "cattaneo", "block_contact", "cylinder_contact", axisymmetric=False,
                              search_distance=a_ref / 2)

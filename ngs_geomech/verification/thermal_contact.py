@@ -46,13 +46,11 @@ from ..heat.conductance import ContactNodes, InterfaceConductance, PowerLawCondu
 from ..heat.forms import HeatForms, HeatSetup
 from ..heat.materials import ThermalProperties
 from ..heat.solver import HeatSolver
-from ..mechanics.forms import ElasticForms, ElasticSetup
-from ..mechanics.materials import ElasticProperties, isotropic
-from ..mechanics.solver import ElasticSolver
+from ..mechanics.forms import ElasticSetup
 from ..run import run_scene
 from ..scene.parse import scene_from_dict
 from . import contact_closed_forms as cc
-from .contact_problems import E_HERTZ, NU_HERTZ, R_HERTZ, cattaneo_mesh
+from .contact_problems import E_HERTZ, NU_HERTZ, R_HERTZ, cattaneo_mesh, elastic_props, linear_system
 
 SLABS = {"L1": 1.0, "L2": 0.5, "k1": 2.0, "k2": 1.0, "T_a": 100.0, "T_b": 0.0, "H": 0.4}
 """The two slabs (m, W/(m K), degC) of :func:`two_slabs` and :func:`gap_closing`."""
@@ -158,22 +156,15 @@ def _hertz_contact(h_contact: float, order: int):
     P = math.pi * E_star * a_ref ** 2 / (4 * R)
     ref = cc.hertz_line(P, R, E_star)
     mesh = cattaneo_mesh(a_ref, h_contact, order, None, 0.3)
-    props = {r: ElasticProperties(C=isotropic(E, nu), alpha=np.zeros((3, 3)), beta=np.zeros((3, 3)))
-             for r in ("cylinder", "block")}
+    props = elastic_props(E, nu, ("cylinder", "block"))
     setup = ElasticSetup(props=props, model="plane_strain", order=order)
     setup.dirichlet["bottom"] = [expression_function(0.0), expression_function(0.0)]
     setup.traction["top"] = [expression_function(0.0), expression_function(-P / (2 * R))]
-    forms = ElasticForms(mesh, setup)
-    ElasticSolver(forms).set_dirichlet()
-    forms.u_frozen.vec[:] = 0.0
-    forms.secant_form.Assemble()
-    forms.secant_rhs.Assemble()
-    free = np.array(list(forms.X.FreeDofs()), dtype=bool)
+    forms, K, f, free, x0 = linear_system(mesh, setup)
     op = contact_operator_2d(mesh, forms.V, "hertz", "block_contact", "cylinder_contact", axisymmetric=False,
                              search_distance=a_ref / 2)
     solver = ContactSolver([(op, ContactLaw())], modulus=nodal_modulus(props), floating=forms.floating_bodies())
-    u, _ = solver.solve(forms.secant_form.mat, np.array(forms.secant_rhs.vec.FV().NumPy()), free,
-                        np.array(forms.gf.vec.FV().NumPy()), "hertz")
+    u, _ = solver.solve(K, f, free, x0, "hertz")
     lam_n = np.asarray(solver.multipliers[0][0])
     gap = (op.g0 + op.Bn @ u[:op.Bn.shape[1]]) / np.maximum(op.weight, 1e-300)
     return mesh, ref, op, lam_n, gap, abs(float(np.dot(op.weight, lam_n)) - P) / P
