@@ -44,6 +44,14 @@ def version() -> str:
         return __version__
 
 
+class _Version(argparse.Action):
+    """``--version``: the version is looked up when asked (importlib.metadata costs start-up time otherwise)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"{PROG} {version()}")
+        parser.exit()
+
+
 def _verbosity() -> argparse.ArgumentParser:
     """-v / -q, accepted before the subcommand and after it (defaults suppressed: the subcommand's parse does not
     reset what was given before it)."""
@@ -60,7 +68,7 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog=PROG, parents=[verbosity],
                                      description="Coupled thermo-mechanics in geomechanics (NGSolve). Scenes are "
                                                  "TOML files or built-in names (see 'list').")
-    parser.add_argument("--version", action="version", version=f"{PROG} {version()}")
+    parser.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
     sub = parser.add_subparsers(dest="command", required=True)
     p_run = sub.add_parser("run", parents=[verbosity], help="run a scene and write VTK, figures and summary.json")
     p_run.add_argument("scene", help="scene file or built-in scene name")
@@ -160,6 +168,24 @@ def main(argv: list[str] | None = None) -> int:
         return 141
     finally:
         _stop_logging(handler, previous)
+
+
+def entry() -> None:
+    """The process's entry (the ``ngs-geomech`` script, ``python -m ngs_geomech``): :func:`main`, then the exit
+    without the interpreter's teardown, which frees NGSolve's and scipy's objects one by one (0.1-0.2 s measured
+    on a small run) where the operating system frees the process at once. Every output file is complete and
+    closed when main returns (written atomically); stdout, stderr and the log handlers are flushed first. An MPI
+    job (mpi4py's MPI_Finalize runs at exit) and a process that started worker processes leave the usual way."""
+    code = main()
+    if "mpi4py.MPI" in sys.modules or "multiprocessing" in sys.modules:
+        sys.exit(code)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    logging.shutdown()
+    os._exit(code)
 
 
 def _call(args: argparse.Namespace) -> int:

@@ -16,6 +16,14 @@ LINEAR_SOLVERS = ("auto", "direct", "iterative", "condensed")
 """The Newton steps' linear algebra: "auto" (condensed in 2D with PARDISO, else direct), sparse direct
 factorizations, GMRES (Krylov), the problem condensed onto the contact surface."""
 
+AUTO_DOFS = {2: 1_000_000, 3: 20_000}
+"""Displacement dofs above which ``solver.linear = "auto"`` solves the contact Newton steps by GMRES (per mesh
+dimension). Measured on the 3D Coulomb punch (``studies/scaling``, one thread): direct / GMRES
+1.12 / 1.47 s at 3.5k P1 dofs, 8.08 / 6.29 s at 22k P2, 59.8 / 11.2 - 13.9 s at 19k P1, 399 / 67.5 s at 130k P2
+(the direct solves factor the 3D saddle point at every Newton step, 6 s at 19k P1 and 50 s at 130k P2). In 2D the
+direct solves stay cheap; the value is that of the other systems
+(:data:`ngs_geomech.linalg.iterative.AUTO_DOFS`). The GMRES path is :mod:`.krylov`."""
+
 
 class MethodChoice(NamedTuple):
     """What the ``method`` keys of a scene's contacts ask for: ``solver`` the method of the scene's one contact

@@ -69,13 +69,6 @@ DEFAULT_TOL = 1e-10
 RESTART = 60
 """GMRES restart length (Krylov vectors kept)."""
 
-AUTO_DOFS = {2: 1_000_000, 3: 20_000}
-"""Displacement dofs above which ``solver.linear = "auto"`` solves the contact Newton steps by GMRES (per mesh
-dimension). Measured on the 3D Coulomb punch (``studies/scaling``, one thread): direct / GMRES
-1.12 / 1.47 s at 3.5k P1 dofs, 8.08 / 6.29 s at 22k P2, 59.8 / 11.2 - 13.9 s at 19k P1, 399 / 67.5 s at 130k P2
-(the direct solves factor the 3D saddle point at every Newton step, 6 s at 19k P1 and 50 s at 130k P2). In 2D the
-direct solves stay cheap; the value is that of the other systems (:data:`.iterative.AUTO_DOFS`)."""
-
 
 def near_null_space(forms) -> tuple[np.ndarray, np.ndarray, int]:
     """What the AMG needs of the elastic problem ``forms`` (:class:`ngs_geomech.mechanics.forms.ElasticForms`):

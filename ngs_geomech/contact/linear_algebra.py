@@ -4,7 +4,6 @@ interface nodes carry no unknown multiplier, and whether a bulk matrix is symmet
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 import scipy.sparse as sp
 
 
@@ -45,6 +44,9 @@ def dependent_rows(it, freef: np.ndarray, n: int) -> np.ndarray:
     if rank == len(rows):
         return out
     W = u[:, rank:] * np.repeat([1e-3] + [1.0] * (nb - 1), len(nodes))[:, None]    # tangential rows first
+    # loaded when rows are dependent (start-up)
+    import scipy.linalg
+
     pivots = scipy.linalg.qr(W.T, pivoting=True, mode="r")[1][:W.shape[1]]
     out.reshape(-1)[rows[pivots]] = True
     return out

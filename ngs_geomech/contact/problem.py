@@ -27,10 +27,9 @@ from ..geometry.assemble import GeometryModel
 from ..linalg.iterative import choose_solver
 from ..scene import expressions
 from ..scene.model import ContactMechanics, Scene
-from .choices import MethodChoice, contact_methods
+from .choices import AUTO_DOFS, MethodChoice, contact_methods
 from .forms import ContactOperator, contact_operator_2d
 from .forms3d import contact_operator_3d
-from .krylov import AUTO_DOFS
 from .laws import ContactLaw, ContactOptions, slip_bound
 
 STATUS_OPEN, STATUS_STICK, STATUS_SLIP, STATUS_PRESCRIBED = 0, 1, 2, 3
@@ -81,7 +80,7 @@ def contact_options(scene: Scene, specs: list[ContactSpec], forms, *, dynamic: b
     :func:`.factory.build_contact_solver`). The solver's method is that of :func:`.choices.contact_methods`: Uzawa's
     solver with the contacts' ``uzawa_step`` and ``mechanics.uzawa_max_steps``, or the semi-smooth Newton (penalty)
     solver, whose Newton steps in static mechanics follow ``solver.linear`` (GMRES above
-    :data:`.krylov.AUTO_DOFS` with 'auto'; a direct solve is condensed onto the contact surface where that applies;
+    :data:`.choices.AUTO_DOFS` with 'auto'; a direct solve is condensed onto the contact surface where that applies;
     the mixed formulation, X not V, stays direct) and in dynamic and viscous mechanics (``dynamic``) take the
     default linear algebra."""
     mechanics = scene.physics.mechanics if dynamic else "static"

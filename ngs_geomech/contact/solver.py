@@ -91,7 +91,6 @@ from .base import ContactSolverBase
 from .condensed import CondensedContact, applicable
 from .floating import balance_scale, check_load, rigid_balance, unheld_reason, walk_slip
 from .forms import ContactOperator
-from .krylov import near_null_space
 from .laws import ContactLaw, ContactOptions, slip_bound
 from .linear_algebra import drop_prescribed_nodes
 from .saddle import SaddlePattern
@@ -426,6 +425,9 @@ class ContactSolver(ContactSolverBase):
     def _krylov_modes(self):
         """The near null space of the displacement space for the iterative steps' AMG (computed once)."""
         if self._modes is None:
+            # the Krylov path and its scipy.sparse.linalg load when it runs (start-up of the direct path)
+            from .krylov import near_null_space
+
             self._modes = near_null_space(self.forms)
         return self._modes
 

@@ -12,7 +12,6 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 from ..linalg.direct import inverse
-from .krylov import DEFAULT_TOL, SaddleKrylov
 from .linear_algebra import is_symmetric
 from .saddle import SaddlePattern
 
@@ -218,6 +217,9 @@ class KrylovSteps(NewtonSteps):
                 scale[o + k * m:o + (k + 1) * m] = c
                 aug[o + k * m:o + (k + 1) * m] = -it.w / it.c
             blocks.append(np.column_stack([o + k * m + np.arange(m) for k in range(it.blocks)]))
+        # with scipy.sparse.linalg: loaded when the Krylov path runs
+        from .krylov import DEFAULT_TOL, SaddleKrylov
+
         self.krylov = SaddleKrylov(n, s.freemask, scale, aug, blocks, modes, vertex, dim,
                                    tol=self.tol or DEFAULT_TOL, maxit=self.maxit)
         # 3D slip rows: the residual the Newton steps can reach is that of their linear solves (GMRES: 100 x its

@@ -35,15 +35,17 @@ saddle-point matrix is singular there.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import ngsolve as ngs
 import numpy as np
 
 from ..fem.coefficients import Separable, TimeFunction, boundary_cf, material_cf, region_cf, regions_regex, tensor_cf
 from ..fem.mortar import mortar_coupling_2d, mortar_coupling_3d
-from .conductance import InterfaceConductance
-from .interface_terms import InterfaceTerms
 from .materials import ThermalProperties
+
+if TYPE_CHECKING:
+    from .conductance import InterfaceConductance
 
 
 @dataclass
@@ -387,6 +389,9 @@ class HeatForms:
         self._mortar = self._mortar_coo = None
         self.interface_terms = None
         if self.setup.conductances:
+            # with scipy.sparse: loaded by scenes with contact conductance only (start-up)
+            from .interface_terms import InterfaceTerms
+
             self.interface_terms = InterfaceTerms(self.mesh, self.V, self.setup.conductances, order=self.setup.order,
                                                   axisymmetric=self.setup.axisymmetric, ndof=self.X.ndof)
             self._bump()

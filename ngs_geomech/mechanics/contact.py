@@ -24,7 +24,6 @@ import time
 import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..contact.solver import ContactSolver
 from ..errors import SolverError
@@ -159,6 +158,9 @@ class InSituTraction:
         B = sp.vstack([M[k] for M in (op.Bn, op.Bt, op.Bt2) if M is not None]).tocsr()
         sdofs = np.array(list(self.forms.V.GetDofs(self.forms.mesh.Boundaries(op.side))), dtype=bool)
         Bs = B[:, sdofs]
+        # loaded with an initial stress only (start-up)
+        import scipy.sparse.linalg as spla
+
         solve = spla.factorized((Bs @ Bs.T).tocsc()) if B.shape[0] else None
         return B, sdofs, Bs, solve
 

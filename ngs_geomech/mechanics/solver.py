@@ -42,7 +42,6 @@ from dataclasses import dataclass, field
 
 import ngsolve as ngs
 import numpy as np
-from scipy.optimize import brentq
 
 from ..errors import SolverError
 from ..fem.coefficients import regions_regex
@@ -276,6 +275,9 @@ class ElasticSolver:
                     a = m
                 else:
                     b, gb = m, gm
+            # scipy.optimize costs 0.1-0.2 s of start-up: loaded when used
+            from scipy.optimize import brentq
+
             s_opt = brentq(g, a, b, xtol=1e-14 * b, rtol=1e-10, maxiter=200)
         except _Found as found:
             return float(found.args[0])

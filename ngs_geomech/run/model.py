@@ -2,22 +2,18 @@
 the scene declares: a thermal part (the Stefan problem when a material changes phase, else heat), a mechanics
 part (static, or dynamic/viscous) and their coupling; the output fields of all of them. And the mesh policy a
 scene declares (:func:`mesh_policy`).
+
+Each part's module is imported when a scene declares that part, not with this module: a heat scene does not load
+the contact, Stefan or dynamics solvers (and what they import: scipy's optimizers, sparse factorizations), so every
+run and every uncertainty sample starts as fast as its physics allows.
 """
 
 from __future__ import annotations
 
-from ..adapt.contact_following import ContactFollowing
-from ..adapt.front_following import FrontFollowing
 from ..adapt.policy import FixedMesh, MeshPolicy
-from ..adapt.stationary import PreAdapted, StationaryAdaptive
-from ..coupling.run import CouplingRun
-from ..dynamics.problem import DynamicsRun
 from ..geometry.assemble import GeometryModel
-from ..heat.run import HeatRun
-from ..mechanics.run import StaticMechanicsRun
 from ..parts import Step
 from ..scene.model import Scene
-from ..stefan.problem import StefanRun
 from ..validation.validate import stefan_scene
 
 
@@ -31,18 +27,23 @@ class Model:
         self.scene, self.mesh = scene, mesh
         self.thermal = None
         if stefan_scene(scene):           # phase change: the enthalpy (Stefan) solver replaces the heat solver
+            from ..stefan.problem import StefanRun
             self.thermal = StefanRun(scene, mesh, geo)
         elif scene.physics.thermal:
+            from ..heat.run import HeatRun
             self.thermal = HeatRun(scene, geo, mesh)
         T = self.thermal.T if self.thermal is not None else None
         T0 = self.thermal.interpolate if self.thermal is not None else None
         self.mechanics = None
         if scene.physics.mechanics in ("dynamic", "viscous"):
+            from ..dynamics.problem import DynamicsRun
             self.mechanics = DynamicsRun(scene, geo, mesh, T, interpolate=T0)
         elif scene.physics.mechanics:
+            from ..mechanics.run import StaticMechanicsRun
             self.mechanics = StaticMechanicsRun(scene, geo, mesh, T, interpolate=T0)
         self.coupling = None
         if scene.physics.coupling != "none" and self.mechanics is not None and self.thermal is not None:
+            from ..coupling.run import CouplingRun
             self.coupling = CouplingRun(scene, self.thermal, self.mechanics)
         self.parts = [p for p in (self.thermal, self.mechanics, self.coupling) if p is not None]
         self.steppers = [self.coupling] if self.coupling is not None else self.parts
@@ -106,9 +107,13 @@ def mesh_policy(scene: Scene, geo: GeometryModel, build) -> MeshPolicy:
     if ad is None:
         return FixedMesh()
     if scene.time is None:
+        from ..adapt.stationary import StationaryAdaptive
         return StationaryAdaptive(scene, build)
     if "contact_zone" in ad.indicators:       # validated: static mechanics with contact, plane or axisymmetric
+        from ..adapt.contact_following import ContactFollowing
         return ContactFollowing(scene, geo, build)
     if "phase_front" in ad.indicators:        # validated: a plane Stefan problem
+        from ..adapt.front_following import FrontFollowing
         return FrontFollowing(scene, geo, build)
+    from ..adapt.stationary import PreAdapted
     return PreAdapted(scene, build)           # transient heat without a followed feature
