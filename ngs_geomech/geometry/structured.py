@@ -48,8 +48,10 @@ SHAPES = {2: "rectangle", 3: "box"}
 
 def structured_problems(scene) -> list[Problem]:
     """What a structured mesh cannot represent in ``scene``, each naming its key: blocks other than rectangles /
-    boxes, cuts, adaptivity (it remeshes the OCC geometry or refines it), distributed runs are checked where they
-    are run (:mod:`ngs_geomech.validation.check_distributed`). Empty when ``mesh.structured`` is off."""
+    boxes, cuts, adaptivity (it remeshes the OCC geometry or refines it), nested iteration (netgen's coarse
+    meshes), 3D contacts on hexahedra (triangular faces assumed), a ``mesh.sizes`` of the wrong length; and
+    ``mesh.elements`` / ``mesh.sizes`` without ``mesh.structured``. Distributed runs are refused where they are
+    run (:mod:`ngs_geomech.validation.check_distributed`)."""
     m = scene.mesh
     if not m.structured:
         return [] if m.elements == "simplex" and m.sizes is None else [
@@ -69,8 +71,25 @@ def structured_problems(scene) -> list[Problem]:
         problems.append(Problem("adaptivity", "mesh.structured = true does not support adaptivity (it refines "
                                               "or remeshes with netgen's geometry): remove [adaptivity] or set "
                                               "mesh.structured = false"))
+    if dim == 3 and m.elements == "tensor":
+        problems += _hexahedral_contacts(scene)
+    if scene.mechanics.nested_levels > 0:
+        problems.append(Problem("mechanics.nested_levels", "nested iteration is not supported on structured meshes "
+                                                           "(its coarse meshes are netgen's): set it to 0"))
     if m.sizes is not None and len(m.sizes) != dim:
         problems.append(Problem("mesh.sizes", f"needs {dim} sizes (one per axis), got {len(m.sizes)}"))
+    return problems
+
+
+def _hexahedral_contacts(scene) -> list[Problem]:
+    """3D contacts on hexahedra: the contact forms and mortars of 3D interfaces and foundations
+    (:mod:`ngs_geomech.contact.forms3d`, :mod:`ngs_geomech.fem.mortar`) clip triangular faces."""
+    why = ("3D contacts need triangular faces (the mortar and contact forms clip triangles): use mesh.elements = "
+           "'simplex' with mesh.structured")
+    problems = [Problem(f"interfaces[{i}] ({itf.name}).type", f"a contact interface on hexahedra: {why}")
+                for i, itf in enumerate(scene.interfaces) if itf.type == "contact"]
+    problems += [Problem(f"boundary_conditions.{name}.foundation", f"a foundation on hexahedra: {why}")
+                 for name, bc in scene.boundary_conditions.items() if bc.foundation is not None]
     return problems
 
 
