@@ -44,6 +44,7 @@ FACET = {2: np.array([[0], [1]]), 3: np.array([[0, 0], [1, 0], [1, 1], [0, 1]])}
 (2D: a segment along axis a+1; 3D: a quadrilateral, or two triangles on the lowest-highest diagonal)."""
 
 SHAPES = {2: "rectangle", 3: "box"}
+PLURAL = {2: "rectangles", 3: "boxes"}
 
 
 def structured_problems(scene) -> list[Problem]:
@@ -62,7 +63,7 @@ def structured_problems(scene) -> list[Problem]:
     for i, b in enumerate(scene.blocks):
         if b.shape != SHAPES[dim]:
             problems.append(Problem(f"blocks[{i}] ({b.name}).shape", f"mesh.structured = true needs axis-aligned "
-                                    f"{SHAPES[dim]}s; this block is a {b.shape}: set mesh.structured = false"))
+                                    f"{PLURAL[dim]}; this block is a {b.shape}: set mesh.structured = false"))
     if scene.cuts:
         problems.append(Problem("cuts", "mesh.structured = true does not support cuts (planes or polylines across "
                                         "blocks): split the blocks into rectangles / boxes, or set "
