@@ -15,6 +15,20 @@ from .scene.model import PROBE_THERMAL, Probe
 
 THERMAL = PROBE_THERMAL
 """The probe quantities recorded at every step (declared with the key ``output.probes.quantity``)."""
+VOLUME_SAMPLES = {2: {ngs.TRIG: [(0, 0), (1, 0), (0, 1), (1 / 3, 1 / 3)],
+                      ngs.QUAD: [(0, 0), (1, 0), (1, 1), (0, 1), (0.5, 0.5)]},
+                  3: {ngs.TET: [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0.25, 0.25, 0.25)],
+                      ngs.HEX: [(i, j, k) for i in (0, 1) for j in (0, 1) for k in (0, 1)] + [(0.5, 0.5, 0.5)]}}
+"""Reference points where a region's max / min probe samples each element type: the vertices and the centre."""
+BOUNDARY_SAMPLES = {2: {ngs.SEGM: [(0,), (1,)]},
+                    3: {ngs.TRIG: [(0, 0), (1, 0), (0, 1)], ngs.QUAD: [(0, 0), (1, 0), (1, 1), (0, 1)]}}
+"""Reference points where a boundary's max / min probe samples each boundary element type: the vertices."""
+
+
+def _sample_rules(points: dict) -> dict:
+    return {et: ngs.IntegrationRule(pts, [0.0] * len(pts)) for et, pts in points.items()}
+
+
 FRONT_LEVEL = 0.5
 MAX_LINE_SAMPLES = 20000
 
@@ -67,16 +81,11 @@ class ProbeSet:
                 self._points[p.name] = mip
             elif p.statistic in ("max", "min"):
                 if p.region:
-                    et = ngs.TRIG if mesh.dim == 2 else ngs.TET
-                    pts = [(0, 0), (1, 0), (0, 1), (1 / 3, 1 / 3)] if mesh.dim == 2 else \
-                        [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0.25, 0.25, 0.25)]
-                    ir = ngs.IntegrationRule(pts, [0.0] * len(pts))
-                    self._samples[p.name] = mesh.MapToAllElements({et: ir}, mesh.Materials(p.region))
+                    rules = _sample_rules(VOLUME_SAMPLES[mesh.dim])
+                    self._samples[p.name] = mesh.MapToAllElements(rules, mesh.Materials(p.region))
                 else:
-                    et = ngs.SEGM if mesh.dim == 2 else ngs.TRIG
-                    pts = [(0,), (1,)] if mesh.dim == 2 else [(0, 0), (1, 0), (0, 1)]
-                    ir = ngs.IntegrationRule(pts, [0.0] * len(pts))
-                    self._samples[p.name] = mesh.MapToAllElements({et: ir}, mesh.Boundaries(p.boundary))
+                    rules = _sample_rules(BOUNDARY_SAMPLES[mesh.dim])
+                    self._samples[p.name] = mesh.MapToAllElements(rules, mesh.Boundaries(p.boundary))
         if problems:
             raise SceneError(problems)
 

@@ -78,6 +78,8 @@ class GeometryModel:
     bounding_box: tuple = ()
     block_boundaries: dict[str, set[str]] = field(default_factory=dict)   # block -> names of its outer sides
     split: dict[str, tuple[str, list[str]]] = field(default_factory=dict)  # block -> (cut, its parts) (.cuts)
+    blocks: list = field(default_factory=list)       # the scene's blocks (structured meshes are built from them)
+    axisymmetric: bool = False
 
     def occ_geometry(self):
         return occ.OCCGeometry(self.shape, dim=self.dim)
@@ -143,7 +145,8 @@ def build_geometry(scene: Scene) -> GeometryModel:
         raise SceneError(problems, source="geometry")
     groups = _glued_groups(names, found)
     model = GeometryModel(shape=None, dim=dim, regions=names, boundaries=set(), bounding_box=(parts.lo, parts.hi),
-                          split=split.replaced)
+                          split=split.replaced, blocks=list(scene.blocks),
+                          axisymmetric=scene.scene.dimension == "axisymmetric")
     contact_keys = _contact_sides(model, found, parts)
     final = _group_shapes(model, groups, contact_keys, parts)
     _finish(scene, model, final, parts.tol, _region_maxh(scene, split))

@@ -7,6 +7,7 @@ import ngsolve as ngs
 from ..errors import Problem, SceneError
 from ..scene.model import MeshSettings
 from .assemble import GeometryModel
+from .structured import structured_mesh
 
 MIN_MESHED_FRACTION = 0.5
 """A region whose mesh covers less than this fraction of its geometric area (2D) or volume (3D) was not meshed:
@@ -25,7 +26,11 @@ def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=(), comm=
     the parts (netgen's ``Distribute``: rank 0 keeps no elements); the others receive theirs. Every rank calls
     this; a SceneError found on rank 0 is raised on every rank.
 
+    ``settings.structured``: the structured mesh of the axis-aligned blocks (:mod:`.structured`) instead.
+
     Raises SceneError naming the region (and ``mesh.maxh``) when netgen left a region (largely) unmeshed."""
+    if settings.structured:        # no restrictions (adaptivity is refused), straight sides: nothing to curve
+        return structured_mesh(geo, settings)
     if comm is not None and comm.size > 1:
         return _distributed_mesh(geo, settings, comm)
     mesh = _serial_mesh(geo, settings, restrictions)

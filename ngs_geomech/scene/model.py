@@ -43,6 +43,7 @@ RATE_MECHANICS = ("dynamic", "viscous")
 """The mechanics advanced every time step with inertia and/or viscosity (the global model (2.6)-(2.16))."""
 SHAPES_2D = ("rectangle", "polygon", "circle", "profile")
 SHAPES_3D = ("box", "cylinder", "prism", "import")
+MESH_ELEMENTS = ("simplex", "tensor")
 SELECTORS = ("all", "xmin", "xmax", "ymin", "ymax", "zmin", "zmax", "top", "bottom", "lateral")
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "km": 1e3, "in": 0.0254, "ft": 0.3048}
 """Length units an imported file's coordinates may be read in, in m."""
@@ -106,6 +107,18 @@ class MeshSettings:
                               doc="largest mesh accepted: a scene whose element count, estimated before meshing from "
                                   "the blocks' areas (volumes) and the element sizes, exceeds it is refused (netgen "
                                   "makes 0.5 to 3 times the estimate); raise it for a larger machine")
+    structured: bool = field(boolean, False,
+                             doc="a structured (tensor-product) grid instead of netgen's mesher, for scenes whose "
+                                 "blocks are all axis-aligned rectangles (plane, axisymmetric) or boxes (3d): the "
+                                 "grid lines are every block's sides, each interval cut into equal cells no larger "
+                                 "than the axis' size (mesh.sizes), the blocks' maxh and the boundaries' "
+                                 "boundary_maxh; names and contact sides as netgen's meshes have them")
+    elements: str = field(one_of(*MESH_ELEMENTS), "simplex",
+                          doc="structured meshes: 'simplex' (each grid cell split into triangles / tetrahedra) or "
+                              "'tensor' (quadrilaterals / hexahedra)")
+    sizes: list | None = field(optional(list_of(positive(number))), None,
+                               doc="structured meshes: the largest cell size along each axis [hx, hy(, hz)], m "
+                                   "(default maxh along every axis); e.g. a strip one cell high: [0.003, 0.1]")
 
 
 @dataclass(frozen=True, kw_only=True)

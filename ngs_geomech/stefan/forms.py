@@ -163,7 +163,8 @@ def vertex_rules(dim: int) -> dict:
     if dim == 2:
         return {ngs.TRIG: ngs.IntegrationRule([(0, 0), (1, 0), (0, 1)], [1 / 6] * 3),
                 ngs.QUAD: ngs.IntegrationRule([(0, 0), (1, 0), (1, 1), (0, 1)], [1 / 4] * 4)}
-    return {ngs.TET: ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [1 / 24] * 4)}
+    return {ngs.TET: ngs.IntegrationRule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], [1 / 24] * 4),
+            ngs.HEX: ngs.IntegrationRule([(i, j, k) for i in (0, 1) for j in (0, 1) for k in (0, 1)], [1 / 8] * 8)}
 
 
 def shape_cf(material: StefanMaterial, dim: int):
@@ -250,7 +251,7 @@ class StefanForms:
         types = {el.type for el in mesh.Elements(ngs.VOL)}
         if not types <= set(self.rules):
             raise ValueError(f"Stefan problem: element types {sorted(map(str, types - set(self.rules)))} have no "
-                             "vertex rule here (triangles, quadrilaterals and tetrahedra do)")
+                             "vertex rule here (triangles, quadrilaterals, tetrahedra and hexahedra do)")
         self.axisymmetric = bool(setup.axisymmetric)
         self.weight = ngs.x if self.axisymmetric else None
         """The weight of every integral: r = x in axisymmetric problems (per radian), None (1) otherwise."""

@@ -32,6 +32,9 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
     for name, bc in scene.boundary_conditions.items():
         if bc.foundation is not None:
             problems.append(Problem(f"boundary_conditions.{name}.foundation", f"contact with a foundation {why}"))
+    if scene.mesh.structured:
+        problems.append(Problem("mesh.structured", f"a structured mesh {why} (it is built serially; the "
+                                "distributed path sends netgen's mesh of the OCC geometry)"))
     if scene.adaptivity is not None:
         problems.append(Problem("adaptivity", f"adaptive refinement {why} (mesh refinement of a distributed mesh "
                                 "is not available)"))

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel, build_geometry
+from ..geometry.structured import structured_problems
 from ..scene.model import Scene
 from ..scene.schema import recheck
 from .check_conductance import check_conductance
@@ -37,6 +38,7 @@ def validate(scene: Scene) -> GeometryModel:
     recheck(scene, "", problems)        # the declared types and ranges (also of a scene built in Python)
     check_names(scene, problems)
     check_settings(scene, problems)
+    problems += structured_problems(scene)
     check_frictional_heating(scene, problems)
     check_materials(scene, problems)
     check_phase_change(scene, problems)

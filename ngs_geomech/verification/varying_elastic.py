@@ -72,16 +72,17 @@ def displacement(X=None, Y=None):
                                     U_SCALE * (ngs.cos(1.5 * X - Y) + 0.5 * X * Y)))
 
 
-def scene(model: str, maxh: float, order: int, formulation: str = "displacement"):
+def scene(model: str, maxh: float, order: int, formulation: str = "displacement", mesh_keys: dict | None = None):
     """The scene of ``model`` ('plane_strain' | 'axisymmetric'): one block ``rock`` with the varying data, exact
-    temperatures on its boundary ``outer`` (the displacement data and the body force are set on the setup)."""
+    temperatures on its boundary ``outer`` (the displacement data and the body force are set on the setup);
+    ``mesh_keys``: more ``[mesh]`` keys (e.g. a structured mesh)."""
     origin, dimension = DOMAINS[model]
     material = {"conductivity": 1.0, "youngs_modulus": YOUNG, "poisson_ratio": POISSON,
                 "thermal_expansion": EXPANSION, "stress_free_temperature": STRESS_FREE, "density": DENSITY}
     data = {
         "scene": {"name": f"varying_elastic_{model}", "dimension": dimension, "temperature_unit": "K"},
         "physics": {"thermal": "steady", "mechanics": "static", "plane_model": "plane_strain"},
-        "mesh": {"maxh": maxh, "order": order},
+        "mesh": {"maxh": maxh, "order": order, **(mesh_keys or {})},
         "blocks": [{"name": "rock", "shape": "rectangle", "origin": origin, "size": [1.0, 1.0],
                     "boundaries": {"outer": "all"}}],
         "materials": {"rock": material},
@@ -122,10 +123,11 @@ def _steady(cf):
     return Steady(lambda t, c=cf: c)
 
 
-def solve(model: str, maxh: float, order: int, formulation: str = "displacement") -> dict:
+def solve(model: str, maxh: float, order: int, formulation: str = "displacement",
+          mesh_keys: dict | None = None) -> dict:
     """The solved problem of ``model`` at mesh size ``maxh`` (m): {"mesh", "heat" (HeatForms), "forms"
     (ElasticForms), "exact" (u CF), "T" (the exact temperature CF)}."""
-    sc = scene(model, maxh, order, formulation)
+    sc = scene(model, maxh, order, formulation, mesh_keys)
     geo = validate(sc)
     mesh = make_mesh(geo, sc.mesh)
     T = expression_function(TEMPERATURE)(0.0)
@@ -162,7 +164,7 @@ def errors(model: str, forms: ElasticForms, u, T, order: int) -> dict:
     return out
 
 
-def convergence(model: str, order: int, hs, formulation: str = "displacement") -> dict:
+def convergence(model: str, order: int, hs, formulation: str = "displacement", mesh_keys: dict | None = None) -> dict:
     """Errors of the manufactured problem of ``model`` for the mesh sizes ``hs`` (m) and elements of ``order``:
     ``h``, ``dofs``, ``l2``, ``h1``, ``stress`` (and ``*_rel`` relative to the exact norms), the fitted orders
     ``order_l2``, ``order_h1``, ``order_stress`` and the number of sample points of the representative values."""
@@ -171,7 +173,7 @@ def convergence(model: str, order: int, hs, formulation: str = "displacement") -
         out[key], out[key + "_rel"] = [], []
     for h in hs:
         with ngs.TaskManager():
-            prob = solve(model, h, order, formulation)
+            prob = solve(model, h, order, formulation, mesh_keys)
             errs = errors(model, prob["forms"], prob["exact"], prob["T"], order)
         out["h"].append(float(h))
         out["dofs"].append(int(prob["forms"].X.ndof))
