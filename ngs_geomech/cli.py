@@ -82,7 +82,8 @@ def _parser() -> argparse.ArgumentParser:
                             "output settings may change)")
     p_run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                        help="override a scene value, e.g. --set mesh.maxh=2 --set time.end='10 year'")
-    p_run.add_argument("--threads", type=_count, default=None, help="number of threads (default: NGSolve's)")
+    p_run.add_argument("--threads", type=_count, default=None,
+                       help="NGSolve threads (default: 1, or every core for large problems; docs/methods.md)")
     p_val = sub.add_parser("validate", parents=[verbosity], help="check a scene (no meshing, no solving)")
     p_val.add_argument("scene")
     p_val.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
@@ -104,7 +105,8 @@ def _parser() -> argparse.ArgumentParser:
     p_unc.add_argument("--workers", type=_count, default=None,
                        help="worker processes (default: the number of cores); one NGSolve thread each")
     p_unc.add_argument("--threads", type=_count, default=None,
-                       help="NGSolve threads of a serial study (default: NGSolve's); pools use one per worker")
+                       help="NGSolve threads of a serial study (default: by the problem's size, as 'run'); pools "
+                            "use one per worker")
     p_unc.add_argument("--resume", action="store_true",
                        help="continue the killed study in --out from its samples.jsonl (same scene and --set)")
     p_unc.add_argument("--no-figures", action="store_true", help="write no PNG figures")

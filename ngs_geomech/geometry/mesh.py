@@ -7,13 +7,20 @@ import ngsolve as ngs
 from ..errors import Problem, SceneError
 from ..scene.model import MeshSettings
 from .assemble import GeometryModel
-from .structured import structured_mesh
+from .structured import element_counts, structured_mesh
 
 MIN_MESHED_FRACTION = 0.5
 """A region whose mesh covers less than this fraction of its geometric area (2D) or volume (3D) was not meshed:
 netgen reports a failed face ("NOT ALL FACES HAVE BEEN MESHED") on stdout only and returns a partial mesh
 (a 1 m x 10 um block with maxh = 1 m: 26 % of its area). The bound leaves room for the polygonal boundary of
 an order-1 mesh of a curved block (a circle of 8 segments: 90 %)."""
+
+
+def element_estimate(geo: GeometryModel, settings: MeshSettings) -> dict[tuple[str, str], float]:
+    """The elements of the scene's mesh per ("region", name) and ("boundary", name) before meshing: exact for a
+    structured mesh (:func:`.structured.element_counts`), netgen's estimated from the geometry otherwise
+    (:meth:`GeometryModel.element_estimate`)."""
+    return element_counts(geo, settings) if settings.structured else geo.element_estimate(settings.maxh)
 
 
 def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=(), comm=None):

@@ -41,12 +41,13 @@ from .. import parallel
 from ..adapt.policy import MeshPolicy
 from ..errors import OutputError, ResumeError, SceneError, SolverError
 from ..geometry.assemble import GeometryModel
-from ..geometry.mesh import make_mesh
+from ..geometry.mesh import element_estimate, make_mesh
 from ..io.atomic import OutputDir, is_locked, staging_dirs, write_json_atomic
 from ..io.checkpoint import Checkpoint, find_resumable, has_checkpoint, scene_hash
 from ..io.outdir import disk_full
 from ..io.progress import Progress
 from ..io.summary import finite, probe_statistics, versions
+from ..linalg.threads import BLAS_THREADS, blas_threads, default_threads
 from ..parts import Step
 from ..probes import THERMAL
 from ..scene.model import Scene
@@ -98,7 +99,9 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
     continues the interrupted run into ``out`` from its last checkpoint (:class:`ResumeError` when there is
     none, or when the scene or the mesh differs from the checkpointed run's). ``comm`` (an mpi4py communicator
     of several ranks, every rank calling this): a distributed run (module docstring); None: serial, also inside
-    an MPI job whose ranks run separate scenes (``mpi4py.futures`` samples)."""
+    an MPI job whose ranks run separate scenes (``mpi4py.futures`` samples). ``threads``: NGSolve's threads
+    (default: one, or every core for large problems: :func:`~ngs_geomech.linalg.threads.default_threads`); every
+    BLAS runs one thread (:mod:`ngs_geomech.linalg.threads`). The summary's ``threads`` says what ran."""
     timings: dict[str, float] = {}
     t0 = _time.perf_counter()
     started = _since_process_start()
@@ -115,10 +118,10 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
     cp = None
     if resume:
         cp = _checkpoint_to_resume(scene, out)
-    if threads:
-        ngs.SetNumThreads(threads)
-    elif comm is not None:
-        ngs.SetNumThreads(1)                    # one thread per rank unless asked (ranks x threads <= cores)
+    # one thread per rank unless asked (ranks x threads <= cores); serially by the problem's size
+    threads = threads or (1 if comm is not None else
+                          default_threads(sum(element_estimate(geo, scene.mesh).values()), geo.dim))
+    ngs.SetNumThreads(threads)
     root = comm is None or comm.rank == 0
     staging = None
     if out is not None:
@@ -129,10 +132,11 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
         except BlockingIOError as exc:
             raise ResumeError(f"cannot resume: {exc}") from None
     try:
-        with ngs.TaskManager():
+        with ngs.TaskManager(), blas_threads(BLAS_THREADS):
             result = _run(scene, geo, staging, progress and root, timings, cp, comm)
         timings["total_s"] = _time.perf_counter() - t0
         result.summary["wall_time_s"] = finite(timings)
+        result.summary["threads"] = {"ngsolve": threads, "blas": BLAS_THREADS}
         if comm is not None:
             comm.Barrier()                      # every rank's VTK part is written
         if staging is not None and root:
@@ -261,6 +265,7 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
         tic = _time.perf_counter()
         out.figures(model, policy, staging.path / "figures", draw=root)
         timings["output_s"] = out.write_s + _time.perf_counter() - tic      # the series above and the figures
+        timings["series_s"] = out.write_s
     return RunResult(mesh=model.mesh, summary=summary, out=None, timings=timings, model=model)
 
 

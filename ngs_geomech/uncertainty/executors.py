@@ -42,7 +42,7 @@ class Runner:
     @property
     def threads_per_task(self) -> int | None:
         """NGSolve threads a task may use: one in a pool (the pool is the parallelism); serially ``threads``
-        (None: NGSolve's default)."""
+        (None: by the problem's size, :func:`ngs_geomech.linalg.threads.default_threads`)."""
         return self.threads if self.kind == "serial" else 1
 
     def as_completed(self, fn: Callable[[dict], dict], tasks: Iterable[dict]) -> Iterator[dict]:

@@ -12,8 +12,8 @@ from netgen import occ
 
 from ..errors import Problem
 from ..geometry.assemble import GeometryModel
+from ..geometry.mesh import element_estimate
 from ..geometry.shapes import cells, sides
-from ..geometry.structured import element_counts
 from ..heat.materials import has_phase_change
 from ..scene.model import PROBE_PHASE, PROBE_THERMAL, Probe, Scene
 from .check_materials import stefan_scene
@@ -218,7 +218,7 @@ def check_mesh_size(scene: Scene, geo: GeometryModel, problems: list[Problem]) -
     if not m.maxh > 0 or any(not h > 0 for h in m.boundary_maxh.values()) or any(
             b.maxh is not None and not b.maxh > 0 for b in scene.blocks):
         return                              # reported by the declared ranges (recheck)
-    counts = element_counts(geo, m) if m.structured else geo.element_estimate(m.maxh)
+    counts = element_estimate(geo, m)
     n = sum(counts.values())
     if n <= m.max_elements:
         return

@@ -32,8 +32,6 @@ Nothing here prints or writes files; every function returns a plain dict.
 
 from __future__ import annotations
 
-import contextlib
-import ctypes
 import math
 import time
 from dataclasses import dataclass
@@ -49,6 +47,7 @@ from ..fem.timesteps import schedule
 from ..heat.forms import HeatForms, HeatSetup
 from ..heat.materials import ThermalProperties
 from ..heat.solver import HeatSolver
+from ..linalg.threads import blas_threads
 from ..stefan.apparent import ApparentHeatCapacitySolver
 from ..stefan.forms import StefanForms, StefanSetup
 from ..stefan.materials import PhaseChangeMaterial
@@ -292,36 +291,12 @@ class _LinearReference:
         return self.step(a, b, fresh=True)
 
 
-@contextlib.contextmanager
 def single_threaded_blas():
-    """Every OpenBLAS loaded in the process (NGSolve's, numpy's, scipy's: from /proc/self/maps, Linux only) set
-    to one thread, restored on exit; yields how many were set. With two BLAS threads on the shared 2-core machine
-    the Stefan steps at 16k nodes took 14 instead of 8 ms (SuperLU's multi-column solves and the small dense
-    systems), the threads spinning while the other core was busy."""
-    try:
-        with open("/proc/self/maps") as fh:
-            paths = sorted({line.split()[-1] for line in fh if "openblas" in line.lower()
-                            and line.split()[-1].startswith("/")})
-    except OSError:
-        paths = []
-    changed = []
-    for path in paths:
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for prefix, suffix in (("openblas", ""), ("scipy_openblas", "64_"), ("scipy_openblas", "")):
-            setter = getattr(lib, f"{prefix}_set_num_threads{suffix}", None)
-            getter = getattr(lib, f"{prefix}_get_num_threads{suffix}", None)
-            if setter is not None and getter is not None:
-                changed.append((setter, int(getter())))
-                setter(1)
-                break
-    try:
-        yield len(changed)
-    finally:
-        for setter, old in changed:
-            setter(old)
+    """Every OpenBLAS of the process at one thread while the context lasts
+    (:func:`ngs_geomech.linalg.threads.blas_threads`): with two BLAS threads on the shared 2-core machine the
+    Stefan steps at 16k nodes took 14 instead of 8 ms (SuperLU's multi-column solves and the small dense systems),
+    the threads spinning while the other core was busy."""
+    return blas_threads(1)
 
 
 def neumann_strip(problem: NeumannProblem, h: float, dt: float, t0: float, t1: float, height: float = 0.1,
