@@ -1,0 +1,268 @@
+"""Speed where users wait, measured on whole runs as a user starts them: start-up, a small contact run as a
+process, 3D VTK output against the solve, meshing's share of a fine 2D run, Stefan runs at large time steps, and
+the threads a run takes.
+
+Runs and figures (results.json ``metrics``; every time is the best of ``repeats`` runs, the compared variants
+alternated within one run of the study, since the 2-core machine is shared and noisy):
+
+1. Start-up. ``ngsolve_import_s``: the process ``python -c "import ngsolve"``. ``startup_s``: from launching
+   ``python -m ngs_geomech run SCENE --out DIR -v`` to the moment the run reports its mesh and model built (the
+   log line before the first solve), for the 328-dof two-block contact scene (:file:`two_blocks.toml`: two
+   elastic blocks pressed together, frictionless, the upper one held by the contact alone) and the 305-dof steady
+   heat block (:file:`heat_block.toml`, ``startup_heat_s``); ``startup_ratio`` = startup_s / ngsolve_import_s.
+   ``small_contact_process_s``: the whole two-block process (VTK and the contact series written, no figures);
+   ``small_contact_process_with_figures_s`` the same with its figures.
+2. ``vtk_to_solve_ratio_3d``: repository_3d at its quick level (the scene as shipped; level 0: its first
+   30 days), figures off: the time spent writing the VTK series (``wall_time_s.output_s``) over the solves
+   (``initial_s + solve_s``).
+3. ``mesh_share_fine_2d``: the two-phase Neumann strip at h = 0.003125 m (37k dofs; level 0: h = 0.0125 m) as a
+   scene on a structured mesh (:func:`ngs_geomech.verification.structured.strip_meshing_share`): mesh_s / total_s
+   of the run; ``mesh_share_netgen_2d`` the same strip meshed by netgen (what every scene did before).
+4. ``stefan_large_dt_ratio``: the strip at h = 0.00625 m (level 0: 0.0125 m) from t0 = 0.05 s to 0.5 s as a
+   process: wall time at dt = 0.005 s over the wall time at dt = 0.000625 s, one NGSolve and one BLAS thread;
+   ``stefan_front_rel_error_large_dt`` / ``..._small_dt`` the front (melted volume) against the closed form.
+5. Threads (``threads`` table; level 1): built-in scenes of several sizes run with one NGSolve thread and with
+   every core (BLAS at one thread in both, :mod:`ngs_geomech.linalg.threads`): ``threads_speedup_<scene>`` =
+   wall(1) / wall(cores), above 1 where the threads pay.
+
+Before and after: ``--baseline DIR`` (a source checkout of an earlier commit) runs the process figures of 1, 2 and 4
+with that code too (``*_before``): the same scenes, the same machine, alternated with the current code.
+
+Command: ``python studies/whole_process/run.py --level 1 --out docs/results/whole_process [--baseline DIR]``.
+Cost: level 0 about 40 s; level 1 about 6 minutes (the 37k-dof strip twice, repository_3d, the threads table);
+``--baseline`` adds about 3 minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from ngs_geomech.linalg.threads import cores
+from ngs_geomech.verification import stefan as st
+from ngs_geomech.verification.stefan_adaptive import exact_temperature_expression, strip_scene
+from ngs_geomech.verification.structured import strip_meshing_share
+from ngs_geomech.verification.study import metrics_lines, study_main
+
+STUDY = "whole_process"
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+
+LEVELS = {
+    0: {"repeats": 2, "repository_3d": ["time.end=30 day"], "strip_h": 0.0125, "stefan_h": 0.0125,
+        "stefan_dts": (0.00125, 0.005), "threads": {}},
+    1: {"repeats": 5, "repository_3d": [], "strip_h": 0.003125, "stefan_h": 0.00625,
+        "stefan_dts": (0.000625, 0.005),
+        "threads": {"contact_melting": [], "heated_rock": [], "repository_section": ["time.end=20 year"],
+                    "repository_3d": ["time.end=20 year", "output.every=1000"]}},
+}
+"""Per level: repeats of the process runs, repository_3d's overrides, the strips' h (m) and steps (s), and the
+scenes of the threads table with their overrides."""
+
+LIMITS = {"startup_s": 0.8, "startup_ratio": 2.0, "small_contact_process_s": 1.0, "vtk_to_solve_ratio_3d": 0.5,
+          "mesh_share_fine_2d": 0.2, "stefan_large_dt_ratio": 1.0}
+"""The targets (recorded with the results, not asserted: benchmarks, not tests)."""
+
+BUILT = re.compile(r"\d+ elements, \d+ vertices; mesh")
+"""The run's log line (-v) once the mesh and the model are built: what comes next is the first solve."""
+
+
+def _env(code: Path) -> dict:
+    return {**os.environ, "PYTHONPATH": str(code)}
+
+
+def _process(code: Path, args: list[str], out: Path) -> dict:
+    """One ``python -m ngs_geomech run ARGS --out OUT -v`` with the package at ``code``: ``startup_s`` (to the
+    line :data:`BUILT`), ``process_s`` (to the process's end) and the run's summary."""
+    tic = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, "-m", "ngs_geomech", "run", *args, "--out", str(out), "--overwrite",
+                             "-v"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=_env(code))
+    built, lines = None, []
+    for line in proc.stderr:
+        lines.append(line)
+        if built is None and BUILT.search(line):
+            built = time.perf_counter() - tic
+    if proc.wait() != 0 or built is None:
+        raise RuntimeError(f"{args} with {code} failed or said no {BUILT.pattern!r}: {''.join(lines[-5:])}")
+    wall = time.perf_counter() - tic
+    return {"startup_s": built, "process_s": wall, "summary": json.loads((out / "summary.json").read_text())}
+
+
+def _import_ngsolve() -> float:
+    tic = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "import ngsolve"], check=True)
+    return time.perf_counter() - tic
+
+
+def startup(codes: dict[str, Path], repeats: int, tmp: Path) -> dict:
+    """Section 1 per code ("after", and "before" with a baseline): the best of ``repeats`` alternated runs."""
+    best: dict[str, float] = {}
+
+    def keep(key: str, value: float) -> None:
+        best[key] = min(best.get(key, float("inf")), value)
+
+    for _ in range(repeats):
+        keep("ngsolve_import_s", _import_ngsolve())
+        for tag, code in codes.items():
+            heat = _process(code, [str(HERE / "heat_block.toml")], tmp / f"heat_{tag}")
+            keep(f"startup_heat_s_{tag}", heat["startup_s"])
+            contact = _process(code, [str(HERE / "two_blocks.toml")], tmp / f"contact_{tag}")
+            keep(f"startup_s_{tag}", contact["startup_s"])
+            keep(f"small_contact_process_s_{tag}", contact["process_s"])
+            drawn = _process(code, [str(HERE / "two_blocks.toml"), "--set", "output.figures=true"],
+                             tmp / f"figures_{tag}")
+            keep(f"small_contact_process_with_figures_s_{tag}", drawn["process_s"])
+            best[f"small_contact_dofs_{tag}"] = contact["summary"]["mesh"]["dofs"]
+            best[f"startup_heat_dofs_{tag}"] = heat["summary"]["mesh"]["dofs"]
+    for tag in codes:
+        best[f"startup_ratio_{tag}"] = best[f"startup_s_{tag}"] / best["ngsolve_import_s"]
+        best[f"startup_heat_ratio_{tag}"] = best[f"startup_heat_s_{tag}"] / best["ngsolve_import_s"]
+    return best
+
+
+def vtk_3d(codes: dict[str, Path], overrides: list[str], tmp: Path) -> dict:
+    """Section 2 per code: repository_3d's VTK time over its solve time (figures off)."""
+    out = {}
+    for tag, code in codes.items():
+        sets = [a for o in ["output.figures=false", *overrides] for a in ("--set", o)]
+        s = _process(code, ["repository_3d", "--threads", "1", *sets], tmp / f"repository_3d_{tag}")["summary"]
+        w = s["wall_time_s"]
+        solve = w.get("initial_s", 0.0) + w["solve_s"]
+        out[f"vtk_to_solve_ratio_3d_{tag}"] = w["output_s"] / solve
+        out[f"vtk_s_3d_{tag}"] = w["output_s"]
+        out[f"solve_s_3d_{tag}"] = solve
+        out[f"vtk_outputs_3d_{tag}"] = len(list((tmp / f"repository_3d_{tag}").glob("*.vtu")))
+        out[f"dofs_3d_{tag}"] = s["mesh"]["dofs"]
+    return out
+
+
+STEFAN_RUN = """
+import json, sys
+from ngs_geomech.run import run_scene
+from ngs_geomech.scene.parse import scene_from_dict
+run_scene(scene_from_dict(json.load(open(sys.argv[1]))), sys.argv[2], progress=False, threads=1, overwrite=True)
+"""
+"""A strip scene (JSON) run into a directory as a process with the code on PYTHONPATH (the same call in every
+version)."""
+
+
+def stefan_steps(codes: dict[str, Path], h: float, dts: tuple, repeats: int, tmp: Path) -> dict:
+    """Section 4 per code: the strip at ``h`` with the steps ``dts`` (small, large), the best of ``repeats``
+    alternated runs (``total_s`` of the run's summary), the front errors, the steps and Newton iterations."""
+    p, t0, t1, height = st.TWO_PHASE, 0.05, 0.5, 0.1
+    exact = p.front(t1)
+    rows: dict[tuple, dict] = {}
+    for _ in range(repeats):
+        for tag, code in codes.items():
+            for dt in dts:
+                data = {**strip_scene(p, p.domain_length(t1), height, h),
+                        "initial": {"temperature": exact_temperature_expression(p, t0)},
+                        "time": {"start": t0, "end": t1, "dt": dt}, "output": {"every": 10 ** 6, "probes": [],
+                                                                               "vtk": False, "figures": False}}
+                path = tmp / f"strip_{tag}_{dt:g}.json"
+                path.write_text(json.dumps(data))
+                out = tmp / f"strip_{tag}_{dt:g}"
+                subprocess.run([sys.executable, "-c", STEFAN_RUN, str(path), str(out)], check=True,
+                               env={**_env(code), "OPENBLAS_NUM_THREADS": "1"})
+                s = json.loads((out / "summary.json").read_text())
+                row = {"total_s": s["wall_time_s"]["total_s"], "dofs": s["mesh"]["dofs"],
+                       "front_rel_error": abs(s["stefan"]["melted_volume"]["pcm"][-1] / height - exact) / exact,
+                       "steps": s["steps"], "newton_mean": s["stefan"]["newton_iterations"]["mean"],
+                       "stefan": {k: v for k, v in s["stefan"].items() if k in ("halvings", "step_control")}}
+                if (tag, dt) not in rows or row["total_s"] < rows[tag, dt]["total_s"]:
+                    rows[tag, dt] = row
+    out = {}
+    small, large = dts
+    for tag in codes:
+        out[f"stefan_large_dt_ratio_{tag}"] = rows[tag, large]["total_s"] / rows[tag, small]["total_s"]
+        out[f"stefan_front_rel_error_small_dt_{tag}"] = rows[tag, small]["front_rel_error"]
+        out[f"stefan_front_rel_error_large_dt_{tag}"] = rows[tag, large]["front_rel_error"]
+        out[f"stefan_wall_small_dt_{tag}"] = rows[tag, small]["total_s"]
+        out[f"stefan_wall_large_dt_{tag}"] = rows[tag, large]["total_s"]
+    return out, {f"{tag}_dt_{dt:g}": row for (tag, dt), row in rows.items()}
+
+
+def threads_table(scenes: dict[str, list[str]], tmp: Path) -> tuple[dict, dict]:
+    """Section 5: each scene with one NGSolve thread and with every core, alternated, best of two."""
+    n = cores()
+    table, metrics = {}, {"cores": n}
+    for name, overrides in scenes.items():
+        sets = [a for o in ["output.figures=false", "output.vtk=false", *overrides] for a in ("--set", o)]
+        best = {}
+        for _ in range(2):
+            for threads in sorted({1, n}):
+                r = _process(ROOT, [name, "--threads", str(threads), *sets], tmp / f"threads_{name}")
+                best[threads] = min(best.get(threads, float("inf")), r["summary"]["wall_time_s"]["total_s"])
+                dofs = r["summary"]["mesh"]["dofs"]
+        table[name] = {"dofs": dofs, "overrides": overrides, **{f"wall_s_{t}_threads": w for t, w in best.items()}}
+        metrics[f"threads_speedup_{name}"] = best[1] / best[n]
+    return metrics, table
+
+
+def run(level: int, baseline: Path | None = None) -> tuple[dict, dict]:
+    """The results dict of ``level`` (module docstring) and its tables."""
+    if level not in LEVELS:
+        raise ValueError(f"level must be one of {sorted(LEVELS)}, got {level}")
+    p = LEVELS[level]
+    codes = {"after": ROOT, **({"before": Path(baseline).resolve()} if baseline is not None else {})}
+    t_start = time.perf_counter()
+    timing, tables, metrics = {}, {}, {}
+    with tempfile.TemporaryDirectory(prefix="whole_process_") as d:
+        tmp = Path(d)
+        tic = time.perf_counter()
+        metrics.update(startup(codes, p["repeats"], tmp))
+        timing["startup_s"] = time.perf_counter() - tic
+        tic = time.perf_counter()
+        metrics.update(vtk_3d(codes, p["repository_3d"], tmp))
+        timing["vtk_3d_s"] = time.perf_counter() - tic
+        tic = time.perf_counter()
+        share = strip_meshing_share(p["strip_h"], repeats=1)
+        tables["mesh_share"] = share
+        metrics["mesh_share_fine_2d"] = share["share_after"]
+        metrics["mesh_share_netgen_2d"] = share["share_before"]
+        metrics["mesh_share_dofs"] = share["tensor"]["dofs"]
+        timing["mesh_share_s"] = time.perf_counter() - tic
+        tic = time.perf_counter()
+        figures, tables["stefan_steps"] = stefan_steps(codes, p["stefan_h"], p["stefan_dts"], 2, tmp)
+        metrics.update(figures)
+        timing["stefan_steps_s"] = time.perf_counter() - tic
+        tic = time.perf_counter()
+        figures, tables["threads"] = threads_table(p["threads"], tmp)
+        metrics.update(figures)
+        timing["threads_s"] = time.perf_counter() - tic
+    for key in ("startup_s", "startup_ratio", "startup_heat_s", "startup_heat_ratio", "small_contact_process_s",
+                "small_contact_process_with_figures_s", "vtk_to_solve_ratio_3d", "stefan_large_dt_ratio"):
+        metrics[key] = metrics[f"{key}_after"]
+    timing["total_s"] = time.perf_counter() - t_start
+    result = {"study": STUDY, "level": level, "metrics": metrics, "convergence": [], "timing_s": timing,
+              "limits": LIMITS, "tables": tables, "baseline": str(baseline) if baseline is not None else None}
+    return result, tables
+
+
+def report(result: dict) -> str:
+    lines = [f"study {result['study']}, level {result['level']}", "", "target    measured  metric"]
+    for key, limit in result["limits"].items():
+        lines.append(f"<= {limit:<6g} {result['metrics'][key]:9.3g}  {key}")
+    return "\n".join(lines + metrics_lines(result))
+
+
+def main(level: int = 0, out: str | Path | None = None, baseline: str | Path | None = None) -> dict:
+    """Run the study at ``level`` (with a ``baseline`` checkout: its figures too); write ``out/results.json``."""
+    return study_main(functools.partial(run, baseline=baseline), level, out)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--level", type=int, default=0, help="0 quick, 1 the issue's sizes")
+    parser.add_argument("--out", default=None, help="directory for results.json")
+    parser.add_argument("--baseline", default=None, help="a source checkout of an earlier commit to compare with")
+    args = parser.parse_args()
+    print(report(main(args.level, args.out, args.baseline)))
