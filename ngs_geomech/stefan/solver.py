@@ -377,7 +377,10 @@ class StefanSolver:
         each branch pattern, so the Newton update from a pattern is the root of that pattern's linear model
         whatever the iterate: iterate it + 1 repeats iterate j + 1 (to round-off), which did not converge, and
         the iteration cycles until ``maxit``. Stopping here saves those iterations (the same failure, found
-        earlier)."""
+        earlier). The first iterate's pattern is not kept: iterate 1 is not tested against the round-off floor of
+        :meth:`_converged` (from iterate 2 on), so its not converging proves nothing."""
+        if it < 1:
+            return
         j = seen.setdefault(pattern, it)
         if j == it:
             return
