@@ -15,8 +15,7 @@ so the remaining steps are the same ones) and the scene and mesh sizes the check
 :meth:`RunState.capture` after every completed step copies the vectors and notes the lengths of the
 (append-only) series, so that a failing step can still save the last good state.
 Everything a next step depends on is restored, so a resumed run repeats the uninterrupted one to the last bit
-(with one NGSolve thread; the Stefan solver's window mode on large meshes adapts its width to measured times
-and is not repeatable even without an interruption).
+(with one NGSolve thread), the Stefan step control's state (:mod:`ngs_geomech.stefan.stepping`) included.
 """
 
 from __future__ import annotations

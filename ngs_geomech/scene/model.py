@@ -642,6 +642,13 @@ class TimeSettings:
                                doc="crank_nicolson: take the first N steps with backward Euler (Rannacher's "
                                    "start-up: damps the stiff modes that a source or boundary value switched on "
                                    "at the start excites and Crank-Nicolson never damps; 2-4 typical)")
+    stefan_step_control: str = field(one_of("adaptive", "halving"), "adaptive",
+                                     doc="scenes with phase change: how the Stefan solver divides a step into "
+                                         "substeps (dt / 2^k, k <= 6; the output times stay): 'adaptive' keeps "
+                                         "the substep from step to step, finer after Newton failures, many Newton "
+                                         "iterations or a front crossing many element layers, coarser (up to dt) "
+                                         "after easy substeps; 'halving' starts every step at dt and halves a "
+                                         "failed one recursively")
 
 
 PROBE_THERMAL = ("temperature", "liquid_fraction", "front")

@@ -43,7 +43,6 @@ step, final states within 1.5e-13 J/m^3.
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import scipy.sparse as sp
@@ -52,6 +51,19 @@ import scipy.sparse.linalg as spla
 from ..errors import SolverError
 from .forms import StefanForms
 from .jacobian import NewtonJacobian
+
+
+def lu_nnz(lu) -> int:
+    """Non-zeros of the factors of a SuperLU object (L's unit diagonal not counted)."""
+    return int(lu.L.nnz + lu.U.nnz - lu.shape[0])
+
+
+def lu_work(lu) -> float:
+    """Multiply-adds of the factorization of a SuperLU object, counted from its factors: the sum over the pivots
+    j of (entries of L's column j below the diagonal) x (entries of U's row j), plus nnz(L + U)."""
+    below = np.diff(lu.L.indptr) - 1
+    right = np.bincount(lu.U.indices, minlength=lu.shape[0])
+    return float(np.dot(below, right) + lu_nnz(lu))
 
 
 class ColumnJacobian(NewtonJacobian):
@@ -94,9 +106,8 @@ class ColumnJacobian(NewtonJacobian):
     window's columns changed. The window is placed again when a column outside it changes (the front has left
     it), when a node outside A turns sensible, when dt changes, or as a plain factorization (empty window) when
     there is no last change to centre it on; a singular S falls back to the correction above. The width is
-    adapted at each placement to the measured costs of the last cycle (:meth:`_adapt_width`; timing-based, so the
-    placements, and the round-off of the iterates, may differ between two runs of the same problem on large
-    meshes; the Woodbury path below ``WINDOW_MIN`` is deterministic as before). ``factorizations``
+    adapted at each placement to the costs of the last cycle (:meth:`_adapt_width`, counted from the factors, not
+    timed: two runs of the same problem take the same placements, to the last bit). ``factorizations``
     counts the factorizations of M0_RR, ``corrections`` the solves for Z, ``window_factorizations`` those of S.
     """
 
@@ -106,6 +117,11 @@ class ColumnJacobian(NewtonJacobian):
     WINDOW_RANGE = (4, 64)
     WINDOW_MIN = 8000
     WINDOW_FRACTION = 0.5
+    SCHUR_WEIGHT = 2.0
+    """Seconds per counted work of a Schur complement factorization (with the assembly of its matrix) over those
+    of a placement. Measured on the two-phase Neumann strips (one thread, per cycle): 3.2 and 3.4 at 10.8k nodes,
+    1.3 at 42k nodes; the width follows the square root of the cost ratio, so a factor 1.6 off moves it by
+    1.3 x at most."""
 
     def __init__(self, forms: StefanForms, max_changed: int | None = None):
         super().__init__(forms)
@@ -148,7 +164,7 @@ class ColumnJacobian(NewtonJacobian):
         self._last = None                               # (d, w) of the last solve in window mode
         self.window_factorizations = 0
         self._width = None                              # the window's width (stiffness neighbours), adapted
-        self._cycle = [0.0, 0.0]                        # seconds of the last placement, of Schur factorizations since
+        self._cycle = [0.0, 0.0]                        # work of the last placement, of Schur factorizations since
         """Sparse LU factorizations of the window's Schur complement (window mode, one per changed matrix)."""
 
     @property
@@ -256,9 +272,11 @@ class ColumnJacobian(NewtonJacobian):
         return lu
 
     def _adapt_width(self) -> None:
-        """The window's width for the next placement, from the measured costs of the last cycle: a placement
+        """The window's width for the next placement, from the counted work of the last cycle: a placement
         (factorization and interface solves, T_p) against the Schur complement factorizations during the cycle
-        (T_s). The cycle lasts about as many steps as the front needs to cross the width w, and the Schur
+        (T_s); work as counted by :func:`lu_work` and :func:`lu_nnz` (a solve: two multiply-adds per factor
+        entry), the Schur complement's weighted by ``SCHUR_WEIGHT``, so that the widths, and the run, are the
+        same in every run. The cycle lasts about as many steps as the front needs to cross the width w, and the Schur
         complement grows like w, so the cost per step is about a/w + b w, least at w* = w sqrt(T_p / T_s)
         (changed by at most a factor 2 per cycle, within WINDOW_RANGE)."""
         if self._width is None:
@@ -279,7 +297,6 @@ class ColumnJacobian(NewtonJacobian):
             z = M_RR^-1 b_R,   (M_CC - M_CI Z M_IC) x_C = b_C - M_CI z_I,   x_R = z - M_RR^-1 (M_RC x_C),
 
         M_CI being constant (columns in R), M_CC and M_IC read from the current columns."""
-        start = time.perf_counter()
         nF = self.nF
         rows, cols = self._rows, self._cols
         self.lu = None
@@ -341,10 +358,51 @@ class ColumnJacobian(NewtonJacobian):
             "S_inv": inv, "S_nnz": len(uniq), "S_indices": uniq % nC if nC else uniq,
             "S_indptr_cols": uniq // max(nC, 1), "perm": None, "S_order": None,
             "S_indptr": np.concatenate([[0], np.cumsum(np.bincount(uniq // max(nC, 1), minlength=nC))]),
-            "S": None, "S_key": None, "vic": None}
+            "S": None, "S_key": None, "vic": None, "S_work": None}
         self._win["cc_diag_node"] = C[self._win["cc_rows"][self._win["cc_diag"]]]
         self._last = (d.copy(), w.copy())
-        self._cycle = [time.perf_counter() - start, 0.0]
+        self._cycle = [lu_work(lu) + 2.0 * nI * lu_nnz(lu) if lu is not None else 0.0, 0.0]
+
+    def _factor_schur(self, d: np.ndarray, w: np.ndarray) -> bool:
+        """Factor the window's Schur complement S of the columns (d, w) (:meth:`_wsolve`); False when singular."""
+        W = self._win
+        C, nC = W["C"], W["nC"]
+        cols = self._cols
+        cc, ic = W["cc"], W["ic"]
+        vcc = np.zeros(len(cc))
+        vic = np.zeros(len(ic))
+        for g, kd in enumerate(self._kdata):
+            vcc += kd[cc] * w[cols[cc], g]
+            vic += kd[ic] * w[cols[ic], g]
+        vcc[W["cc_diag"]] += d[W["cc_diag_node"]]
+        Mic = np.zeros((W["nI"], W["nB"]))
+        Mic[W["ic_i"], W["ic_b"]] = vic
+        blk = W["P"] @ Mic
+        data = np.bincount(W["S_inv"], weights=np.concatenate([vcc, -blk.ravel()]), minlength=W["S_nnz"])
+        try:
+            if W["perm"] is None:
+                # the fill-reducing ordering of S's pattern, once per placement: S is then factored already
+                # permuted, without ordering, and without relaxed supernodes (1239 unknowns at 42k nodes:
+                # 2.1 ms against 4.9 ms with SuperLU's ordering and default relaxation)
+                S = sp.csc_matrix((data, W["S_indices"], W["S_indptr"]), shape=(nC, nC))
+                perm = spla.splu(S, permc_spec="MMD_AT_PLUS_A", relax=1).perm_c
+                lin = perm[W["S_indptr_cols"]] * nC + perm[W["S_indices"]]
+                order = np.argsort(lin)
+                W["perm"], W["S_order"] = perm, order
+                W["S_indices"] = lin[order] % nC
+                W["S_indptr"] = np.concatenate([[0], np.cumsum(np.bincount(lin[order] // nC, minlength=nC))])
+            S = sp.csc_matrix((data[W["S_order"]], W["S_indices"], W["S_indptr"]), shape=(nC, nC))
+            W["S"] = spla.splu(S, permc_spec="NATURAL", relax=1)
+        except RuntimeError:
+            W["S"] = None
+            return False
+        W["S_key"] = (d[C].copy(), w[C].copy())
+        W["vic"] = vic
+        self.window_factorizations += 1
+        if W["S_work"] is None:                   # the same pattern and ordering all placement long
+            W["S_work"] = self.SCHUR_WEIGHT * lu_work(W["S"])
+        self._cycle[1] += W["S_work"]
+        return True
 
     def _wsolve(self, b: np.ndarray, d: np.ndarray, w: np.ndarray, where: str) -> np.ndarray:
         """M x = b in window mode (:meth:`_place`); None when the Schur complement is singular."""
@@ -356,40 +414,8 @@ class ColumnJacobian(NewtonJacobian):
             return x
         dC, wC = d[C], w[C]
         if W["S"] is None or not (np.array_equal(dC, W["S_key"][0]) and np.array_equal(wC, W["S_key"][1])):
-            start = time.perf_counter()
-            cols = self._cols
-            cc, ic = W["cc"], W["ic"]
-            vcc = np.zeros(len(cc))
-            vic = np.zeros(len(ic))
-            for g, kd in enumerate(self._kdata):
-                vcc += kd[cc] * w[cols[cc], g]
-                vic += kd[ic] * w[cols[ic], g]
-            vcc[W["cc_diag"]] += d[W["cc_diag_node"]]
-            Mic = np.zeros((W["nI"], W["nB"]))
-            Mic[W["ic_i"], W["ic_b"]] = vic
-            blk = W["P"] @ Mic
-            data = np.bincount(W["S_inv"], weights=np.concatenate([vcc, -blk.ravel()]), minlength=W["S_nnz"])
-            try:
-                if W["perm"] is None:
-                    # the fill-reducing ordering of S's pattern, once per placement: S is then factored already
-                    # permuted, without ordering, and without relaxed supernodes (1239 unknowns at 42k nodes:
-                    # 2.1 ms against 4.9 ms with SuperLU's ordering and default relaxation)
-                    S = sp.csc_matrix((data, W["S_indices"], W["S_indptr"]), shape=(nC, nC))
-                    perm = spla.splu(S, permc_spec="MMD_AT_PLUS_A", relax=1).perm_c
-                    lin = perm[W["S_indptr_cols"]] * nC + perm[W["S_indices"]]
-                    order = np.argsort(lin)
-                    W["perm"], W["S_order"] = perm, order
-                    W["S_indices"] = lin[order] % nC
-                    W["S_indptr"] = np.concatenate([[0], np.cumsum(np.bincount(lin[order] // nC, minlength=nC))])
-                S = sp.csc_matrix((data[W["S_order"]], W["S_indices"], W["S_indptr"]), shape=(nC, nC))
-                W["S"] = spla.splu(S, permc_spec="NATURAL", relax=1)
-            except RuntimeError:
-                W["S"] = None
+            if not self._factor_schur(d, w):
                 return None
-            W["S_key"] = (dC.copy(), wC.copy())
-            W["vic"] = vic
-            self.window_factorizations += 1
-            self._cycle[1] += time.perf_counter() - start
         if nR:
             z = lu.solve(b[R], trans="T")
             rhs = b[C] - np.bincount(W["ci_rows"], weights=W["vci"] * z[W["ci_cols"]], minlength=nC)
@@ -487,8 +513,7 @@ class ColumnJacobian(NewtonJacobian):
         window flag; in window mode its width and the last solve's (d, w)) and the nodes whose rows v_i were
         solved since, batch by batch. {} before the first factorization or when the stiffness changed since
         (the next solve factors anew either way). :meth:`restore` factors the same M0 again and repeats the same
-        solves, so that the Newton steps after it are those of an uninterrupted run to the last bit (window
-        mode: up to its timing-based width adaptation, see the class docstring)."""
+        solves, so that the Newton steps after it are those of an uninterrupted run to the last bit."""
         if self._d0 is None or self.version != self.forms.version:
             return {}
         recent, window = self._made
@@ -501,6 +526,9 @@ class ColumnJacobian(NewtonJacobian):
         if self._win is not None:
             out["width"] = np.array(self._width if self._width is not None else self.WINDOW)
             out["last_d"], out["last_w"] = self._last[0].copy(), self._last[1].copy()
+            out["cycle"] = np.array(self._cycle, dtype=float)
+            if self._win["S"] is not None:
+                out["schur_d"], out["schur_w"] = self._win["S_key"][0].copy(), self._win["S_key"][1].copy()
         return out
 
     def restore(self, state: dict) -> None:
@@ -516,6 +544,14 @@ class ColumnJacobian(NewtonJacobian):
                      float(np.ravel(state["dt0"])[0]), "the resumed state", recent, bool(np.ravel(state["window"])[0]))
         if self._win is not None and "last_d" in state:
             self._last = (np.asarray(state["last_d"], dtype=float), np.asarray(state["last_w"], dtype=float))
+            if "schur_d" in state:                    # the Schur complement factored then (not counted again)
+                d, w = self._last[0].copy(), self._last[1].copy()
+                C = self._win["C"]
+                d[C], w[C] = np.asarray(state["schur_d"], dtype=float), np.asarray(state["schur_w"], dtype=float)
+                if self._factor_schur(d, w):
+                    self.window_factorizations -= 1
+            if "cycle" in state:
+                self._cycle = [float(v) for v in np.ravel(state["cycle"])]
         nodes = np.asarray(state["rows_nodes"], dtype=np.int64)
         for batch in np.split(nodes, np.cumsum(state["rows_batches"])[:-1]) if len(state["rows_batches"]) else []:
             self._add_rows(batch)

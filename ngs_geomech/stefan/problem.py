@@ -68,6 +68,7 @@ from ..scene.units import YEAR
 from .forms import DEFAULT_INTERFACE_PENALTY, StefanForms, StefanSetup, shape_cf
 from .materials import ConductivityRangeError, PhaseChangeMaterial, PlainThermalMaterial
 from .solver import StefanSolver
+from .stepping import CONTROLS, MAX_LEVEL, StepControl, bisect_time
 
 AUTO_NODES = {2: 1_000_000, 3: 5_000}
 """Nodes above which ``solver.linear = "auto"`` solves the serial Stefan Newton steps by GMRES with h1amg instead of
@@ -77,9 +78,6 @@ SuperLU with low-rank updates (per mesh dimension). Measured on one thread, ``me
 GMRES 234 s at 46k. GMRES iterations per solve, max: 13 / 18 / 19 / 24 at 2k / 7k / 13k / 46k nodes. In 2D SuperLU
 stays far ahead (13 x faster at 12k nodes on the Neumann strip, :mod:`ngs_geomech.stefan.krylov_jacobian`): the 2D
 value keeps the direct path (not measured up to it)."""
-
-MAX_HALVINGS = 6
-"""A Stefan step whose Newton iteration fails is split in halves at most this often (dt / 64)."""
 
 LEVEL = 0.5
 """The phase boundary is the iso-line liquid_fraction = LEVEL."""
@@ -246,7 +244,9 @@ class StefanRun(ThermalPart):
         phi = f.gf_liquid_fraction
         self.probe_fields = {"temperature": T, "liquid_fraction": phi, "front": phi}
         self.iterations: list[int] = []                  # per (sub)step
-        self.halvings = 0                                # steps split because Newton failed
+        self.control: StepControl = CONTROLS[scene.time.stefan_step_control if scene.time is not None
+                                             else "adaptive"]()
+        """The substeps of the scene steps (:mod:`ngs_geomech.stefan.stepping`)."""
         self.dirichlet_heat: list[float] = []            # per step: heat in through the Dirichlet nodes
         self.source_heat: list[float] = []               # per step: sources and fluxes
         self.robin_heat: list[float] = []                # per step: heat transfer (Robin) conditions
@@ -375,12 +375,37 @@ class StefanRun(ThermalPart):
         return key, (f"{short(str(value))!r} is not finite at some vertices of the mesh (between the points "
                      "validation samples): a singularity or a function outside its domain")
 
-    def step(self, a: float, b: float, where: str, extra_load: np.ndarray | None = None, _depth: int = 0):
-        """One step from a to b (s); ``extra_load``: a nodal source vector (e.g. deformation heating, W: the same
-        power over the step). A Newton failure splits the step in two halves, recursively up to MAX_HALVINGS
-        times (the front crossing too many element layers in one step is the usual cause; the output times stay);
-        the halvings taken are counted in ``halvings``."""
-        mark = self.mark() if _depth < MAX_HALVINGS else None
+    @property
+    def halvings(self) -> int:
+        """Substeps taken again finer because their Newton iteration failed."""
+        return self.control.rejected
+
+    def step(self, a: float, b: float, where: str, extra_load: np.ndarray | None = None):
+        """One scene step from a to b (s) in substeps chosen by ``control`` (:mod:`ngs_geomech.stefan.stepping`);
+        ``extra_load``: a nodal source vector (e.g. deformation heating, W: the same power over the step). A
+        substep whose Newton iteration fails is rewound and taken again a level finer, down to (b - a) /
+        2^MAX_LEVEL, where the failure is a SolverError with the solver's diagnosis. Returns the last substep's
+        info."""
+        ctl, units, pos, info = self.control, 1 << MAX_LEVEL, 0, None
+        while pos < units:
+            level = ctl.next_level(pos)
+            end = pos + (units >> level)
+            s0, s1 = bisect_time(a, b, pos), bisect_time(a, b, end)
+            mark = self.mark()
+            try:
+                info = self._substep(s0, s1, where, extra_load)
+            except SolverError as exc:
+                self.rewind(mark)
+                if not ctl.reject():
+                    raise SolverError(f"{where}: {exc} (at the smallest step the step control allows, dt = "
+                                      f"{s1 - s0:.4g} s = the scene step / {units})") from exc
+                continue
+            ctl.accept(info.iterations, ctl.travel(info.phase_changes, info.front_nodes), s1 - s0)
+            pos = end
+        return info
+
+    def _substep(self, a: float, b: float, where: str, extra_load: np.ndarray | None):
+        """One Stefan solve from a to b (s), its heats appended to the histories."""
         if self.forms.conductances is not None:           # linearized radiation: h_rad at the start of the step
             self.forms.lag_radiation(self.forms.nodal_state(self.solver.e).T)
         try:
@@ -388,15 +413,6 @@ class StefanRun(ThermalPart):
         except ConductivityRangeError as exc:       # the temperatures reached: a shorter step does not help
             raise SolverError(f"{where}: " + "; ".join(f"materials.{r}.conductivity_temperature_coefficient"
                                                        for r in exc.regions) + f": {exc}") from None
-        except SolverError as exc:
-            if mark is None:
-                raise SolverError(f"{where}: {exc} (after {MAX_HALVINGS} halvings of the step, dt = "
-                                  f"{b - a:.4g} s)") from exc
-            self.rewind(mark)
-            self.halvings += 1
-            mid = 0.5 * (a + b)
-            self.step(a, mid, where, extra_load, _depth + 1)
-            return self.step(mid, b, where, extra_load, _depth + 1)
         self.iterations.append(int(info.iterations))
         self.dirichlet_heat.append(float(info.boundary_heat))
         self.source_heat.append(float(info.source_heat))
@@ -421,11 +437,12 @@ class StefanRun(ThermalPart):
 
     def mark(self) -> tuple:
         """The state before a step, to repeat the step with :meth:`rewind` (coupling iterations)."""
-        return self.solver.mark(), len(self.iterations)
+        return self.solver.mark(), len(self.iterations), self.control.state()
 
     def rewind(self, mark: tuple) -> None:
-        """Back to the state of :meth:`mark` (the step's histories dropped)."""
+        """Back to the state of :meth:`mark` (the step's histories dropped, the step control as it was)."""
         self.solver.rewind(mark[0])
+        self.control.load(mark[2])
         n = mark[1]
         del self.iterations[n:], self.dirichlet_heat[n:], self.source_heat[n:], self.robin_heat[n:]
         del self.interface_heat[n:]
@@ -487,6 +504,7 @@ class StefanRun(ThermalPart):
             "newton_iterations": {"mean": float(np.mean(its)) if its else 0.0, "max": int(max(its, default=0)),
                                   "steps": len(its)},
             "step_halvings": self.halvings,
+            "step_control": self.control.report(),
             **self._conductance_report(),
         }
 
@@ -541,7 +559,7 @@ class StefanRun(ThermalPart):
         """Continue the histories of ``old`` (the same scene on the previous mesh) after the state was carried
         over to this mesh with the heat content changed by ``heat_change`` (J per m of depth, or J)."""
         self.initial_heat = old.initial_heat
-        self.halvings = old.halvings
+        self.control = old.control
         for name in ("iterations", "newton_iterations", "dirichlet_heat", "source_heat", "robin_heat",
                      "interface_heat", "_steps_at_record", "transfers"):
             setattr(self, name, getattr(old, name))
@@ -553,6 +571,7 @@ class StefanRun(ThermalPart):
         """The solver's state (:meth:`StefanSolver.capture`: the nodal enthalpy, the predictor rate, the Newton
         matrix's reuse state) as ``stefan/...`` arrays and the lengths of the histories."""
         arrays = {f"stefan/{k}": v for k, v in self.solver.capture().items()}
+        arrays["stefan/step_control"] = self.control.state()
         return arrays, {"steps": len(self.iterations), "records": len(self.records["time_s"]),
                         "newton": len(self.newton_iterations)}
 
@@ -569,7 +588,10 @@ class StefanRun(ThermalPart):
                             "latent_heat_stored": {r: v[:k] for r, v in rec["latent_heat_stored"].items()}}}
 
     def restore(self, arrays: dict, meta: dict) -> None:
-        self.solver.restore({k.split("/", 1)[1]: v for k, v in arrays.items() if k.startswith("stefan/")})
+        self.solver.restore({k.split("/", 1)[1]: v for k, v in arrays.items()
+                             if k.startswith("stefan/") and k != "stefan/step_control"})
+        if "stefan/step_control" in arrays:
+            self.control.load(arrays["stefan/step_control"])
         self.initial_heat = float(meta["initial_heat"])
         self.iterations[:] = [int(i) for i in meta["iterations"]]
         self.newton_iterations[:] = [int(i) for i in meta["newton_iterations"]]

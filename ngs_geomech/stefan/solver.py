@@ -95,7 +95,9 @@ class StefanStepInfo:
     on a distributed mesh the BDDC preconditioners built),
     ``corrections`` (new low-rank correction columns, one solve each; in window mode the solves for the
     window's interface; see :class:`ColumnJacobian`) and ``robin_heat`` (the heat that entered through the heat
-    transfer conditions, dt sum_i (h T_amb - h T)_i at t_new, same units as the other heats)."""
+    transfer conditions, dt sum_i (h T_amb - h T)_i at t_new, same units as the other heats), ``front_nodes``
+    (nodes mushy at the start or the end of the step: the front's layer, against which ``phase_changes`` measures
+    its travel, :mod:`ngs_geomech.stefan.stepping`)."""
 
     iterations: int
     residual: float
@@ -105,6 +107,7 @@ class StefanStepInfo:
     factorizations: int = 0
     corrections: int = 0
     robin_heat: float = 0.0
+    front_nodes: int = 0
 
 def _branch(st: NodalState) -> np.ndarray:
     """Per node: the interval index on a sensible branch, -1 - the flat part's index on a mushy one."""
@@ -272,6 +275,7 @@ class StefanSolver:
         dt_m = dt / f.mass
         history = []
         prev_st = None
+        seen = {} if self._cycles_exact else None     # branch pattern -> the iteration that had it
         it = 0
         while True:
             st = f.nodal_state(e)
@@ -283,6 +287,8 @@ class StefanSolver:
                 break
             if it >= self.maxit:
                 self._fail(where, history, st, prev_st, scale)
+            if seen is not None:
+                self._check_cycle(seen, _branch(st).tobytes(), it, where, history, st, prev_st, scale)
             prev_st = st
             e = self._newton_update(e, st, R, dt, dt_m, where)
             it += 1
@@ -298,7 +304,8 @@ class StefanSolver:
                               source_heat=float(dt * np.sum(F)),
                               phase_changes=int(np.count_nonzero(_branch(st) != _branch(st_old))),
                               factorizations=self.jac.factorizations - counts[0],
-                              corrections=self.jac.corrections - counts[1], robin_heat=robin_heat)
+                              corrections=self.jac.corrections - counts[1], robin_heat=robin_heat,
+                              front_nodes=int(np.count_nonzero(st.mushy | st_old.mushy)))
 
     def _first_iterate(self, e_old: np.ndarray, st_old: NodalState, dt: float, t_new: float) -> np.ndarray:
         """The Newton iteration's first iterate: the old state plus dt times the last step's rate (the predictor;
@@ -357,14 +364,36 @@ class StefanSolver:
         floor = 64 * np.finfo(float).eps * (f.nodal_max(terms, 0.0) if self.distributed else float(np.max(terms)))
         return res <= floor
 
+    @property
+    def _cycles_exact(self) -> bool:
+        """Whether a repeated branch pattern proves a cycle (:meth:`_check_cycle`): serial meshes with
+        conductivities independent of T (R piecewise linear in e)."""
+        return not self.distributed and not self.f.temperature_dependent
+
+    def _check_cycle(self, seen: dict, pattern: bytes, it: int, where: str, history: list, st: NodalState,
+                     prev_st: NodalState | None, scale: float) -> None:
+        """Raise the step's SolverError at once when the branch pattern (solid / mushy / liquid per node) of
+        iterate ``it`` is one an earlier iterate j had. With k independent of T the residual R is linear on
+        each branch pattern, so the Newton update from a pattern is the root of that pattern's linear model
+        whatever the iterate: iterate it + 1 repeats iterate j + 1 (to round-off), which did not converge, and
+        the iteration cycles until ``maxit``. Stopping here saves those iterations (the same failure, found
+        earlier). The first iterate's pattern is not kept: iterate 1 is not tested against the round-off floor of
+        :meth:`_converged` (from iterate 2 on), so its not converging proves nothing."""
+        if it < 1:
+            return
+        j = seen.setdefault(pattern, it)
+        if j == it:
+            return
+        self._fail(where, history, st, prev_st, scale, cycle=(j, it))
+
     def _fail(self, where: str, history: list, st: NodalState, prev_st: NodalState | None,
-              scale: float) -> NoReturn:
+              scale: float, cycle: tuple[int, int] | None = None) -> NoReturn:
         """Raise the error of a step that did not converge in ``maxit`` iterations: ConductivityRangeError when a
         conductivity factor was held at the edge of its range, SolverError with :meth:`_diagnosis` otherwise."""
         self.f.check_conductivity(st.T, f" at {where}", floor=self.RANGE_FLOOR)
         switching = (np.zeros(0, dtype=int) if prev_st is None
                      else np.nonzero(_branch(st) != _branch(prev_st))[0])
-        raise SolverError(self._diagnosis(where, history, switching, st, scale))
+        raise SolverError(self._diagnosis(where, history, switching, st, scale, cycle))
 
     def _newton_update(self, e: np.ndarray, st: NodalState, R: np.ndarray, dt: float, dt_m: np.ndarray,
                        where: str) -> np.ndarray:
@@ -415,7 +444,8 @@ class StefanSolver:
         return StefanStepInfo(iterations=max(it, 1), residual=res,
                               boundary_heat=dt * f.nodal_sum(np.where(f.free, 0.0, R)),
                               source_heat=dt * f.nodal_sum(F), phase_changes=int(round(f.nodal_sum(changes))),
-                              factorizations=self.jac.factorizations - counts[0])
+                              factorizations=self.jac.factorizations - counts[0],
+                              front_nodes=int(round(f.nodal_sum((st.mushy | st_old.mushy).astype(float)))))
 
     def _kirchhoff_update(self, st: NodalState, dT: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
         """The temperature change of each node for the Newton step ``dT`` taken in the node's Kirchhoff variable.
@@ -488,7 +518,7 @@ class StefanSolver:
                 out[cut] = e_b[cut] - e[cut]
         return out
 
-    def _diagnosis(self, where, history, switching, st: NodalState, scale) -> str:
+    def _diagnosis(self, where, history, switching, st: NodalState, scale, cycle=None) -> str:
         """The message of a step that did not converge (collective on a distributed mesh: the switching nodes of
         all ranks, the vertices each rank owns)."""
         f = self.f
@@ -504,7 +534,10 @@ class StefanSolver:
             at = "; ".join(f"node {i} at {tuple(round(float(c), 4) for c in pts[i])} T = {st.T[i]:.4g}"
                            for i in switching[:5])
         hist = ", ".join(f"{h:.3e}" for h in history[-6:])
-        return (f"Stefan Newton step at {where} did not converge in {self.maxit} iterations: nodal enthalpy "
+        how = (f"did not converge in {self.maxit} iterations" if cycle is None else
+               f"cycles (iterate {cycle[1]} has the solid/mushy/liquid pattern of iterate {cycle[0]}, so the "
+               "iterates repeat)")
+        return (f"Stefan Newton step at {where} {how}: nodal enthalpy "
                 f"defect (J/m^3) history ... {hist}, tolerance {self.tol * scale:.3e}; "
                 f"{len(switching)} node(s) still switch between solid, mushy and liquid"
                 + (f" ({at})" if at else "") + ". Each Newton iteration moves the phase boundary by about one "
