@@ -28,15 +28,22 @@ alternated within one run of the study, since the 2-core machine is shared and n
 Before and after: ``--baseline DIR`` (a source checkout of an earlier commit) runs the process figures of 1, 2 and 4
 with that code too (``*_before``): the same scenes, the same machine, alternated with the current code.
 
-Command: ``python studies/whole_process/run.py --level 1 --out docs/results/whole_process [--baseline DIR]``.
+An established code: ``--peers PYTHON`` (the interpreter of a separate environment with Kratos Multiphysics, set up
+as :file:`peers/README.md` says) times Kratos on twins of the two small scenes on the same triangles
+(:mod:`peers.compare`): ``peer_*`` metrics (process times of both codes alternated, their ratio, the agreement of
+the contact pressures and the heat solution) and the whole comparison under ``peers``.
+
+Command: ``python studies/whole_process/run.py --level 1 --out docs/results/whole_process [--baseline DIR]
+[--peers PYTHON]``.
 Cost: level 0 about 40 s; level 1 about 6 minutes (the 37k-dof strip twice, repository_3d, the threads table);
-``--baseline`` adds about 3 minutes.
+``--baseline`` adds about 3 minutes, ``--peers`` 20 s.
 """
 
 from __future__ import annotations
 
 import argparse
 import functools
+import importlib.util
 import json
 import os
 import re
@@ -176,7 +183,7 @@ def stefan_steps(codes: dict[str, Path], h: float, dts: tuple, repeats: int, tmp
                 row = {"total_s": s["wall_time_s"]["total_s"], "dofs": s["mesh"]["dofs"],
                        "front_rel_error": abs(s["stefan"]["melted_volume"]["pcm"][-1] / height - exact) / exact,
                        "steps": s["steps"], "newton_mean": s["stefan"]["newton_iterations"]["mean"],
-                       "stefan": {k: v for k, v in s["stefan"].items() if k in ("halvings", "step_control")}}
+                       "stefan": {k: v for k, v in s["stefan"].items() if k in ("step_halvings", "step_control")}}
                 if (tag, dt) not in rows or row["total_s"] < rows[tag, dt]["total_s"]:
                     rows[tag, dt] = row
     out = {}
@@ -207,7 +214,30 @@ def threads_table(scenes: dict[str, list[str]], tmp: Path) -> tuple[dict, dict]:
     return metrics, table
 
 
-def run(level: int, baseline: Path | None = None) -> tuple[dict, dict]:
+def peers(python: str, repeats: int) -> tuple[dict, dict]:
+    """The established code's twins (:file:`peers/compare.py`): flat ``peer_*`` metrics and the whole dict."""
+    spec = importlib.util.spec_from_file_location("whole_process_peers", HERE / "peers" / "compare.py")
+    compare = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(compare)
+    r = compare.measure(python, repeats)
+    c, h = r["two_blocks"], r["heat_block"]
+    metrics = {"peer_contact_process_s_ours": c["ours_process_s"],
+               "peer_contact_process_s_kratos": c["kratos_process_s"],
+               "peer_contact_process_ratio": c["process_ratio_ours_over_kratos"],
+               "peer_heat_process_s_ours": h["ours_process_s"], "peer_heat_process_s_kratos": h["kratos_process_s"],
+               "peer_heat_process_ratio": h["process_ratio_ours_over_kratos"],
+               "peer_import_s_ngsolve": r["imports"]["ngsolve_import_s"],
+               "peer_import_s_kratos": r["imports"]["kratos_contact_import_s"],
+               "peer_contact_nodal_pressure_max_diff_rel": c["agreement"]["nodal_pressure_max_diff_rel"],
+               "peer_contact_mean_pressure_ours_Pa": c["agreement"]["ours_mean_pressure_Pa"],
+               "peer_contact_mean_pressure_kratos_Pa": c["agreement"]["kratos_mean_pressure_Pa"],
+               "peer_contact_max_uy_diff_rel": c["agreement"]["max_abs_uy_diff_rel"],
+               "peer_heat_max_nodal_error_K_kratos": h["agreement"]["kratos_max_nodal_error_K"],
+               "peer_heat_max_nodal_error_K_ours": h["agreement"]["ours_max_nodal_error_K"]}
+    return metrics, r
+
+
+def run(level: int, baseline: Path | None = None, peers_python: str | None = None) -> tuple[dict, dict]:
     """The results dict of ``level`` (module docstring) and its tables."""
     if level not in LEVELS:
         raise ValueError(f"level must be one of {sorted(LEVELS)}, got {level}")
@@ -238,6 +268,11 @@ def run(level: int, baseline: Path | None = None) -> tuple[dict, dict]:
         figures, tables["threads"] = threads_table(p["threads"], tmp)
         metrics.update(figures)
         timing["threads_s"] = time.perf_counter() - tic
+    if peers_python is not None:
+        tic = time.perf_counter()
+        figures, tables["peers"] = peers(peers_python, p["repeats"])
+        metrics.update(figures)
+        timing["peers_s"] = time.perf_counter() - tic
     for key in ("startup_s", "startup_ratio", "startup_heat_s", "startup_heat_ratio", "small_contact_process_s",
                 "small_contact_process_with_figures_s", "vtk_to_solve_ratio_3d", "stefan_large_dt_ratio"):
         metrics[key] = metrics[f"{key}_after"]
@@ -254,9 +289,11 @@ def report(result: dict) -> str:
     return "\n".join(lines + metrics_lines(result))
 
 
-def main(level: int = 0, out: str | Path | None = None, baseline: str | Path | None = None) -> dict:
-    """Run the study at ``level`` (with a ``baseline`` checkout: its figures too); write ``out/results.json``."""
-    return study_main(functools.partial(run, baseline=baseline), level, out)
+def main(level: int = 0, out: str | Path | None = None, baseline: str | Path | None = None,
+         peers_python: str | None = None) -> dict:
+    """Run the study at ``level`` (with a ``baseline`` checkout: its figures too; with ``peers_python``: the
+    established code's); write ``out/results.json``."""
+    return study_main(functools.partial(run, baseline=baseline, peers_python=peers_python), level, out)
 
 
 if __name__ == "__main__":
@@ -264,5 +301,6 @@ if __name__ == "__main__":
     parser.add_argument("--level", type=int, default=0, help="0 quick, 1 the issue's sizes")
     parser.add_argument("--out", default=None, help="directory for results.json")
     parser.add_argument("--baseline", default=None, help="a source checkout of an earlier commit to compare with")
+    parser.add_argument("--peers", default=None, help="python of an environment with Kratos (peers/README.md)")
     args = parser.parse_args()
-    print(report(main(args.level, args.out, args.baseline)))
+    print(report(main(args.level, args.out, args.baseline, args.peers)))
