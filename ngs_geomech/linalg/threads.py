@@ -1,12 +1,12 @@
 """The threads of a run: NGSolve's (its TaskManager: assembly, its sparse factorizations, MKL's PARDISO) chosen by
-the problem's size, and every BLAS the process loads at one thread.
+the problem's size and the machine's load, and every BLAS the process loads at one thread.
 
-Measured on the shared 2-core machine (the ``threads`` table of ``studies/whole_process``): BLAS threads spin while
-the other core is busy. contact_melting (897 dofs) took 2.1 s with one NGSolve and one BLAS thread, 24.5 s with the
-defaults (two of each), 2.2 s with two NGSolve threads and one BLAS thread and 5.0 s with one NGSolve thread and
-two BLAS threads. The dense work of the solvers (SuperLU's multi-column solves, the contact surface's small
-systems) is too small to gain from BLAS threads, so a run keeps every BLAS at one thread. NGSolve's threads pay
-only on large problems: below :data:`MULTI_THREAD_ELEMENTS` a run takes one.
+Why (the ``threads`` table of ``studies/whole_process``, a 2-core machine): threads that wait spin, so with
+another busy process on the machine a second thread makes a run slower at every size measured, many times slower
+for small ones; BLAS threads did the same even on small dense work (SuperLU's multi-column solves, the contact
+surface's systems), which never gains from them. On an idle machine a second NGSolve thread pays on large 3D
+problems only. So a run takes one thread unless its size reaches :data:`MULTI_THREAD_SIZE` and the machine has
+idle cores (its load average), and every BLAS runs one thread.
 """
 
 from __future__ import annotations
@@ -15,10 +15,11 @@ import contextlib
 import ctypes
 import os
 
-MULTI_THREAD_ELEMENTS = {2: 2_000_000, 3: 150_000}
-"""Estimated elements (:meth:`~ngs_geomech.geometry.assemble.GeometryModel.element_estimate`, per mesh dimension)
-from which a run without ``threads`` uses every core of the process; one thread below. Chosen from the ``threads``
-table of ``studies/whole_process`` (module docstring)."""
+MULTI_THREAD_SIZE = {2: 1_000_000, 3: 30_000}
+"""Per mesh dimension, the size (estimated elements before meshing times order^dim:
+:func:`ngs_geomech.geometry.mesh.element_estimate`) from which a run without ``threads`` uses the idle cores; one
+thread below. Chosen from the ``threads`` table of ``studies/whole_process`` (module docstring): 3D scenes above it
+gained, 2D ones did not (so the 2D value lies beyond the sizes measured)."""
 
 BLAS_THREADS = 1
 """Threads of every BLAS (OpenBLAS) of the process during a run (module docstring)."""
@@ -32,13 +33,24 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
-def default_threads(estimated_elements: float, dim: int) -> int:
-    """NGSolve threads of a run of about ``estimated_elements`` elements in ``dim`` dimensions
-    (:data:`MULTI_THREAD_ELEMENTS`)."""
-    return cores() if estimated_elements >= MULTI_THREAD_ELEMENTS[dim] else 1
+def idle_cores(load: float | None = None) -> int:
+    """The cores of this process not busy with other work: :func:`cores` minus the machine's 1-minute load
+    average (``load``; read from the system when None), rounded, at least 1."""
+    if load is None:
+        try:
+            load = os.getloadavg()[0]
+        except (AttributeError, OSError):
+            load = 0.0
+    return max(1, min(cores(), cores() - int(load + 0.5)))
 
 
-def _openblas_setters() -> list[tuple]:
+def default_threads(size: float, dim: int, load: float | None = None) -> int:
+    """NGSolve threads of a run of ``size`` (estimated elements times order^dim) in ``dim`` dimensions: one below
+    :data:`MULTI_THREAD_SIZE`, the idle cores (:func:`idle_cores` at the machine's ``load``) from there."""
+    return 1 if size < MULTI_THREAD_SIZE[dim] else idle_cores(load)
+
+
+def openblas_libraries() -> list[tuple]:
     """(set, get) of every OpenBLAS loaded in the process (NGSolve's, numpy's, scipy's: from /proc/self/maps,
     Linux only)."""
     try:
@@ -68,7 +80,7 @@ def blas_threads(n: int = BLAS_THREADS):
     the solvers import it) starts with ``n`` too (OPENBLAS_NUM_THREADS, unless the user set it; it keeps ``n``).
     Yields how many libraries were set."""
     changed = []
-    for setter, getter in _openblas_setters():
+    for setter, getter in openblas_libraries():
         changed.append((setter, int(getter())))
         setter(int(n))
     env = os.environ.get("OPENBLAS_NUM_THREADS")

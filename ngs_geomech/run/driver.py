@@ -100,7 +100,7 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
     none, or when the scene or the mesh differs from the checkpointed run's). ``comm`` (an mpi4py communicator
     of several ranks, every rank calling this): a distributed run (module docstring); None: serial, also inside
     an MPI job whose ranks run separate scenes (``mpi4py.futures`` samples). ``threads``: NGSolve's threads
-    (default: one, or every core for large problems: :func:`~ngs_geomech.linalg.threads.default_threads`); every
+    (default: one, or the idle cores for large problems: :func:`~ngs_geomech.linalg.threads.default_threads`); every
     BLAS runs one thread (:mod:`ngs_geomech.linalg.threads`). The summary's ``threads`` says what ran."""
     timings: dict[str, float] = {}
     t0 = _time.perf_counter()
@@ -119,8 +119,8 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
     if resume:
         cp = _checkpoint_to_resume(scene, out)
     # one thread per rank unless asked (ranks x threads <= cores); serially by the problem's size
-    threads = threads or (1 if comm is not None else
-                          default_threads(sum(element_estimate(geo, scene.mesh).values()), geo.dim))
+    threads = threads or (1 if comm is not None else default_threads(
+        sum(element_estimate(geo, scene.mesh).values()) * scene.mesh.order ** geo.dim, geo.dim))
     ngs.SetNumThreads(threads)
     root = comm is None or comm.rank == 0
     staging = None

@@ -7,9 +7,10 @@ alternated within one run of the study, since the 2-core machine is shared and n
 
 1. Start-up. ``ngsolve_import_s``: the process ``python -c "import ngsolve"``. ``startup_s``: from launching
    ``python -m ngs_geomech run SCENE --out DIR -v`` to the moment the run reports its mesh and model built (the
-   log line before the first solve), for the 328-dof two-block contact scene (:file:`two_blocks.toml`: two
-   elastic blocks pressed together, frictionless, the upper one held by the contact alone) and the 305-dof steady
-   heat block (:file:`heat_block.toml`, ``startup_heat_s``); ``startup_ratio`` = startup_s / ngsolve_import_s.
+   log line before the first solve), for the 305-dof steady heat block (:file:`heat_block.toml`);
+   ``startup_ratio`` = startup_s / ngsolve_import_s. ``startup_contact_s`` and ``startup_contact_ratio`` the same
+   for the 328-dof two-block contact scene (:file:`two_blocks.toml`: two elastic blocks pressed together,
+   frictionless, the upper one held by the contact alone: the contact solvers and scipy.sparse load too).
    ``small_contact_process_s``: the whole two-block process (VTK and the contact series written, no figures);
    ``small_contact_process_with_figures_s`` the same with its figures.
 2. ``vtk_to_solve_ratio_3d``: repository_3d at its quick level (the scene as shipped; level 0: its first
@@ -21,9 +22,10 @@ alternated within one run of the study, since the 2-core machine is shared and n
 4. ``stefan_large_dt_ratio``: the strip at h = 0.00625 m (level 0: 0.0125 m) from t0 = 0.05 s to 0.5 s as a
    process: wall time at dt = 0.005 s over the wall time at dt = 0.000625 s, one NGSolve and one BLAS thread;
    ``stefan_front_rel_error_large_dt`` / ``..._small_dt`` the front (melted volume) against the closed form.
-5. Threads (``threads`` table; level 1): built-in scenes of several sizes run with one NGSolve thread and with
-   every core (BLAS at one thread in both, :mod:`ngs_geomech.linalg.threads`): ``threads_speedup_<scene>`` =
-   wall(1) / wall(cores), above 1 where the threads pay.
+5. Threads (``threads`` table; level 1): built-in scenes of several sizes (repository_3d also at order 3) run with
+   one NGSolve thread and with every core (BLAS at one thread in both, :mod:`ngs_geomech.linalg.threads`), on the
+   machine as it is and with one other process keeping a core busy: ``threads_speedup_<run>`` = wall(1) /
+   wall(cores), above 1 where the threads pay, ``threads_speedup_loaded_<run>`` the same under that load.
 
 Before and after: ``--baseline DIR`` (a source checkout of an earlier commit) runs the process figures of 1, 2 and 4
 with that code too (``*_before``): the same scenes, the same machine, alternated with the current code.
@@ -35,7 +37,7 @@ the contact pressures and the heat solution) and the whole comparison under ``pe
 
 Command: ``python studies/whole_process/run.py --level 1 --out docs/results/whole_process [--baseline DIR]
 [--peers PYTHON]``.
-Cost: level 0 about 40 s; level 1 about 6 minutes (the 37k-dof strip twice, repository_3d, the threads table);
+Cost: level 0 about 40 s; level 1 about 12 minutes (the 37k-dof strip twice, repository_3d, the threads table);
 ``--baseline`` adds about 3 minutes, ``--peers`` 20 s.
 """
 
@@ -68,8 +70,10 @@ LEVELS = {
         "stefan_dts": (0.00125, 0.005), "threads": {}},
     1: {"repeats": 5, "repository_3d": [], "strip_h": 0.003125, "stefan_h": 0.00625,
         "stefan_dts": (0.000625, 0.005),
-        "threads": {"contact_melting": [], "heated_rock": [], "repository_section": ["time.end=20 year"],
-                    "repository_3d": ["time.end=20 year", "output.every=1000"]}},
+        "threads": {"contact_melting": ["contact_melting"], "heated_rock": ["heated_rock"],
+                    "repository_section": ["repository_section", "time.end=20 year"],
+                    "repository_3d": ["repository_3d", "time.end=20 year", "output.every=1000"],
+                    "repository_3d_p3": ["repository_3d", "mesh.order=3", "time.end=10 day", "output.every=1000"]}},
 }
 """Per level: repeats of the process runs, repository_3d's overrides, the strips' h (m) and steps (s), and the
 scenes of the threads table with their overrides."""
@@ -83,6 +87,8 @@ BUILT = re.compile(r"\d+ elements, \d+ vertices; mesh")
 
 
 def _env(code: Path) -> dict:
+    """The environment of a process running the package at ``code`` (also its working directory: ``python -m``
+    and ``-c`` put the working directory first on the path)."""
     return {**os.environ, "PYTHONPATH": str(code)}
 
 
@@ -91,7 +97,8 @@ def _process(code: Path, args: list[str], out: Path) -> dict:
     line :data:`BUILT`), ``process_s`` (to the process's end) and the run's summary."""
     tic = time.perf_counter()
     proc = subprocess.Popen([sys.executable, "-m", "ngs_geomech", "run", *args, "--out", str(out), "--overwrite",
-                             "-v"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=_env(code))
+                             "-v"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=_env(code),
+                            cwd=code)
     built, lines = None, []
     for line in proc.stderr:
         lines.append(line)
@@ -120,18 +127,18 @@ def startup(codes: dict[str, Path], repeats: int, tmp: Path) -> dict:
         keep("ngsolve_import_s", _import_ngsolve())
         for tag, code in codes.items():
             heat = _process(code, [str(HERE / "heat_block.toml")], tmp / f"heat_{tag}")
-            keep(f"startup_heat_s_{tag}", heat["startup_s"])
+            keep(f"startup_s_{tag}", heat["startup_s"])
             contact = _process(code, [str(HERE / "two_blocks.toml")], tmp / f"contact_{tag}")
-            keep(f"startup_s_{tag}", contact["startup_s"])
+            keep(f"startup_contact_s_{tag}", contact["startup_s"])
             keep(f"small_contact_process_s_{tag}", contact["process_s"])
             drawn = _process(code, [str(HERE / "two_blocks.toml"), "--set", "output.figures=true"],
                              tmp / f"figures_{tag}")
             keep(f"small_contact_process_with_figures_s_{tag}", drawn["process_s"])
             best[f"small_contact_dofs_{tag}"] = contact["summary"]["mesh"]["dofs"]
-            best[f"startup_heat_dofs_{tag}"] = heat["summary"]["mesh"]["dofs"]
+            best[f"startup_dofs_{tag}"] = heat["summary"]["mesh"]["dofs"]
     for tag in codes:
         best[f"startup_ratio_{tag}"] = best[f"startup_s_{tag}"] / best["ngsolve_import_s"]
-        best[f"startup_heat_ratio_{tag}"] = best[f"startup_heat_s_{tag}"] / best["ngsolve_import_s"]
+        best[f"startup_contact_ratio_{tag}"] = best[f"startup_contact_s_{tag}"] / best["ngsolve_import_s"]
     return best
 
 
@@ -177,7 +184,7 @@ def stefan_steps(codes: dict[str, Path], h: float, dts: tuple, repeats: int, tmp
                 path = tmp / f"strip_{tag}_{dt:g}.json"
                 path.write_text(json.dumps(data))
                 out = tmp / f"strip_{tag}_{dt:g}"
-                subprocess.run([sys.executable, "-c", STEFAN_RUN, str(path), str(out)], check=True,
+                subprocess.run([sys.executable, "-c", STEFAN_RUN, str(path), str(out)], check=True, cwd=code,
                                env={**_env(code), "OPENBLAS_NUM_THREADS": "1"})
                 s = json.loads((out / "summary.json").read_text())
                 row = {"total_s": s["wall_time_s"]["total_s"], "dofs": s["mesh"]["dofs"],
@@ -197,20 +204,48 @@ def stefan_steps(codes: dict[str, Path], h: float, dts: tuple, repeats: int, tmp
     return out, {f"{tag}_dt_{dt:g}": row for (tag, dt), row in rows.items()}
 
 
-def threads_table(scenes: dict[str, list[str]], tmp: Path) -> tuple[dict, dict]:
-    """Section 5: each scene with one NGSolve thread and with every core, alternated, best of two."""
-    n = cores()
-    table, metrics = {}, {"cores": n}
+BUSY = "while True: pass"
+"""The other work of a loaded machine: one process keeping one core busy."""
+
+
+def _threads_pass(scenes: dict[str, list[str]], tmp: Path, n: int) -> dict:
+    """Each scene with one NGSolve thread and with ``n``, alternated: {scene: (dofs, wall(1), wall(n))}."""
+    out = {}
     for name, overrides in scenes.items():
         sets = [a for o in ["output.figures=false", "output.vtk=false", *overrides] for a in ("--set", o)]
-        best = {}
-        for _ in range(2):
-            for threads in sorted({1, n}):
-                r = _process(ROOT, [name, "--threads", str(threads), *sets], tmp / f"threads_{name}")
-                best[threads] = min(best.get(threads, float("inf")), r["summary"]["wall_time_s"]["total_s"])
-                dofs = r["summary"]["mesh"]["dofs"]
-        table[name] = {"dofs": dofs, "overrides": overrides, **{f"wall_s_{t}_threads": w for t, w in best.items()}}
-        metrics[f"threads_speedup_{name}"] = best[1] / best[n]
+        walls = {}
+        for threads in (1, n):
+            r = _process(ROOT, [name, "--threads", str(threads), *sets], tmp / f"threads_{name}")
+            walls[threads] = r["summary"]["wall_time_s"]["total_s"]
+        out[name] = (r["summary"]["mesh"]["dofs"], walls[1], walls[n])
+    return out
+
+
+def threads_table(scenes: dict[str, list[str]], tmp: Path) -> tuple[dict, dict]:
+    """Section 5: each scene (a name: [scene, overrides...]) with one NGSolve thread and with every core, on the
+    machine as it is ("idle") and with one other busy process ("loaded")."""
+    n = cores()
+    table, metrics = {}, {"cores": n}
+    runs = {label: [scene, *overrides] for label, (scene, *overrides) in scenes.items()}
+    idle = _threads_pass({k: v[1:] for k, v in runs.items()}, tmp, n) if n > 1 else {}
+    busy = subprocess.Popen([sys.executable, "-c", BUSY]) if n > 1 else None
+    try:
+        loaded = _threads_pass({k: v[1:] for k, v in runs.items()}, tmp, n) if n > 1 else {}
+    finally:
+        if busy is not None:
+            busy.kill()
+            busy.wait()
+    for label in runs:
+        if label not in idle:
+            continue
+        dofs, w1, wn = idle[label]
+        _, l1, ln = loaded[label]
+        table[label] = {"scene": runs[label][0], "overrides": runs[label][1:], "dofs": dofs,
+                        "wall_s_1_thread": w1, f"wall_s_{n}_threads": wn, "wall_s_1_thread_loaded": l1,
+                        f"wall_s_{n}_threads_loaded": ln}
+        metrics[f"threads_speedup_{label}"] = w1 / wn
+        metrics[f"threads_speedup_loaded_{label}"] = l1 / ln
+        metrics[f"threads_dofs_{label}"] = dofs
     return metrics, table
 
 
@@ -235,6 +270,12 @@ def peers(python: str, repeats: int) -> tuple[dict, dict]:
                "peer_heat_max_nodal_error_K_kratos": h["agreement"]["kratos_max_nodal_error_K"],
                "peer_heat_max_nodal_error_K_ours": h["agreement"]["ours_max_nodal_error_K"]}
     return metrics, r
+
+
+def _commit(code: Path) -> str:
+    """The commit a baseline checkout is at (what results.json records of it)."""
+    return subprocess.run(["git", "-C", str(code), "rev-parse", "HEAD"], capture_output=True, text=True,
+                          check=True).stdout.strip()
 
 
 def run(level: int, baseline: Path | None = None, peers_python: str | None = None) -> tuple[dict, dict]:
@@ -273,12 +314,12 @@ def run(level: int, baseline: Path | None = None, peers_python: str | None = Non
         figures, tables["peers"] = peers(peers_python, p["repeats"])
         metrics.update(figures)
         timing["peers_s"] = time.perf_counter() - tic
-    for key in ("startup_s", "startup_ratio", "startup_heat_s", "startup_heat_ratio", "small_contact_process_s",
+    for key in ("startup_s", "startup_ratio", "startup_contact_s", "startup_contact_ratio", "small_contact_process_s",
                 "small_contact_process_with_figures_s", "vtk_to_solve_ratio_3d", "stefan_large_dt_ratio"):
         metrics[key] = metrics[f"{key}_after"]
     timing["total_s"] = time.perf_counter() - t_start
     result = {"study": STUDY, "level": level, "metrics": metrics, "convergence": [], "timing_s": timing,
-              "limits": LIMITS, "tables": tables, "baseline": str(baseline) if baseline is not None else None}
+              "limits": LIMITS, "tables": tables, "baseline": _commit(baseline) if baseline is not None else None}
     return result, tables
 
 
