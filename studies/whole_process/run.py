@@ -25,7 +25,9 @@ alternated within one run of the study, since the 2-core machine is shared and n
 5. Threads (``threads`` table; level 1): built-in scenes of several sizes (repository_3d also at order 3) run with
    one NGSolve thread and with every core (BLAS at one thread in both, :mod:`ngs_geomech.linalg.threads`), on the
    machine as it is and with one other process keeping a core busy: ``threads_speedup_<run>`` = wall(1) /
-   wall(cores), above 1 where the threads pay, ``threads_speedup_loaded_<run>`` the same under that load.
+   wall(cores), above 1 where the threads pay, ``threads_speedup_loaded_<run>`` the same under that load;
+   ``default_threads_wall_s_{idle,loaded}_<code>``: contact_melting run with each code's default threads (no
+   ``--threads``; before this study's changes: NGSolve's and OpenBLAS's defaults, every core).
 
 Before and after: ``--baseline DIR`` (a source checkout of an earlier commit) runs the process figures of 1, 2 and 4
 with that code too (``*_before``): the same scenes, the same machine, alternated with the current code.
@@ -67,13 +69,15 @@ ROOT = HERE.parents[1]
 
 LEVELS = {
     0: {"repeats": 2, "repository_3d": ["time.end=30 day"], "strip_h": 0.0125, "stefan_h": 0.0125,
-        "stefan_dts": (0.00125, 0.005), "threads": {}},
+        "stefan_dts": (0.00125, 0.005), "threads": {},
+        "default_threads": None},
     1: {"repeats": 5, "repository_3d": [], "strip_h": 0.003125, "stefan_h": 0.00625,
         "stefan_dts": (0.000625, 0.005),
         "threads": {"contact_melting": ["contact_melting"], "heated_rock": ["heated_rock"],
                     "repository_section": ["repository_section", "time.end=20 year"],
                     "repository_3d": ["repository_3d", "time.end=20 year", "output.every=1000"],
-                    "repository_3d_p3": ["repository_3d", "mesh.order=3", "time.end=10 day", "output.every=1000"]}},
+                    "repository_3d_p3": ["repository_3d", "mesh.order=3", "time.end=10 day", "output.every=1000"]},
+        "default_threads": "contact_melting"},
 }
 """Per level: repeats of the process runs, repository_3d's overrides, the strips' h (m) and steps (s), and the
 scenes of the threads table with their overrides."""
@@ -208,29 +212,42 @@ BUSY = "while True: pass"
 """The other work of a loaded machine: one process keeping one core busy."""
 
 
-def _threads_pass(scenes: dict[str, list[str]], tmp: Path, n: int) -> dict:
-    """Each scene with one NGSolve thread and with ``n``, alternated: {scene: (dofs, wall(1), wall(n))}."""
+def _threads_pass(runs: dict[str, list[str]], tmp: Path, n: int) -> dict:
+    """Each run (label: [scene, overrides...]) with one NGSolve thread and with ``n``, alternated:
+    {label: (dofs, wall(1), wall(n))}."""
     out = {}
-    for name, overrides in scenes.items():
+    for label, (name, *overrides) in runs.items():
         sets = [a for o in ["output.figures=false", "output.vtk=false", *overrides] for a in ("--set", o)]
         walls = {}
         for threads in (1, n):
             r = _process(ROOT, [name, "--threads", str(threads), *sets], tmp / f"threads_{name}")
             walls[threads] = r["summary"]["wall_time_s"]["total_s"]
-        out[name] = (r["summary"]["mesh"]["dofs"], walls[1], walls[n])
+        out[label] = (r["summary"]["mesh"]["dofs"], walls[1], walls[n])
     return out
 
 
-def threads_table(scenes: dict[str, list[str]], tmp: Path) -> tuple[dict, dict]:
+def _defaults(codes: dict[str, Path], scene: str, tmp: Path) -> dict:
+    """``scene`` run by each code with its default threads (no --threads): wall time per code."""
+    sets = ["--set", "output.figures=false", "--set", "output.vtk=false"]
+    return {tag: _process(code, [scene, *sets], tmp / f"default_{tag}")["summary"]["wall_time_s"]["total_s"]
+            for tag, code in codes.items()}
+
+
+def threads_table(scenes: dict[str, list[str]], tmp: Path, codes: dict[str, Path],
+                  default_scene: str | None) -> tuple[dict, dict]:
     """Section 5: each scene (a name: [scene, overrides...]) with one NGSolve thread and with every core, on the
-    machine as it is ("idle") and with one other busy process ("loaded")."""
+    machine as it is ("idle") and with one other busy process ("loaded"); ``default_scene`` run by every code
+    with its default threads, idle and loaded."""
     n = cores()
     table, metrics = {}, {"cores": n}
-    runs = {label: [scene, *overrides] for label, (scene, *overrides) in scenes.items()}
-    idle = _threads_pass({k: v[1:] for k, v in runs.items()}, tmp, n) if n > 1 else {}
+    runs = {label: list(run) for label, run in scenes.items()}
+    idle = _threads_pass(runs, tmp, n) if n > 1 else {}
+    defaults = {"idle": _defaults(codes, default_scene, tmp)} if default_scene else {}
     busy = subprocess.Popen([sys.executable, "-c", BUSY]) if n > 1 else None
     try:
-        loaded = _threads_pass({k: v[1:] for k, v in runs.items()}, tmp, n) if n > 1 else {}
+        loaded = _threads_pass(runs, tmp, n) if n > 1 else {}
+        if default_scene:
+            defaults["loaded"] = _defaults(codes, default_scene, tmp)
     finally:
         if busy is not None:
             busy.kill()
@@ -246,6 +263,10 @@ def threads_table(scenes: dict[str, list[str]], tmp: Path) -> tuple[dict, dict]:
         metrics[f"threads_speedup_{label}"] = w1 / wn
         metrics[f"threads_speedup_loaded_{label}"] = l1 / ln
         metrics[f"threads_dofs_{label}"] = dofs
+    for load, walls in defaults.items():
+        for tag, wall in walls.items():
+            metrics[f"default_threads_wall_s_{load}_{tag}"] = wall
+    table["defaults"] = {"scene": default_scene, **defaults}
     return metrics, table
 
 
@@ -306,7 +327,7 @@ def run(level: int, baseline: Path | None = None, peers_python: str | None = Non
         metrics.update(figures)
         timing["stefan_steps_s"] = time.perf_counter() - tic
         tic = time.perf_counter()
-        figures, tables["threads"] = threads_table(p["threads"], tmp)
+        figures, tables["threads"] = threads_table(p["threads"], tmp, codes, p["default_threads"])
         metrics.update(figures)
         timing["threads_s"] = time.perf_counter() - tic
     if peers_python is not None:
