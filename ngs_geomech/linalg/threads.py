@@ -18,8 +18,8 @@ import os
 MULTI_THREAD_SIZE = {2: 1_000_000, 3: 30_000}
 """Per mesh dimension, the size (estimated elements before meshing times order^dim:
 :func:`ngs_geomech.geometry.mesh.element_estimate`) from which a run without ``threads`` uses the idle cores; one
-thread below. Chosen from the ``threads`` table of ``studies/whole_process`` (module docstring): 3D scenes above it
-gained, 2D ones did not (so the 2D value lies beyond the sizes measured)."""
+thread below. Chosen from the ``threads`` table of ``studies/whole_process`` (module docstring): on an idle machine
+3D scenes above it gained, 2D ones little (so the 2D value lies beyond the sizes measured)."""
 
 BLAS_THREADS = 1
 """Threads of every BLAS (OpenBLAS) of the process during a run (module docstring)."""

@@ -39,7 +39,7 @@ the contact pressures and the heat solution) and the whole comparison under ``pe
 
 Command: ``python studies/whole_process/run.py --level 1 --out docs/results/whole_process [--baseline DIR]
 [--peers PYTHON]``.
-Cost: level 0 about 40 s; level 1 about 12 minutes (the 37k-dof strip twice, repository_3d, the threads table);
+Cost: level 0 about 40 s; level 1 about 15 minutes (the 37k-dof strip twice, repository_3d, the threads table);
 ``--baseline`` adds about 3 minutes, ``--peers`` 20 s.
 """
 
@@ -76,7 +76,7 @@ LEVELS = {
         "threads": {"contact_melting": ["contact_melting"], "heated_rock": ["heated_rock"],
                     "repository_section": ["repository_section", "time.end=20 year"],
                     "repository_3d": ["repository_3d", "time.end=20 year", "output.every=1000"],
-                    "repository_3d_p3": ["repository_3d", "mesh.order=3", "time.end=10 day", "output.every=1000"]},
+                    "repository_3d_p3": ["repository_3d", "mesh.order=3", "time.end=5 day", "output.every=1000"]},
         "default_threads": "contact_melting"},
 }
 """Per level: repeats of the process runs, repository_3d's overrides, the strips' h (m) and steps (s), and the
