@@ -37,6 +37,24 @@ def launched_by_mpiexec() -> bool:
     return "MPI_LOCALNRANKS" in os.environ or "PMIX_RANK" in os.environ
 
 
+RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
+"""Where the launchers (mpich's hydra, Open MPI, PMIx) put a process's rank."""
+
+
+def sleep_while_waiting_on_rank_zero() -> None:
+    """In a process started by ``mpiexec`` as rank 0, before MPI starts: ask MPICH to sleep (nanosleep) in its waits.
+
+    Rank 0 holds no elements and waits in MPI while the workers compute; MPICH's waits busy-poll and, with as many
+    processes as cores, take a core from the workers (measured on 2 cores, 2 busy workers: rank 0 used 1.6 s of CPU
+    in a 2 s barrier, 0.5 s with the sleeping wait). The workers keep the fast polling their own collectives need.
+    A value set in the environment is kept; other MPIs ignore the variable."""
+    if not launched_by_mpiexec():
+        return
+    rank = next((os.environ[k] for k in RANK_VARIABLES if k in os.environ), None)
+    if rank == "0":
+        os.environ.setdefault("MPIR_CVAR_ENABLE_HEAVY_YIELD", "1")
+
+
 def world():
     """mpi4py's COMM_WORLD when this process is one of several MPI ranks, else None.
 

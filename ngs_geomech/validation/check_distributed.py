@@ -45,7 +45,7 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
         problems.append(Problem("mechanics.nested_levels", f"nested iteration {why}; set it to 0"))
     if scene.solver.linear == "direct":
         problems.append(Problem("solver.linear", "'direct' is not available in distributed runs (the systems are "
-                                "solved by CG with BDDC); use 'auto' or 'iterative'"))
+                                "solved by CG with GAMG or BDDC); use 'auto' or 'iterative'"))
     if resume:
         problems.append(Problem("--resume", "distributed runs write no checkpoints, so they cannot be resumed"))
     return problems
