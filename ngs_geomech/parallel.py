@@ -175,3 +175,56 @@ def first_valid(mesh, vals: np.ndarray) -> np.ndarray:
         fill = np.isnan(out) & ~np.isnan(other)
         out[fill] = other[fill]
     return out
+
+
+class GlobalDofs:
+    """A global numbering of the dofs of an H1 or VectorH1 ``space``, the same on every rank: scalar dof i of this
+    rank's part is global scalar dof ``scalar[i]`` (NGSolve's ``EnumerateGlobally``: each rank's master dofs one
+    contiguous range), vector dof (component c, scalar i) is global dof ``c * n_scalar + scalar[i]`` (component
+    major, as NGSolve orders a serial VectorH1 space). On a serial mesh the numbering is the space's own.
+    Creating it is collective over the mesh's ranks."""
+
+    def __init__(self, space):
+        self.space = space
+        self.components = len(space.components) if hasattr(space, "components") and space.components else 1
+        comp = space.components[0] if self.components > 1 else space
+        nc = comp.ndof
+        if space.ndof != self.components * nc:
+            raise AssertionError("GlobalDofs: the vector space's components differ in size")
+        self.mesh = space.mesh
+        if distributed(space.mesh):
+            pardofs = comp.ParallelDofs()
+            glob, count = pardofs.EnumerateGlobally(None)
+            self.scalar = np.asarray(glob, dtype=np.int64)
+            self.n_scalar = int(count)
+            self.master = np.array(list(pardofs.MasterDofs()), dtype=bool) if nc else np.zeros(0, dtype=bool)
+        else:
+            self.scalar, self.n_scalar = np.arange(nc, dtype=np.int64), nc
+            self.master = np.ones(nc, dtype=bool)
+        c = np.repeat(np.arange(self.components), nc)
+        self.vector = c * self.n_scalar + np.tile(self.scalar, self.components)
+        """(space.ndof,) the global number of each local dof."""
+        self.size = self.components * self.n_scalar
+        """The number of global dofs."""
+
+    @property
+    def owned(self) -> np.ndarray:
+        """Bool per local dof: this rank owns it (each global dof owned by exactly one rank)."""
+        return np.tile(self.master, self.components)
+
+    def gather(self, local: np.ndarray, cumulated: bool = True) -> np.ndarray:
+        """The global array (size) of a local one, on every rank: a cumulated array (every copy of a shared dof
+        holds the value: a GridFunction, Dirichlet values, a mask as 0/1) by its owned entries, a distributed one
+        (an assembled load: the copies sum to the value) by the sum of all."""
+        local = np.asarray(local, dtype=float)
+        out = np.zeros(self.size)
+        if cumulated:
+            own = self.owned
+            out[self.vector[own]] = local[own]
+        else:
+            np.add.at(out, self.vector, local)
+        return allsum(self.mesh, out) if distributed(self.mesh) else out
+
+    def local(self, glob: np.ndarray) -> np.ndarray:
+        """This rank's (cumulated) entries of a global array (size, or size x k)."""
+        return np.asarray(glob)[self.vector]
