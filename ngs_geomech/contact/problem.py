@@ -95,7 +95,8 @@ def contact_options(scene: Scene, specs: list[ContactSpec], forms, *, dynamic: b
                               uzawa_settings=(" / ".join(f"{k}.uzawa_step" for k in keys), "mechanics.uzawa_max_steps"))
     sv = scene.solver
     spd = forms.X is forms.V
-    linear = choose_solver(sv.linear, forms.X.ndof, forms.mesh.dim, spd=spd, auto_dofs=AUTO_DOFS)
+    linear = choose_solver(sv.linear, forms.X.ndof, forms.mesh.dim, spd=spd, auto_dofs=AUTO_DOFS,
+                           distributed=forms.mesh.comm.size > 1)
     if linear == "direct" and spd:
         linear = "auto"        # a direct solve: condensed onto the contact surface where it applies
     return ContactOptions(method=method, linear=linear, linear_tol=sv.tolerance, linear_maxit=sv.max_iterations)

@@ -16,7 +16,7 @@ iterations but its set-up cost more than the whole unsmoothed solve.
 
 The PETSc objects live on the communicator of the **workers**: netgen keeps no elements on rank 0, and a rank 0
 inside every PETSc reduction busy-waits in MPI and takes a core from the workers (on 2 cores, 2 workers were
-2.7 times slower than one). Rank 0 waits in a polled barrier instead (:func:`_wait_polled`) and receives the
+2.7 times slower than one). Rank 0 waits in a polled barrier instead (:func:`wait_polled`) and receives the
 iteration count from rank 1.
 
 Convergence: the unpreconditioned residual below ``tol`` times the largest of |f|, |A x0| and the first residual
@@ -64,7 +64,8 @@ def available() -> bool:
     return True
 
 
-def _petsc():
+def petsc_module():
+    """petsc4py's PETSc (after mpi4py), or a SolverError naming the extra to install."""
     try:
         from mpi4py import MPI  # noqa: F401  (before PETSc: it takes the initialized MPI)
         from petsc4py import PETSc
@@ -92,7 +93,7 @@ def _null_comm():
     return MPI.COMM_NULL
 
 
-def _wait_polled(comm) -> None:
+def wait_polled(comm) -> None:
     """A barrier on ``comm`` that sleeps between tests instead of spinning in MPI."""
     req = comm.Ibarrier()
     while not req.Test():
@@ -149,7 +150,7 @@ class GamgCG:
     def _build_layout(self) -> None:
         """Global indices (node-interleaved) of the local dofs, the scatter between a rank's dofs and the global
         vector, and the fixed-dof mask (collective over the mesh's ranks)."""
-        PETSc = _petsc()
+        PETSc = petsc_module()
         space, bs = self.space, self.bs
         comp = space.components[0] if bs > 1 else space
         nc = comp.ndof
@@ -187,7 +188,7 @@ class GamgCG:
 
     def _to_petsc(self, local: np.ndarray):
         """A rank's distributed values (numpy, NGSolve order; fixed dofs zeroed) summed into a new global vector."""
-        PETSc = _petsc()
+        PETSc = petsc_module()
         out = self._gvec.duplicate()
         out.set(0.0)
         vals = np.where(self._layout["free"], local, 0.0)
@@ -196,7 +197,7 @@ class GamgCG:
         return out
 
     def _to_local(self, gvec) -> np.ndarray:
-        PETSc = _petsc()
+        PETSc = petsc_module()
         self._lvec.set(0.0)
         self._scatter.scatter(gvec, self._lvec, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.REVERSE)
         return self._lvec.getArray().copy()
@@ -207,7 +208,7 @@ class GamgCG:
         space and the KSP (workers only). The matrix is assembled from the ranks' local entries in PETSc's
         coordinate format (off-rank entries summed); its pattern is kept, so a re-assembled form (a Newton step,
         a new time step size) only sends new values."""
-        PETSc = _petsc()
+        PETSc = petsc_module()
         tic = time.perf_counter()
         lay = self._layout
         local = mat.local_mat if self.world is not None else mat
@@ -254,7 +255,7 @@ class GamgCG:
     def _two_level(self, ksp) -> None:
         """Order >= 2: an additive field split, GAMG on the vertex (P1) block and Jacobi on the higher-order dofs:
         the two-level preconditioner of :mod:`.iterative` with PETSc's AMG on its P1 part."""
-        PETSc = _petsc()
+        PETSc = petsc_module()
         lay = self._layout
         lo, hi = self._A.getOwnershipRange()
         rows = np.arange(lo, hi, dtype=PETSc.IntType)
@@ -279,7 +280,7 @@ class GamgCG:
 
     def _near_null_space(self):
         """The rigid-body motions at the vertex dofs (zero elsewhere), orthonormalized over the ranks."""
-        PETSc = _petsc()
+        PETSc = petsc_module()
         mesh, nc, bs = self.space.mesh, self._layout["nc"], self.bs
         xyz = vertex_coordinates(mesh)
         modes = rigid_modes(xyz)
@@ -312,7 +313,7 @@ class GamgCG:
             result = self._solve_workers(mat, _distributed_local(rhs), _distributed_local(ax), _distributed_local(r),
                                          x)
         if self.world is not None:
-            _wait_polled(self.world)
+            wait_polled(self.world)
             result = self.world.bcast(result, root=1)
             x.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
         its, res, history, reason = result
