@@ -77,6 +77,13 @@ def world_rank() -> int:
     return 0 if comm is None else comm.rank
 
 
+def peak_rss_gib() -> float:
+    """This process's peak resident memory so far, GiB (Linux: ru_maxrss in KiB)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+
+
 def distributed(mesh) -> bool:
     """Whether ``mesh`` is a part of a distributed mesh."""
     return mesh.comm.size > 1

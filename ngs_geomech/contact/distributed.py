@@ -69,6 +69,8 @@ class SummedOperator(ngs.BaseMatrix):
     def __init__(self, pattern_matrix, bulk: DistributedBulk, n: int):
         super().__init__()
         self.P, self.bulk, self.n = pattern_matrix, bulk, n
+        self.counts: dict = {}
+        """The time (s) and number of values of the reductions (ContactInfo.communication)."""
 
     def IsComplex(self) -> bool:
         return False
@@ -89,7 +91,10 @@ class SummedOperator(ngs.BaseMatrix):
         y.data = self.P * x
         xs = x.FV().NumPy()[:self.n]
         kx = self.bulk.csr @ xs
+        tic = time.perf_counter()
         y.FV().NumPy()[:self.n] += parallel.allsum(self.bulk.mesh, kx) - kx
+        self.counts["reduce_s"] = self.counts.get("reduce_s", 0.0) + time.perf_counter() - tic
+        self.counts["reduced_values"] = self.counts.get("reduced_values", 0) + self.n
 
 
 class DistributedKrylovSteps(NewtonSteps):
@@ -121,7 +126,10 @@ class DistributedKrylovSteps(NewtonSteps):
     def operator(self, s, matrix):
         self.saddle = PetscSaddle(s, matrix, self.tol, self.maxit)
         self.tol_floor = 100.0 * self.tol
-        return SummedOperator(s.pattern.matrix, matrix, s.n)
+        op = SummedOperator(s.pattern.matrix, matrix, s.n)
+        op.counts = s.info.communication         # the solve's record of reductions and gathers
+        self.saddle.counts = s.info.communication
+        return op
 
     def step(self, s, b: np.ndarray, it_nr: int):
         return DistributedStep(self.saddle, s, b, f"{s.what}, iteration {it_nr}")
@@ -178,6 +186,7 @@ class PetscSaddle:
             self.sub = MPI.COMM_SELF
         self._ksp = None
         self._pattern = None
+        self.counts: dict = {}
         if self.sub is not None:
             self._layout()
 
@@ -356,7 +365,9 @@ class PetscSaddle:
         if self.world is not None:
             wait_polled(self.world)
             result = self.world.bcast(result, root=1)
-        dx, its, res = result
+        dx, its, res, costs = result
+        for key, value in costs.items():
+            self.counts[key] = self.counts.get(key, 0) + value
         self.stats.iterations.append(its)
         self.stats.solve_s += time.perf_counter() - tic
         if not res <= target:
@@ -367,7 +378,8 @@ class PetscSaddle:
 
     def _solve_workers(self, b_scaled: np.ndarray, target: float):
         if not math.isfinite(float(np.sum(b_scaled))):
-            return np.zeros(self.N), 0, math.inf
+            return np.zeros(self.N), 0, math.inf, {}
+        tic = time.perf_counter()
         b = self._A.createVecRight()
         b.setArray(b_scaled[self.own])
         x = b.duplicate()
@@ -379,11 +391,16 @@ class PetscSaddle:
         res = self._ksp.getResidualNorm() if its else b.norm()
         if its and int(self._ksp.getConvergedReason()) < 0:
             res = max(res, 2.0 * target)
+        gmres_s = time.perf_counter() - tic
+        tic = time.perf_counter()
         parts = self.sub.allgather(x.getArray().copy())
         dx = np.zeros(self.N)
         dx[self.perm_inverse] = np.concatenate(parts)
         dx[~self.free] = 0.0
-        return dx, its, res
+        costs = {"gmres_s": gmres_s, "gather_s": time.perf_counter() - tic, "gathered_values": self.N,
+                 "setup_s": self.stats.setup_s}
+        self.stats.setup_s = 0.0
+        return dx, its, res, costs
 
 
 S_PREFIX = "ngs_geomech_contact_s_"

@@ -131,6 +131,9 @@ class ContactOutput:
         entry["gmres_max"] = max((g for i in infos for g in getattr(i, "gmres_iterations", [])), default=0)
         entry["condensed_dofs"] = max((getattr(i, "condensed_dofs", 0) for i in infos), default=0)
         entry["condensed_fallbacks"] = sum(bool(getattr(i, "condensed_fallback", False)) for i in infos)
+        entry["wall_s"] = sum(i.wall_s for i in infos)
+        comm = [i.communication for i in infos if i.communication]
+        entry["communication"] = {k: sum(c.get(k, 0) for c in comm) for k in sorted({k for c in comm for k in c})}
         self.history.append(entry)
 
     def _resultant(self, bt: np.ndarray, dofs: np.ndarray) -> np.ndarray:
@@ -149,6 +152,9 @@ class ContactOutput:
                                     max(v["max_tangential_displacement_m"] for v in over)}
         return {"contact": {"interfaces": interfaces, "force_balance": last.get("force_balance", {}),
                             "iterations_per_solve": [sum(h["contact_iterations"]) for h in self.history],
+                            "wall_s_per_solve": [h["wall_s"] for h in self.history],
+                            "communication_per_solve": ([h["communication"] for h in self.history]
+                                                        if any(h["communication"] for h in self.history) else None),
                             "linear_solver": last.get("linear", "direct"),
                             "gmres_max_per_solve": ([h["gmres_max"] for h in self.history]
                                                     if last.get("linear") == "iterative" else None),

@@ -356,7 +356,8 @@ def _summary(scene: Scene, model: Model, policy: MeshPolicy, state: RunState, ns
         by_part = {p.key: p.ndof_global for p in model.parts}
         dofs = sum(by_part.values())
         counts = {"vertices": ngs.H1(mesh, order=1).ndofglobal, "elements": parallel.allsum(mesh, mesh.ne),
-                  "ranks": comm.size, "elements_per_rank": parallel.allgather(mesh, mesh.ne)}
+                  "ranks": comm.size, "elements_per_rank": parallel.allgather(mesh, mesh.ne),
+                  "peak_rss_gib_per_rank": parallel.allgather(mesh, parallel.peak_rss_gib())}
     thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity in THERMAL), [])
     summary = {
         "scene": to_dict(scene),
