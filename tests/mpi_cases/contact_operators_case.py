@@ -172,6 +172,47 @@ def operators(mesh, order: int, contacts: list) -> list[dict]:
     return out
 
 
+STACK = {"scene": {"name": "stack", "dimension": "3d"}, "physics": {"mechanics": "static"},
+         "mesh": {"maxh": 0.35, "order": 2},
+         "blocks": [{"name": "lower", "shape": "box", "origin": [0, 0, 0], "size": [1.0, 0.8, 0.5],
+                     "boundaries": {"base": "zmin"}},
+                    {"name": "upper", "shape": "box", "origin": [0, 0, 0.5], "size": [1.0, 0.8, 0.5], "maxh": 0.25}],
+         "materials": {b: {"density": 2500.0, "youngs_modulus": 10e9, "poisson_ratio": 0.25}
+                       for b in ("lower", "upper")},
+         "interfaces": [{"name": "joint", "blocks": ["upper", "lower"], "type": "contact", "law": "tresca",
+                         "slip_bound": "1e5 * (1 + x)"}],
+         "mechanics": {"gravity": [0.0, 0.0, -9.81]},
+         "boundary_conditions": {"base": {"foundation": {"point": [0, 0, -0.001], "normal": [0, 0, 1]}}}}
+"""Box 'upper' on box 'lower' (non-matching meshes, P2), the lower one on a rigid foundation: the scene of
+:func:`specs`."""
+
+
+def specs(comm) -> list[dict]:
+    """The contact specs (:func:`ngs_geomech.contact.problem.contact_specs`) of :data:`STACK`: per contact its kind,
+    blocks, law, the cells as corner coordinates and the side's dofs (their number)."""
+    from ngs_geomech.contact.problem import contact_specs, side_dofs
+    from ngs_geomech.geometry.assemble import build_geometry
+    from ngs_geomech.geometry.mesh import make_mesh as scene_mesh
+    from ngs_geomech.scene.parse import scene_from_dict
+
+    scene = scene_from_dict(STACK)
+    geo = build_geometry(scene)
+    mesh = scene_mesh(geo, scene.mesh, comm=comm)
+    V = ngs.VectorH1(mesh, order=scene.mesh.order)
+    numbering = parallel.GlobalDofs(V) if comm is not None else None
+    out = []
+    for spec in contact_specs(scene, geo, mesh, V):
+        op = spec.op
+        out.append({"name": spec.name, "kind": spec.kind, "blocks": [list(b) if isinstance(b, tuple) else b
+                                                                     for b in spec.blocks],
+                    "law": spec.law.kind, "bound": np.asarray(spec.law.slip_bound, dtype=float).tolist(),
+                    "coords": op.coords.tolist(), "weight": op.weight.tolist(), "g0": op.g0.tolist(),
+                    "cells": op.coords[spec.cells].tolist(), "columns": int(op.Bn.shape[1]),
+                    "side_dofs": len(side_dofs(mesh, V, op.side, numbering)),
+                    "same_on_all_ranks": len(set(parallel.allgather(mesh, fingerprint(op) + str(spec.cells)))) == 1})
+    return out
+
+
 def run(comm) -> dict:
     """Every case of :data:`CASES` on meshes distributed over ``comm`` (None: serial)."""
     ngs.SetNumThreads(1)
@@ -182,6 +223,7 @@ def run(comm) -> dict:
         # the last mesh's spaces go on every rank at the same point: freeing distributed objects is collective
         del mesh
         gc.collect()
+    out["specs"] = specs(comm)
     return out
 
 
