@@ -5,7 +5,10 @@ A problem taking part implements :class:`AdaptiveProblem`: ``solve()`` on its cu
 last solution, transferred to the refined mesh, where the solver can use a start), ``ndof``,
 ``estimator_input(needs)`` (what a registered estimator needs: its forms, its contact operators and status, its
 liquid fraction) and ``refine(marks)`` (refine the mesh, recurve it, rebuild spaces, forms and contact pairs
-on the new mesh and transfer the state). :class:`StationaryHeat` is the one for steady heat problems;
+on the new mesh and transfer the state); optionally ``refinement``: how the element values are marked and in
+which element order ``refine`` takes the marks (:class:`.distributed.SerialRefinement` when absent,
+:class:`.distributed.DistributedRefinement` on a distributed mesh: the whole mesh's marks, on rank 0).
+:class:`StationaryHeat` is the one for steady heat problems;
 :mod:`ngs_geomech.verification.adaptivity` has the Hertz contact one.
 
 Refinement is netgen's marked bisection (:func:`refine_mesh`): ``mesh.SetRefinementFlags`` then
@@ -25,6 +28,7 @@ import numpy as np
 
 from ..heat.forms import HeatForms, HeatSetup
 from ..heat.solver import HeatSolver
+from .distributed import SerialRefinement
 from .estimators import Estimate, get_estimator
 from .marking import StopRule, get_marker
 
@@ -150,6 +154,7 @@ def adaptive_solve(problem: AdaptiveProblem, *, estimator: str = "zz", indicator
     for name in indicators:
         get_estimator(name)
     mark = get_marker(marker)
+    refinement = getattr(problem, "refinement", None) or SerialRefinement()
     steps: list[AdaptiveStep] = []
     refinements, growth = 0, 1.0
     while True:
@@ -161,20 +166,20 @@ def adaptive_solve(problem: AdaptiveProblem, *, estimator: str = "zz", indicator
         flags = np.zeros(problem.mesh.ne, dtype=bool)
         for name in indicators:
             flags |= evaluate(name, problem, options.get(name)).eta > 0
+        decision = refinement.mark(problem.mesh, est.eta, flags, mark, theta)
         t_est = time.perf_counter() - tic
-        step = AdaptiveStep(refinements, problem.ndof, problem.mesh.ne, est.total, 0, 0, t_solve, t_est, 0.0,
+        step = AdaptiveStep(refinements, problem.ndof, decision.elements, decision.total, 0, 0, t_solve, t_est, 0.0,
                             dict(quantities))
         steps.append(step)
         if callback is not None:
             callback(step, problem)
-        reason = stop.reason(est.total, problem.ndof, refinements, growth)
+        reason = stop.reason(decision.total, problem.ndof, refinements, growth)
         if reason is not None:
             return AdaptiveRun(steps, reason)
-        marks = mark(est.eta, theta)
-        step.marked, step.flagged = int(marks.sum()), int((flags & ~marks).sum())
+        step.marked, step.flagged = decision.marked, decision.flagged
         before = problem.ndof
         tic = time.perf_counter()
-        problem.refine(marks | flags)
+        problem.refine(decision.marks)
         step.refine_s = time.perf_counter() - tic
         growth = problem.ndof / max(before, 1)
         refinements += 1
