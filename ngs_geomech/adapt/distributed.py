@@ -23,52 +23,15 @@ dof counts per step are the serial run's.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import ngsolve as ngs
 import numpy as np
 
 from ..geometry.mesh import SerialCopy, distribute_mesh
 from .estimators import element_vertices, vertex_coords
+from .loop import Marking, decide
 
 MATCH_TOLERANCE = 1e-9
 """Largest distance of matched centroids, relative to the mesh's bounding box diagonal."""
-
-
-@dataclass
-class Marking:
-    """The decision of one step: ``total`` (sqrt(sum eta_T^2) over the whole mesh), ``elements`` (the whole
-    mesh's count), ``marks`` (marker's marks or indicator flags, in the order :meth:`refine` takes them; None on the
-    ranks that do not refine) and the counts ``marked`` (by the marker) and ``flagged`` (by the indicators only);
-    every number is the same on every rank."""
-
-    total: float
-    elements: int
-    marks: np.ndarray | None
-    marked: int
-    flagged: int
-
-
-def decide(eta: np.ndarray, flags: np.ndarray, marker, theta: float) -> Marking:
-    """The marking of the whole mesh's element values ``eta`` and indicator ``flags`` (serial numbers)."""
-    total = float(math.sqrt(float(np.sum(eta ** 2))))
-    marks = marker(eta, theta)
-    return Marking(total, len(eta), marks | flags, int(marks.sum()), int((flags & ~marks).sum()))
-
-
-class SerialRefinement:
-    """The adaptive loop's marking and refinement on a serial mesh: the element values are the whole mesh's,
-    refined in place (:func:`.loop.refine_mesh`)."""
-
-    def mark(self, mesh, eta: np.ndarray, flags: np.ndarray, marker, theta: float) -> Marking:
-        return decide(np.asarray(eta, dtype=float), np.asarray(flags, dtype=bool), marker, theta)
-
-    def refine(self, mesh, marks: np.ndarray, curve_order: int):
-        from .loop import refine_mesh
-
-        refine_mesh(mesh, marks, curve_order)
-        return mesh
 
 
 def centroids(nodes: np.ndarray, xyz: np.ndarray) -> np.ndarray:

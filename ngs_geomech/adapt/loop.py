@@ -6,7 +6,7 @@ last solution, transferred to the refined mesh, where the solver can use a start
 ``estimator_input(needs)`` (what a registered estimator needs: its forms, its contact operators and status, its
 liquid fraction) and ``refine(marks)`` (refine the mesh, recurve it, rebuild spaces, forms and contact pairs
 on the new mesh and transfer the state); optionally ``refinement``: how the element values are marked and in
-which element order ``refine`` takes the marks (:class:`.distributed.SerialRefinement` when absent,
+which element order ``refine`` takes the marks (:class:`SerialRefinement` when absent,
 :class:`.distributed.DistributedRefinement` on a distributed mesh: the whole mesh's marks, on rank 0).
 :class:`StationaryHeat` is the one for steady heat problems;
 :mod:`ngs_geomech.verification.adaptivity` has the Hertz contact one.
@@ -19,6 +19,7 @@ the geometry order after every refinement.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -28,7 +29,6 @@ import numpy as np
 
 from ..heat.forms import HeatForms, HeatSetup
 from ..heat.solver import HeatSolver
-from .distributed import SerialRefinement
 from .estimators import Estimate, get_estimator
 from .marking import StopRule, get_marker
 
@@ -43,6 +43,39 @@ def refine_mesh(mesh, marks, curve_order: int = 0) -> None:
     mesh.Refine()
     if curve_order >= 2:
         mesh.Curve(curve_order)
+
+
+@dataclass
+class Marking:
+    """The decision of one step: ``total`` (sqrt(sum eta_T^2) over the whole mesh), ``elements`` (the whole
+    mesh's count), ``marks`` (marker's marks or indicator flags, in the order :meth:`refine` takes them; None on the
+    ranks that do not refine) and the counts ``marked`` (by the marker) and ``flagged`` (by the indicators only);
+    every number is the same on every rank."""
+
+    total: float
+    elements: int
+    marks: np.ndarray | None
+    marked: int
+    flagged: int
+
+
+def decide(eta: np.ndarray, flags: np.ndarray, marker, theta: float) -> Marking:
+    """The marking of the whole mesh's element values ``eta`` and indicator ``flags`` (serial numbers)."""
+    total = float(math.sqrt(float(np.sum(eta ** 2))))
+    marks = marker(eta, theta)
+    return Marking(total, len(eta), marks | flags, int(marks.sum()), int((flags & ~marks).sum()))
+
+
+class SerialRefinement:
+    """The adaptive loop's marking and refinement on a serial mesh: the element values are the whole mesh's,
+    refined in place (:func:`refine_mesh`)."""
+
+    def mark(self, mesh, eta: np.ndarray, flags: np.ndarray, marker, theta: float) -> Marking:
+        return decide(np.asarray(eta, dtype=float), np.asarray(flags, dtype=bool), marker, theta)
+
+    def refine(self, mesh, marks: np.ndarray, curve_order: int):
+        refine_mesh(mesh, marks, curve_order)
+        return mesh
 
 
 class Transfer:

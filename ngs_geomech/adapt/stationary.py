@@ -14,8 +14,8 @@ from ..geometry.mesh import SerialCopy
 from ..parallel import comm, distributed
 from ..scene.model import Scene
 from .contact_following import contact_statuses
-from .distributed import DistributedRefinement, SerialRefinement
-from .loop import AdaptiveRun, adaptive_solve
+from .distributed import DistributedRefinement
+from .loop import AdaptiveRun, SerialRefinement, adaptive_solve
 from .marking import StopRule
 from .policy import MeshPolicy
 
