@@ -14,8 +14,9 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
     PETSc. Not supported, and why:
 
     * contact without PETSc, with Uzawa's method, or carrying heat (:func:`_contact_problems`);
-    * meshes that follow a phase boundary or contact zones over time (:func:`_adaptivity_problems`); adaptive
-      refinement of stationary scenes (and the mesh adapted once for a transient heat scene) is supported;
+    * meshes that follow a phase boundary or contact zones over time, and the contact-zone indicator
+      (:func:`_adaptivity_problems`); adaptive refinement of stationary scenes by the estimators (and the mesh
+      adapted once for a transient heat scene) is supported;
     * dynamic and viscous mechanics and nested iteration: their matrices are scipy (local) or coarse meshes are
       re-made serially;
     * checkpoints and --resume: a checkpoint holds one process's vectors.
@@ -46,8 +47,13 @@ def _adaptivity_problems(scene: Scene, why: str) -> list[Problem]:
     adapted once; the meshes that follow a phase boundary or contact zones over time remesh the geometry on one
     process (:mod:`ngs_geomech.adapt.front_following`, :mod:`ngs_geomech.adapt.contact_following`)."""
     a = scene.adaptivity
-    if a is None or scene.time is None:
+    if a is None:
         return []
+    if scene.time is None:
+        if "contact_zone" not in a.indicators:
+            return []
+        return [Problem("adaptivity.indicators", f"the 'contact_zone' indicator {why} (it reads the contact sides' "
+                        "segments and nodal statuses of one process); the estimators refine distributed meshes")]
     followed = [name for name in ("contact_zone", "phase_front") if name in a.indicators]
     if not followed:
         return []
