@@ -232,11 +232,11 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
          cp: Checkpoint | None = None, comm=None) -> RunResult:
     """Mesh, build the model on the mesh its policy chooses, solve (stationary, or step by step), write."""
     tic = _time.perf_counter()
-    mesh = make_mesh(geo, scene.mesh, comm=comm)
-    timings["mesh_s"] = _time.perf_counter() - tic
-    tic = _time.perf_counter()
     build = functools.partial(Model, scene, geo)
     policy = mesh_policy(scene, geo, build)
+    mesh = make_mesh(geo, scene.mesh, comm=comm, serial_copy=policy.serial_copy)
+    timings["mesh_s"] = _time.perf_counter() - tic
+    tic = _time.perf_counter()
     model = policy.prepare(build(mesh), scene.time.start if scene.time is not None else None)
     if policy.adapts_first:
         timings["adaptivity_s"] = _time.perf_counter() - tic

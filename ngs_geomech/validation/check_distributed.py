@@ -14,8 +14,9 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
     PETSc. Not supported, and why:
 
     * contact without PETSc, with Uzawa's method, or carrying heat (:func:`_contact_problems`);
-    * adaptivity: ``mesh.Refine()`` on a distributed mesh hung (NGSolve 6.2), and front-following remeshes on
-      rank 0 only;
+    * meshes that follow a phase boundary or contact zones over time, and the contact-zone indicator
+      (:func:`_adaptivity_problems`); adaptive refinement of stationary scenes by the estimators (and the mesh
+      adapted once for a transient heat scene) is supported;
     * dynamic and viscous mechanics and nested iteration: their matrices are scipy (local) or coarse meshes are
       re-made serially;
     * checkpoints and --resume: a checkpoint holds one process's vectors.
@@ -26,9 +27,7 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
     if scene.mesh.structured:
         problems.append(Problem("mesh.structured", f"a structured mesh {why} (it is built serially; the "
                                 "distributed path sends netgen's mesh of the OCC geometry)"))
-    if scene.adaptivity is not None:
-        problems.append(Problem("adaptivity", f"adaptive refinement {why} (mesh refinement of a distributed mesh "
-                                "is not available)"))
+    problems += _adaptivity_problems(scene, why)
     if scene.physics.mechanics in RATE_MECHANICS:
         problems.append(Problem("physics.mechanics", f"mechanics = {scene.physics.mechanics!r} {why}; 'static' is "
                                 "supported"))
@@ -40,6 +39,26 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
     if resume:
         problems.append(Problem("--resume", "distributed runs write no checkpoints, so they cannot be resumed"))
     return problems
+
+
+def _adaptivity_problems(scene: Scene, why: str) -> list[Problem]:
+    """What a distributed run cannot do with ``[adaptivity]``: rank 0 refines its copy of the whole mesh and sends
+    it out again (:mod:`ngs_geomech.adapt.distributed`), which serves the stationary adaptive loop and the mesh
+    adapted once; the meshes that follow a phase boundary or contact zones over time remesh the geometry on one
+    process (:mod:`ngs_geomech.adapt.front_following`, :mod:`ngs_geomech.adapt.contact_following`)."""
+    a = scene.adaptivity
+    if a is None:
+        return []
+    if scene.time is None:
+        if "contact_zone" not in a.indicators:
+            return []
+        return [Problem("adaptivity.indicators", f"the 'contact_zone' indicator {why} (it reads the contact sides' "
+                        "segments and nodal statuses of one process); the estimators refine distributed meshes")]
+    followed = [name for name in ("contact_zone", "phase_front") if name in a.indicators]
+    if not followed:
+        return []
+    return [Problem("adaptivity.indicators", f"meshes that follow the {' and '.join(followed)} over time {why} "
+                    "(they remesh the geometry on one process); stationary scenes refine adaptively")]
 
 
 def _contact_problems(scene: Scene, why: str) -> list[Problem]:
