@@ -3,7 +3,9 @@
 A run under ``mpiexec -n N`` (N >= 2) works on a netgen distributed mesh: rank 0 meshes and sends the parts
 (``ngmesh.Distribute(comm)``), the other ranks receive them (``Mesh.Receive(comm)``); netgen keeps **no
 elements on rank 0**, so N ranks have N - 1 workers. Every rank then runs the same Python code on its part.
-The rules that keep the ranks in step (all checked on this machine with NGSolve 6.2 and mpich):
+The rules that keep the ranks in step (all checked on this machine with NGSolve 6.2 and the Open MPI wheel;
+with the mpich wheel, meshes split into more than 2 parts corrupted the heap or gave wrong solutions, even in a plain
+NGSolve Poisson solve):
 
 * Element loops (``mesh.Elements``, ``mesh.Boundaries(...).Elements()``) see this rank's part only: a fact
   about the whole mesh is gathered (:func:`allgather`) or reduced (:func:`allsum`, :func:`allmax`).
@@ -37,22 +39,35 @@ def launched_by_mpiexec() -> bool:
     return "MPI_LOCALNRANKS" in os.environ or "PMIX_RANK" in os.environ
 
 
+LAUNCH_ENVIRONMENT = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+                      "PRTE_MCA_rmaps_default_mapping_policy": ":oversubscribe"}
+"""What the package's own ``mpiexec`` launches (tests, studies) add to the environment: Open MPI may run as root
+(containers) and more ranks than cores (correctness runs on small machines; timings then mean little)."""
+
+
+def launch_environment() -> dict:
+    """``os.environ`` with :data:`LAUNCH_ENVIRONMENT` added where not set (for ``subprocess`` calls of mpiexec)."""
+    return {**LAUNCH_ENVIRONMENT, **os.environ}
+
+
 RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
 """Where the launchers (mpich's hydra, Open MPI, PMIx) put a process's rank."""
 
 
 def sleep_while_waiting_on_rank_zero() -> None:
-    """In a process started by ``mpiexec`` as rank 0, before MPI starts: ask MPICH to sleep (nanosleep) in its waits.
+    """In a process started by ``mpiexec`` as rank 0, before MPI starts: ask the MPI to sleep or yield in its waits.
 
     Rank 0 holds no elements and waits in MPI while the workers compute; MPICH's waits busy-poll and, with as many
     processes as cores, take a core from the workers (measured on 2 cores, 2 busy workers: rank 0 used 1.6 s of CPU
     in a 2 s barrier, 0.5 s with the sleeping wait). The workers keep the fast polling their own collectives need.
-    A value set in the environment is kept; other MPIs ignore the variable."""
+    MPICH sleeps (nanosleep), Open MPI yields the processor. A value set in the environment is kept; each MPI
+    ignores the other's variable."""
     if not launched_by_mpiexec():
         return
     rank = next((os.environ[k] for k in RANK_VARIABLES if k in os.environ), None)
     if rank == "0":
-        os.environ.setdefault("MPIR_CVAR_ENABLE_HEAVY_YIELD", "1")
+        os.environ.setdefault("MPIR_CVAR_ENABLE_HEAVY_YIELD", "1")     # MPICH
+        os.environ.setdefault("OMPI_MCA_mpi_yield_when_idle", "1")     # Open MPI
 
 
 def world():
@@ -95,16 +110,20 @@ def comm(mesh):
 
 
 def allsum(mesh, value):
-    """The sum over the ranks of a number or array (the value itself on a serial mesh)."""
+    """The sum over the ranks of a number or array (the value itself on a serial mesh), the same to the last bit on
+    every rank: summed on rank 0 and broadcast (an all-reduce may round differently on different ranks, and a
+    decision taken from such sums would part the ranks)."""
     if not distributed(mesh):
         return value
     from mpi4py import MPI
 
+    c = comm(mesh)
     if np.ndim(value) == 0:
-        return comm(mesh).allreduce(value.item() if isinstance(value, np.generic) else value, op=MPI.SUM)
+        return c.bcast(c.reduce(value.item() if isinstance(value, np.generic) else value, op=MPI.SUM, root=0), root=0)
     arr = np.ascontiguousarray(value, dtype=float)
     out = np.empty_like(arr)
-    comm(mesh).Allreduce(arr, out, op=MPI.SUM)
+    c.Reduce(arr, out, op=MPI.SUM, root=0)
+    c.Bcast(out, root=0)
     return out
 
 
@@ -193,7 +212,9 @@ class GlobalDofs:
 
     def __init__(self, space):
         self.space = space
-        self.components = len(space.components) if hasattr(space, "components") and space.components else 1
+        import ngsolve as ngs
+
+        self.components = len(space.components) if isinstance(space, ngs.comp.ProductSpace) else 1
         comp = space.components[0] if self.components > 1 else space
         nc = comp.ndof
         if space.ndof != self.components * nc:

@@ -140,8 +140,6 @@ def test_adaptive_thermoelastic_scene_distributed_takes_the_serial_steps(tmp_pat
     assert got["adaptivity"]["target"] == "mechanics"
 
 
-@pytest.mark.xfail(reason="with 3 or 4 workers the distributed solves (NGSolve's CG with BDDC, PETSc's GAMG) give "
-                          "wrong temperatures or crash on this machine, adaptivity or not", strict=False)
 @needs_mpi
 @one_mpi_job
 def test_adaptive_heat_scene_four_workers(tmp_path):

@@ -63,12 +63,15 @@ class DistributedBulk:
 
 class SummedOperator(ngs.BaseMatrix):
     """The saddle-point matrix of a distributed contact solve as an operator on replicated vectors (size N): the
-    local pattern matrix (this rank's K entries, the shift, the multiplier entries) with its K part replaced by the
-    sum of all ranks' K parts (one reduction of n numbers per product)."""
+    multiplier entries and the shift of the pattern (the same on every rank) plus K, the sum of the ranks' parts
+    (one reduction of n numbers per product). Every rank computes the same numbers in the same order, so the
+    replicated Newton loop takes the same decisions everywhere (a product with this rank's pattern minus its own
+    K part differed between the ranks by round-off, and the ranks' active sets parted)."""
 
-    def __init__(self, pattern_matrix, bulk: DistributedBulk, n: int):
+    def __init__(self, s, bulk: DistributedBulk):
         super().__init__()
-        self.P, self.bulk, self.n = pattern_matrix, bulk, n
+        self.s, self.bulk, self.n, self.N = s, bulk, s.n, s.N
+        self.nk = len(bulk.kr)
         self.counts: dict = {}
         """The time (s) and number of values of the reductions (ContactInfo.communication)."""
 
@@ -76,25 +79,30 @@ class SummedOperator(ngs.BaseMatrix):
         return False
 
     def Height(self) -> int:
-        return self.P.height
+        return self.N
 
     def Width(self) -> int:
-        return self.P.width
+        return self.N
 
     def CreateRowVector(self):
-        return self.P.CreateRowVector()
+        return self.s.pattern.matrix.CreateRowVector()
 
     def CreateColVector(self):
-        return self.P.CreateColVector()
+        return self.s.pattern.matrix.CreateColVector()
 
     def Mult(self, x, y) -> None:
-        y.data = self.P * x
-        xs = x.FV().NumPy()[:self.n]
-        kx = self.bulk.csr @ xs
+        pat, n, nk, s = self.s.pattern, self.n, self.nk, self.s
+        xs = x.FV().NumPy()
+        extra = sp.csr_matrix((pat.values[nk:], (pat.rows[nk:], pat.cols[nk:])), shape=(self.N, self.N))
+        out = extra @ xs
+        kx = self.bulk.csr @ xs[:n]
         tic = time.perf_counter()
-        y.FV().NumPy()[:self.n] += parallel.allsum(self.bulk.mesh, kx) - kx
+        out[:n] += parallel.allsum(self.bulk.mesh, kx)
         self.counts["reduce_s"] = self.counts.get("reduce_s", 0.0) + time.perf_counter() - tic
-        self.counts["reduced_values"] = self.counts.get("reduced_values", 0) + self.n
+        self.counts["reduced_values"] = self.counts.get("reduced_values", 0) + n
+        if len(s.reg_dofs):
+            out[s.reg_dofs] += s.eps * xs[s.reg_dofs]
+        y.FV().NumPy()[:] = out
 
 
 class DistributedKrylovSteps(NewtonSteps):
@@ -126,7 +134,7 @@ class DistributedKrylovSteps(NewtonSteps):
     def operator(self, s, matrix):
         self.saddle = PetscSaddle(s, matrix, self.tol, self.maxit)
         self.tol_floor = 100.0 * self.tol
-        op = SummedOperator(s.pattern.matrix, matrix, s.n)
+        op = SummedOperator(s, matrix)
         op.counts = s.info.communication         # the solve's record of reductions and gathers
         self.saddle.counts = s.info.communication
         return op
@@ -177,10 +185,10 @@ class PetscSaddle:
         scale, self.diag_aug, self.node_blocks = multiplier_scaling(s)
         self.scale = np.concatenate([np.ones(s.n), scale])
         self.free = np.asarray(s.freemask, dtype=bool)
+        petsc_module()          # PETSc initializes collectively over all ranks: every rank imports it here
         if self.world is not None:
             self.sub = workers(self.world)
         else:
-            petsc_module()
             from mpi4py import MPI
 
             self.sub = MPI.COMM_SELF
@@ -248,7 +256,10 @@ class PetscSaddle:
         cache = self._pattern if isinstance(self._pattern, dict) else {}
         sig = (len(r), hash(pr[:: max(1, len(pr) // 997)].tobytes()), hash(pc[:: max(1, len(pc) // 997)].tobytes()))
         mat = cache.get(key)
-        if mat is None or mat[0] != sig:
+        from mpi4py import MPI
+
+        # a new pattern on any rank (the augmentation's entries follow the sets, on one rank) is built by all
+        if self.sub.allreduce(int(mat is None or mat[0] != sig), op=MPI.MAX):
             A = PETSc.Mat().create(comm=self.sub)
             A.setSizes(((local, size), (local, size)))
             A.setType(PETSc.Mat.Type.AIJ)
