@@ -72,7 +72,7 @@ class ContactOutput:
     def record(self, t: float, solver) -> None:
         """After a solve of :class:`ElasticContactSolver`: the interface arrays and the balance at time t."""
         u = solver.displacement()                      # (global arrays on a distributed mesh)
-        n = len(u)
+        n = self.translations.shape[1]                 # the displacement dofs (X may add mixed pressures)
         rhs = solver.load()
         force = solver.stiffness_times_displacement() - rhs       # K u - f - B^T lam: the support reactions
         self.latest = []
@@ -132,7 +132,7 @@ class ContactOutput:
         entry["condensed_dofs"] = max((getattr(i, "condensed_dofs", 0) for i in infos), default=0)
         entry["condensed_fallbacks"] = sum(bool(getattr(i, "condensed_fallback", False)) for i in infos)
         entry["wall_s"] = sum(i.wall_s for i in infos)
-        comm = [i.communication for i in infos if i.communication]
+        comm = [i.communication for i in infos if getattr(i, "communication", None)]
         entry["communication"] = {k: sum(c.get(k, 0) for c in comm) for k in sorted({k for c in comm for k in c})}
         self.history.append(entry)
 

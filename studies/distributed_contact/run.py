@@ -44,7 +44,7 @@ from ngs_geomech.verification.study import study_cli, study_main
 
 HERE = Path(__file__).resolve().parent
 SCALING = HERE.parent / "scaling"
-LEVELS = {0: {"ranks": (3,), "orders": (1,), "maxh": 0.3, "cost_maxh": (0.3, 0.2), "elastic_maxh": 0.15},
+LEVELS = {0: {"ranks": (3, 5), "orders": (1,), "maxh": 0.3, "cost_maxh": (0.3, 0.15), "elastic_maxh": 0.15},
           1: {"ranks": (3, 5), "orders": (1, 2), "maxh": 0.2, "cost_maxh": (0.3, 0.2, 0.14, 0.1, 0.07),
               "elastic_maxh": 0.04}}
 """Per level: rank counts, element orders, the agreement runs' mesh size (m; P2 at 1.4 x), the cost runs' sizes
@@ -117,6 +117,13 @@ def cost(p: dict, tmp: Path) -> tuple[dict, list]:
                         "values_per_step_per_dof": last["values_per_step"] / last["dofs"],
                         "peak_rss_gib_per_rank_worker_max": max(last["peak_rss_gib_per_rank"][1:]),
                         "peak_rss_gib_rank0": last["peak_rss_gib_per_rank"][0]})
+        # the projection (docs/parallel.md): distributed share f at p = 2 -> c_d / c_r = 2 f / (1 - f)
+        f = min(metrics["distributed_share_largest"], 0.999)
+        metrics["projected_speedup_limit"] = 1.0 + 2.0 * f / (1.0 - f)
+        metrics["projected_half_limit_workers"] = 2.0 * f / (1.0 - f)
+        worker_rss = [max(r["peak_rss_gib_per_rank"][1:]) for r in rows]
+        metrics["worker_rss_gib_per_million_dofs"] = float(np.polyfit([r["dofs"] / 1e6 for r in rows], worker_rss,
+                                                                      1)[0])
     return metrics, rows
 
 
