@@ -43,3 +43,32 @@ def test_distributed_contact_equals_serial(tmp_path, law, ranks, order):
     assert d["max"] < 1e-8
     assert d["same_iterations"] and d["same_states"]
     assert c["force_balance"]["imbalance_rel"] < 1e-8
+
+
+@needs_mpi
+@one_mpi_job
+@pytest.mark.parametrize("law,dimension,support,ranks", [
+    ("frictionless", "plane", "fixed", 3), ("coulomb", "plane", "fixed", 5), ("tresca", "plane", "foundation", 3),
+    ("frictionless", "3d", "foundation", 3), ("coulomb", "3d", "foundation", 5)])
+def test_distributed_contact_2d_and_foundations_equal_serial(tmp_path, law, dimension, support, ranks):
+    """2D (plane strain) stacks and stacks on a rigid foundation (both boxes floating: held by the contacts
+    alone) on 2 and 4 workers: the same agreement with the serial run as the 3D stack on a fixed base."""
+    maxh = 0.05 if dimension == "plane" else 0.3
+    out = tmp_path / "case.json"
+    proc = subprocess.run([mpiexec(), "-n", str(ranks), sys.executable, "-m", "ngs_geomech.verification."
+                           "distributed_contact", law, str(maxh), "1", str(out), dimension, support],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    got = json.loads(out.read_text())
+    want = case_result(stack_scene(law, maxh, 1, dimension=dimension, support=support))
+    d = differences(got, want)
+    c = got["contact"]
+    print(f"\n{law} {dimension} on a {support} base, {ranks} ranks, {got['dofs']} dofs: relative differences to "
+          f"serial: displacement {d['displacement']:.1e}, pressure {d['pressure']:.1e}, traction "
+          f"{d['traction']:.1e}, forces {d['forces']:.1e}; Newton iterations {c['iterations_per_solve']} (serial "
+          f"{want['contact']['iterations_per_solve']})")
+    assert got["ranks"] == ranks and got["dofs"] == want["dofs"]
+    assert len(got["nodal"]) == (2 if support == "foundation" else 1)
+    assert d["max"] < 1e-8
+    assert d["same_iterations"] and d["same_states"]
+    assert c["force_balance"]["imbalance_rel"] < 1e-8

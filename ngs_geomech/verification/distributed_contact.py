@@ -20,34 +20,56 @@ about 0.6 of the capacity (Tresca: g_c times the contact area 0.42 m^2; Coulomb:
 
 PROBES = {"ux_corner": ("displacement_x", [0.75, 0.65, 0.85]), "uz_corner": ("displacement_z", [0.75, 0.65, 0.85]),
           "uy_middle": ("displacement_y", [0.41, 0.37, 0.6]), "uz_lower": ("displacement_z", [0.52, 0.43, 0.3])}
-"""Displacement probes (m) in both boxes, off the mesh's planes."""
+"""Displacement probes (m) in both boxes, off the mesh's planes (3D)."""
+PROBES_2D = {"ux_corner": ("displacement_x", [0.75, 0.85]), "uy_corner": ("displacement_y", [0.75, 0.85]),
+             "uy_middle": ("displacement_y", [0.41, 0.6]), "uy_lower": ("displacement_y", [0.52, 0.3])}
+"""The same in 2D (plane strain; y vertical)."""
+SUPPORTS = ("fixed", "foundation")
+"""The lower box's base: fixed, or resting on a rigid plane foundation with the interface's law (then both boxes
+are floating bodies, held by the contacts alone)."""
 
 
-def stack_scene(law: str, maxh: float = 0.3, order: int = 1, tolerance: float = 1e-12) -> dict:
+def stack_scene(law: str, maxh: float = 0.3, order: int = 1, tolerance: float = 1e-12, dimension: str = "3d",
+                support: str = "fixed") -> dict:
     """The scene dict (module docstring) with the contact ``law``, mesh size ``maxh`` (m; the upper box 0.75 maxh:
-    non-matching meshes), element ``order`` and the linear solver ``tolerance``. The Newton steps are iterative
-    serially too (``solver.linear``), as they are on a distributed mesh: frictionless, nothing holds the upper box's
-    sliding, which the iterative steps fix by projection and the direct ones by a shift (the two solutions differ
-    by about 2e-7 of the displacement along that free motion)."""
+    non-matching meshes), element ``order``, the linear solver ``tolerance``, ``dimension`` ('3d' or 'plane': the
+    boxes' section y = const in plane strain) and the lower box's ``support`` (:data:`SUPPORTS`). The Newton steps
+    are iterative serially too (``solver.linear``), as they are on a distributed mesh: frictionless, nothing holds
+    the upper box's sliding, which the iterative steps fix by projection and the direct ones by a shift (the two
+    solutions differ by about 2e-7 of the displacement along that free motion)."""
     interface, push = LAWS[law]
-    data = {"scene": {"name": f"stack_{law}", "dimension": "3d"},
+    flat = dimension == "plane"
+    probes = PROBES_2D if flat else PROBES
+    data = {"scene": {"name": f"stack_{law}", "dimension": dimension},
             "physics": {"mechanics": "static"},
             "mesh": {"maxh": maxh, "order": order},
-            "blocks": [{"name": "lower", "shape": "box", "origin": [0, 0, 0], "size": [1.0, 0.8, 0.5],
-                        "boundaries": {"base": "zmin"}},
-                       {"name": "upper", "shape": "box", "origin": [0.1, 0.1, 0.5], "size": [0.7, 0.6, 0.4],
-                        "maxh": 0.75 * maxh, "boundaries": {"push": "xmin", "top": "zmax"}}],
+            "blocks": [_box("lower", [0, 0, 0], [1.0, 0.8, 0.5], {"base": "zmin"}, flat),
+                       {**_box("upper", [0.1, 0.1, 0.5], [0.7, 0.6, 0.4], {"push": "xmin", "top": "zmax"}, flat),
+                        "maxh": 0.75 * maxh}],
             "materials": {"lower": {"youngs_modulus": 2e10, "poisson_ratio": 0.25, "density": 2500.0},
                           "upper": {"youngs_modulus": 3e10, "poisson_ratio": 0.3, "density": 2500.0}},
             "interfaces": [{"name": "joint", "blocks": ["upper", "lower"], "type": "contact", **interface}],
-            "mechanics": {"gravity": [0.0, 0.0, -9.81]},
-            "boundary_conditions": {"base": {"displacement": [0.0, 0.0, 0.0]}, "top": {"pressure": 2e5}},
+            "mechanics": {"gravity": [0.0, -9.81] if flat else [0.0, 0.0, -9.81]},
+            "boundary_conditions": {"base": {"displacement": [0.0] * (2 if flat else 3)}, "top": {"pressure": 2e5}},
             "solver": {"linear": "iterative", "tolerance": tolerance},
             "output": {"vtk": False, "figures": False,
-                       "probes": [{"name": k, "quantity": q, "point": p} for k, (q, p) in PROBES.items()]}}
+                       "probes": [{"name": k, "quantity": q, "point": p} for k, (q, p) in probes.items()]}}
+    if support == "foundation":
+        normal = [0.0, 1.0] if flat else [0.0, 0.0, 1.0]
+        data["boundary_conditions"]["base"] = {"foundation": {"point": [0.0] * len(normal), "normal": normal,
+                                                              **interface}}
     if push is not None:
-        data["boundary_conditions"]["push"] = {"traction": push}
+        data["boundary_conditions"]["push"] = {"traction": push[:2] if flat else push}
     return data
+
+
+def _box(name: str, origin: list, size: list, boundaries: dict, flat: bool) -> dict:
+    """A block of the stack: a box, or in 2D its section y = const (the rectangle of x and z, z as y)."""
+    if not flat:
+        return {"name": name, "shape": "box", "origin": origin, "size": size, "boundaries": boundaries}
+    sides = {"zmin": "ymin", "zmax": "ymax"}
+    return {"name": name, "shape": "rectangle", "origin": [origin[0], origin[2]], "size": [size[0], size[2]],
+            "boundaries": {k: sides.get(v, v) for k, v in boundaries.items()}}
 
 
 def case_result(data: dict, comm=None) -> dict:
@@ -60,57 +82,67 @@ def case_result(data: dict, comm=None) -> dict:
 
     res = run(scene_from_dict(data, source="distributed_contact"), None, progress=False, comm=comm)
     s = res.summary
-    spec, latest = res.mechanics.contacts[0], res.mechanics.contact_output.latest[0]
-    nodal = {k: np.asarray(latest[k], dtype=float).tolist() for k in ("pressure", "traction", "gap", "slip")}
+    nodal = [{k: np.asarray(latest[k], dtype=float).tolist() for k in ("pressure", "traction", "gap", "slip")}
+             for latest in res.mechanics.contact_output.latest]
+    coords = [np.asarray(spec.op.coords).tolist() for spec in res.mechanics.contacts]
     memory = comm.allgather(peak_rss_gib()) if comm is not None else [peak_rss_gib()]
     return {"dofs": s["mesh"]["dofs"], "ranks": s["mesh"].get("ranks", 1),
-            "probes": {k: v[-1] for k, v in s["probe_series"].items() if k in PROBES},
-            "contact": s["mechanics"]["contact"], "coords": np.asarray(spec.op.coords).tolist(), "nodal": nodal,
+            "probes": {k: v[-1] for k, v in s["probe_series"].items() if k in PROBES or k in PROBES_2D},
+            "contact": s["mechanics"]["contact"], "coords": coords, "nodal": nodal,
             "peak_rss_gib_per_rank": memory, "wall_s": s["wall_time_s"]["total_s"]}
 
 
-def _by_coordinates(result: dict) -> np.ndarray:
-    """The permutation sorting a result's nodes by their coordinates (rounded to 1e-9 m)."""
-    xyz = np.round(np.asarray(result["coords"], dtype=float), 9)
+def _by_coordinates(coords: list) -> np.ndarray:
+    """The permutation sorting a contact's nodes by their coordinates (rounded to 1e-9 m)."""
+    xyz = np.round(np.asarray(coords, dtype=float), 9)
     return np.lexsort(xyz.T[::-1])
 
 
 def differences(got: dict, want: dict) -> dict:
     """Relative differences of ``got`` to ``want`` (each relative to the largest value of its kind): the probes
-    (displacements), the nodal contact pressures and tractions (node by node, matched by coordinates), the
-    normal and tangential forces, and whether the Newton iterations per solve and the node states agree."""
+    (displacements), the nodal contact pressures and tractions of every contact (node by node, matched by
+    coordinates), the normal and tangential forces, and whether the Newton iterations per solve and the node
+    states agree."""
     def rel(a, b, scale=None) -> float:
         a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
         s = scale if scale is not None else float(np.max(np.abs(b), initial=0.0))
         return float(np.max(np.abs(a - b), initial=0.0)) / max(s, 1e-300)
 
-    pg, pw = _by_coordinates(got), _by_coordinates(want)
-    if not np.allclose(np.asarray(got["coords"])[pg], np.asarray(want["coords"])[pw], atol=1e-9):
-        raise AssertionError("distributed contact: the multiplier nodes differ from the serial run's")
     u_scale = max(abs(v) for v in want["probes"].values())
-    p_scale = float(np.max(np.abs(want["nodal"]["pressure"]), initial=0.0))
-    jg, jw = got["contact"]["interfaces"]["joint"], want["contact"]["interfaces"]["joint"]
     out = {"displacement": rel([got["probes"][k] for k in want["probes"]], list(want["probes"].values()), u_scale),
-           "pressure": rel(np.asarray(got["nodal"]["pressure"])[pg], np.asarray(want["nodal"]["pressure"])[pw]),
-           "traction": rel(np.asarray(got["nodal"]["traction"])[pg], np.asarray(want["nodal"]["traction"])[pw],
-                           p_scale),
-           "forces": max(rel(jg[k], jw[k], abs(jw["normal_force"])) for k in ("normal_force", "tangential_force"))}
+           "pressure": 0.0, "traction": 0.0, "forces": 0.0}
+    for cg, cw, ng, nw in zip(got["coords"], want["coords"], got["nodal"], want["nodal"], strict=True):
+        pg, pw = _by_coordinates(cg), _by_coordinates(cw)
+        if not np.allclose(np.asarray(cg)[pg], np.asarray(cw)[pw], atol=1e-9):
+            raise AssertionError("distributed contact: the multiplier nodes differ from the serial run's")
+        p_scale = float(np.max(np.abs(nw["pressure"]), initial=0.0))
+        out["pressure"] = max(out["pressure"], rel(np.asarray(ng["pressure"])[pg], np.asarray(nw["pressure"])[pw]))
+        out["traction"] = max(out["traction"], rel(np.asarray(ng["traction"])[pg], np.asarray(nw["traction"])[pw],
+                                                   p_scale))
+    same_states = True
+    for name, jw in want["contact"]["interfaces"].items():
+        jg = got["contact"]["interfaces"][name]
+        out["forces"] = max(out["forces"], *(rel(jg[k], jw[k], abs(jw["normal_force"]))
+                                             for k in ("normal_force", "tangential_force")))
+        same_states &= jg["nodes"] == jw["nodes"]
     out["max"] = max(out.values())
     out["same_iterations"] = got["contact"]["iterations_per_solve"] == want["contact"]["iterations_per_solve"]
-    out["same_states"] = jg["nodes"] == jw["nodes"]
+    out["same_states"] = same_states
     return out
 
 
 def main(argv: list[str]) -> None:
-    """``[mpiexec -n N] python -m ngs_geomech.verification.distributed_contact LAW MAXH ORDER OUT.json``: rank 0
-    writes :func:`case_result` of :func:`stack_scene` to OUT.json."""
+    """``[mpiexec -n N] python -m ngs_geomech.verification.distributed_contact LAW MAXH ORDER OUT.json [DIMENSION
+    [SUPPORT]]``: rank 0 writes :func:`case_result` of :func:`stack_scene` to OUT.json."""
     import json
 
     from ..parallel import world
 
     law, maxh, order, out = argv[0], float(argv[1]), int(argv[2]), argv[3]
+    dimension = argv[4] if len(argv) > 4 else "3d"
+    support = argv[5] if len(argv) > 5 else "fixed"
     comm = world()
-    result = case_result(stack_scene(law, maxh, order), comm)
+    result = case_result(stack_scene(law, maxh, order, dimension=dimension, support=support), comm)
     if comm is None or comm.rank == 0:
         with open(out, "w") as fh:
             json.dump(result, fh)
