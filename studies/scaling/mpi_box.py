@@ -1,12 +1,13 @@
 """The scaling box under MPI (run by ``studies/scaling/run.py``, or by hand):
 
-    mpiexec -n N python studies/scaling/mpi_box.py MAXH ORDER OUT.json
+    mpiexec -n N python studies/scaling/mpi_box.py MAXH ORDER OUT.json [PRECONDITIONER]
 
 Rank 0 meshes the box of :mod:`ngs_geomech.verification.scaling` and distributes it with netgen
 (``ngmesh.Distribute(comm)`` / ``Mesh.Receive(comm)``; netgen keeps **no elements on rank 0**, so N ranks have N - 1
-workers); every rank runs the heat and thermal-stress solves with preconditioned CG (BDDC), one NGSolve thread
-each. Rank 0 writes OUT.json: dofs, wall times (rank 0, which waits for the workers), CG iterations and the
-temperature and displacement at :data:`POINTS` gathered from the ranks whose part holds them.
+workers); every rank runs the heat and thermal-stress solves with preconditioned CG (PRECONDITIONER: 'auto', the
+default, is PETSc's GAMG when petsc4py is installed, else BDDC; 'bddc'; 'gamg'), one NGSolve thread each. Rank 0
+writes OUT.json: dofs, wall times (rank 0, which waits for the workers), CG iterations and the temperature and
+displacement at :data:`POINTS` gathered from the ranks whose part holds them.
 
 Trap: keep no reference to the serial ``ngsolve.Mesh`` on rank 0 while distributing its ``ngmesh`` (``m =
 make_box_mesh(...); Mesh(m.ngmesh.Distribute(comm))`` aborted in an MPI_Allreduce with a truncated message).
@@ -52,6 +53,7 @@ def sample(mesh, T, u) -> dict:
 
 def main() -> None:
     maxh, order, out = float(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+    preconditioner = sys.argv[4] if len(sys.argv) > 4 else "auto"
     comm = MPI.COMM_WORLD
     ngs.SetNumThreads(1)
     tic = time.perf_counter()
@@ -62,7 +64,7 @@ def main() -> None:
     mesh_s = time.perf_counter() - tic
     comm.Barrier()
     tic = time.perf_counter()
-    r = thermoelastic_box(maxh, order, "iterative", mesh=mesh, keep=True)
+    r = thermoelastic_box(maxh, order, "iterative", mesh=mesh, keep=True, preconditioner=preconditioner)
     comm.Barrier()
     solve_s = time.perf_counter() - tic
     vals = sample(mesh, r["heat"].temperature(), r["elastic"].displacement())
