@@ -5,6 +5,7 @@ from __future__ import annotations
 import ngsolve as ngs
 
 from ..errors import Problem, SceneError
+from ..parallel import wait_polled
 from ..scene.model import MeshSettings
 from .assemble import GeometryModel
 from .structured import element_counts, structured_mesh
@@ -86,6 +87,7 @@ def distribute_mesh(ngmesh, geo: GeometryModel, settings: MeshSettings, comm):
     geometry. Every rank of ``comm`` calls this. ``ngmesh`` itself is sent (keep a copy to refine it later)."""
     import netgen.meshing as ngm
 
+    wait_polled(comm)               # the workers sleep while rank 0 meshes or refines (Receive spins)
     if comm.rank == 0:
         mesh = ngs.Mesh(ngmesh.Distribute(comm))
     else:

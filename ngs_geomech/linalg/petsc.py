@@ -33,6 +33,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ..errors import SolverError
+from ..parallel import wait_polled
 
 KRYLOV = {"ksp_type": "cg", "ksp_norm_type": "unpreconditioned"}
 """PETSc options of the Krylov method (every solve)."""
@@ -47,8 +48,6 @@ TWO_LEVEL = {"pc_type": "fieldsplit", "pc_fieldsplit_type": "additive", "fieldsp
 """PETSc options of the preconditioner of order >= 2 (:meth:`GamgCG._two_level`)."""
 PREFIX = {False: "ngs_geomech_amg_", True: "ngs_geomech_twolevel_"}
 """Options prefix of the two forms (each form's options apply to its solves only)."""
-POLL_S = 0.002
-"""Sleep between the tests of rank 0's polled barrier, s."""
 
 _SUBCOMMS: dict = {}
 _log = logging.getLogger(__name__)
@@ -91,13 +90,6 @@ def _null_comm():
     from mpi4py import MPI
 
     return MPI.COMM_NULL
-
-
-def wait_polled(comm) -> None:
-    """A barrier on ``comm`` that sleeps between tests instead of spinning in MPI."""
-    req = comm.Ibarrier()
-    while not req.Test():
-        time.sleep(POLL_S)
 
 
 def rigid_modes(xyz: np.ndarray) -> np.ndarray:
@@ -303,6 +295,8 @@ class GamgCG:
     def solve(self, mat, rhs, x, what: str, hint: str = ""):
         """Solve ``mat`` x = ``rhs`` on the free dofs (x's fixed values kept), collective; returns the iterations,
         the final relative residual and its history."""
+        if self.world is not None:      # rank 0 sleeps while the workers assemble, not in the collectives below
+            wait_polled(self.world)
         if self._layout is None:
             self._build_layout()
         r, ax = rhs.CreateVector(), rhs.CreateVector()
