@@ -40,7 +40,7 @@ from .estimators import WholeMesh, element_vertices, side_edges, vertex_coords
 from .loop import Marking, decide
 
 MATCH_TOLERANCE = 1e-9
-"""Largest distance of matched centroids, relative to the mesh's bounding box diagonal."""
+"""Largest distance of matched centroids (and contact nodes), relative to the mesh's bounding box diagonal."""
 
 
 def centroids(nodes: np.ndarray, xyz: np.ndarray) -> np.ndarray:
