@@ -242,6 +242,34 @@ def test_contact_zone_indicator_flags_the_edge_of_contact():
     assert np.all(np.abs(centres[edge, 0] - a_num) < 3 * problem.result["h"])
 
 
+def test_contact_zone_indicator_on_the_whole_mesh_numbers_nodes_by_coordinates():
+    """The distributed run's path (:mod:`ngs_geomech.adapt.distributed`) on one process: operators whose nodes
+    are numbered otherwise (as the gathered sides of a distributed mesh are) are renumbered to the mesh's vertices
+    by their coordinates, and the indicator then flags what it flags on the mesh itself; a node off the side
+    stops it."""
+    import dataclasses
+
+    from ngs_geomech.adapt.distributed import whole_mesh_contacts
+
+    problem = ad.HertzAdaptive(cp.R_HERTZ / 50 / 8, order=1)
+    problem.solve()
+    mesh, pairs = problem.estimator_input("contact")
+    op, status = pairs[0]
+    order = np.random.default_rng(1).permutation(op.size)       # another numbering and order of the nodes
+    moved = dataclasses.replace(op, nodes=10 ** 6 + np.arange(op.size), coords=op.coords[order])
+    renumbered = whole_mesh_contacts(mesh, [(moved, status[order])])
+    assert np.array_equal(renumbered[0][0].nodes, op.nodes[order])
+    for options in ({}, {"active": True, "layers": 1}):
+        want = est.contact_zone((mesh, pairs), **options)
+        got = est.contact_zone(est.WholeMesh(mesh, renumbered), **options)
+        assert got.whole and not want.whole and np.array_equal(got.eta, want.eta)
+    assert est.contact_zone(est.WholeMesh(None, []), layers=1).eta.shape == (0,)
+    off = op.coords.copy()
+    off[0] += 1e-3
+    with pytest.raises(RuntimeError, match="do not match"):
+        whole_mesh_contacts(mesh, [(dataclasses.replace(op, coords=off), status)])
+
+
 # -- Hertz: adaptive against uniform ----------------------------------------------------------------------
 
 def test_hertz_adaptive_against_uniform():

@@ -19,19 +19,28 @@ geometry) and every refinement goes through it:
 
 The serial mesh of the same scene passes the same meshes (the same netgen operations on the same data): the
 dof counts per step are the serial run's.
+
+The contact-zone indicator (:func:`.estimators.contact_zone`) reads the contact sides' segments, which lie on
+several parts, and the nodal statuses of the contact operators, which a distributed run holds replicated in the
+numbering of the gathered sides (``nodes`` global dofs, ``coords`` the nodes' points). Rank 0 evaluates it on
+its whole mesh (:meth:`DistributedRefinement.contact_input`: each node is the vertex of its side at its
+coordinates) and :meth:`DistributedRefinement.mark` adds its flags to the gathered ones in the whole mesh's
+element order: the flags of the serial run on the same mesh.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import ngsolve as ngs
 import numpy as np
 
 from ..geometry.mesh import SerialCopy, distribute_mesh
-from .estimators import element_vertices, vertex_coords
+from .estimators import WholeMesh, element_vertices, side_edges, vertex_coords
 from .loop import Marking, decide
 
 MATCH_TOLERANCE = 1e-9
-"""Largest distance of matched centroids, relative to the mesh's bounding box diagonal."""
+"""Largest distance of matched centroids (and contact nodes), relative to the mesh's bounding box diagonal."""
 
 
 def centroids(nodes: np.ndarray, xyz: np.ndarray) -> np.ndarray:
@@ -49,6 +58,29 @@ def whole_mesh_centroids(ngmesh) -> np.ndarray:
         raise ValueError("distributed adaptive refinement needs a simplicial mesh (triangles or tetrahedra)")
     xyz = np.asarray(ngmesh.Coordinates(), dtype=float)[:, :dim]
     return centroids(nodes[:, :dim + 1] - 1, xyz)
+
+
+def whole_mesh_contacts(whole, contacts: list) -> list:
+    """The [(ContactOperator, nodal status)] of a distributed run with each operator's ``nodes`` renumbered to the
+    vertices of the whole mesh ``whole`` (an ``ngsolve.Mesh`` of rank 0's copy): node j is the vertex of the side
+    ``op.side`` at ``op.coords[j]`` (only the side's vertices are candidates: an interface's two sides have
+    vertices at the same points). Every vertex of the side must match one node, within :data:`MATCH_TOLERANCE`
+    of the mesh's bounding box diagonal, or a RuntimeError says which side differs."""
+    from scipy.spatial import cKDTree
+
+    xyz = vertex_coords(whole)
+    size = float(np.linalg.norm(xyz.max(axis=0) - xyz.min(axis=0))) or 1.0
+    out = []
+    for op, status in contacts:
+        side = np.unique(np.array([v for seg in side_edges(whole, op.side) for v in seg], dtype=np.int64))
+        coords = np.asarray(op.coords, dtype=float).reshape(len(op.nodes), -1)[:, :whole.dim]
+        dist, k = cKDTree(xyz[side]).query(coords) if len(side) and len(coords) else (np.zeros(0), np.zeros(0, int))
+        if len(coords) != len(side) or (len(k) and (dist.max() > MATCH_TOLERANCE * size or
+                                                    len(np.unique(k)) != len(k))):
+            raise RuntimeError(f"contact {op.name!r}: the {len(coords)} multiplier nodes of side {op.side!r} do not "
+                               f"match the whole mesh's {len(side)} vertices of that side")
+        out.append((dataclasses.replace(op, nodes=side[k]), status))
+    return out
 
 
 class DistributedRefinement:
@@ -77,7 +109,10 @@ class DistributedRefinement:
                                f"{dist.max():.3g} m)")
         return index
 
-    def mark(self, mesh, eta: np.ndarray, flags: np.ndarray, marker, theta: float) -> Marking:
+    def mark(self, mesh, eta: np.ndarray, flags: np.ndarray, marker, theta: float,
+             whole: np.ndarray | None = None) -> Marking:
+        """The marking of the gathered element values ``eta`` and indicator ``flags`` (this rank's elements) and
+        of the flags ``whole`` rank 0 has on its whole mesh (in its element order; None: none)."""
         mine = centroids(element_vertices(mesh), vertex_coords(mesh)) if mesh.ne else np.zeros((0, mesh.dim))
         gathered = self.comm.gather((mine, np.asarray(eta, dtype=float), np.asarray(flags, dtype=bool)), root=0)
         result = None
@@ -87,10 +122,30 @@ class DistributedRefinement:
             whole_flags = np.zeros(len(index), dtype=bool)
             whole_eta[index] = np.concatenate([g[1] for g in gathered])
             whole_flags[index] = np.concatenate([g[2] for g in gathered])
+            if whole is not None:
+                whole_flags |= np.asarray(whole, dtype=bool)
             result = decide(whole_eta, whole_flags, marker, theta)
         numbers = self.comm.bcast(None if result is None else (result.total, result.elements, result.marked,
                                                                result.flagged), root=0)
         return result if result is not None else Marking(numbers[0], numbers[1], None, numbers[2], numbers[3])
+
+    def contact_input(self, mesh, contacts: list) -> WholeMesh:
+        """The input of the contact-zone indicator (:func:`.estimators.contact_zone`): on rank 0 its whole mesh
+        (a fresh ``ngsolve.Mesh``, gone with the input before :meth:`refine`) and the ``contacts``
+        ([(ContactOperator, nodal status)], the same on every rank) renumbered to it
+        (:func:`whole_mesh_contacts`); nothing on the other ranks. Collective: a node that does not match stops
+        every rank."""
+        result, error = WholeMesh(None, []), None
+        if self.comm.rank == 0:
+            whole = ngs.Mesh(self.serial_copy.ngmesh)
+            try:
+                result = WholeMesh(whole, whole_mesh_contacts(whole, contacts))
+            except RuntimeError as exc:
+                error = str(exc)
+        error = self.comm.bcast(error, root=0)
+        if error is not None:
+            raise RuntimeError(f"the contact-zone indicator on the whole mesh: {error}")
+        return result
 
     def refine(self, mesh, marks: np.ndarray | None, curve_order: int):
         """The distributed mesh of the whole mesh with the ``marks`` (rank 0's, in the whole mesh's element order)

@@ -62,7 +62,8 @@ addition to what the marker picks from the estimator):
 
 Estimators and indicators are chosen by name from :data:`ESTIMATORS` (:func:`get_estimator`), so a scene key can
 name them; each entry says what it needs (``needs``: ``"forms"`` the heat or elastic forms, ``"contact"`` the
-mesh with the contact operators and their nodal status, ``"phase"`` the nodal liquid fraction).
+mesh with the contact operators and their nodal status, or on a distributed run a :class:`WholeMesh` of them:
+rank 0's whole mesh, ``"phase"`` the nodal liquid fraction).
 """
 
 from __future__ import annotations
@@ -96,11 +97,14 @@ STATUS_OPEN, STATUS_STICK, STATUS_SLIP = 0, 1, 2
 class Estimate:
     """Element values of one estimator or indicator: ``eta`` (one per volume element, in the units of the energy
     norm for an estimator: sqrt(W/K) per sqrt(m) heat, sqrt(J) per sqrt(m) elasticity in 2D; 0/1 for an
-    indicator), its ``name`` and ``kind`` ("estimator" or "indicator")."""
+    indicator), its ``name`` and ``kind`` ("estimator" or "indicator"); ``whole``: ``eta`` is on the whole mesh of
+    a distributed run, in its element order, on rank 0 (empty on the other ranks): an indicator evaluated on rank
+    0's copy of the whole mesh (:class:`WholeMesh`)."""
 
     name: str
     kind: str
     eta: np.ndarray
+    whole: bool = False
 
     @property
     def total(self) -> float:
@@ -835,18 +839,39 @@ def side_edges(mesh, side: str) -> list[tuple[int, ...]]:
     return [tuple(v.nr for v in el.vertices) for el in mesh.Boundaries(side).Elements()]
 
 
+@dataclass
+class WholeMesh:
+    """What an indicator needs on a distributed run, given on rank 0's copy of the whole mesh: ``mesh`` (an
+    ``ngsolve.Mesh`` of it on rank 0, None on the other ranks) and ``source`` (the indicator's input numbered on
+    that mesh, e.g. the contact pairs of :func:`contact_zone` with ``nodes`` the whole mesh's vertex numbers). The
+    indicator's :class:`Estimate` is then ``whole`` (the flags of the whole mesh, in its element order)."""
+
+    mesh: object | None
+    source: list
+
+
 @register("contact_zone", "indicator", "contact")
 def contact_zone(contacts, *, layers: int = 0, active: bool = False, local_reach: bool = False) -> Estimate:
     """Flag the elements at the boundary of the active set and at stick/slip transitions (module docstring).
 
     ``contacts``: (mesh, [(ContactOperator, nodal status array)]) (status 0 open, 1 stick, 2 slip; e.g.
-    :func:`contact_status` or the contact output's ``status``); ``layers`` extra rings of elements around the
-    flagged ones; ``active``: flag the whole contact zone (every element touching a side segment with a node in
+    :func:`contact_status` or the contact output's ``status``), or on a distributed run a :class:`WholeMesh` of
+    them (rank 0 flags its whole mesh, the other ranks return no values); ``layers`` extra rings of elements around
+    the flagged ones; ``active``: flag the whole contact zone (every element touching a side segment with a node in
     contact), not only its boundary and transitions (for quantities inside the zone, e.g. the peak pressure).
     The opposite side's segments are flagged within twice the interface's longest nodal length of a flagged
     segment, or with ``local_reach`` within that segment's own length (on a graded mesh the global reach takes
     coarse elements far from a transition: the meshes that follow contact zones over time use the local one)."""
+    if isinstance(contacts, WholeMesh):
+        flags = np.zeros(0) if contacts.mesh is None else _zone_flags(contacts.mesh, contacts.source, layers, active,
+                                                                      local_reach)
+        return Estimate("contact_zone", "indicator", flags.astype(float), whole=True)
     mesh, contacts = contacts
+    return Estimate("contact_zone", "indicator", _zone_flags(mesh, contacts, layers, active, local_reach).astype(float))
+
+
+def _zone_flags(mesh, contacts: list, layers: int, active: bool, local_reach: bool) -> np.ndarray:
+    """The elements :func:`contact_zone` flags on ``mesh`` (bool per element) from its contact pairs."""
     xy = vertex_coords(mesh)
     inc = _incidence(mesh)
     vmark = np.zeros(mesh.nv, dtype=bool)
@@ -871,8 +896,7 @@ def contact_zone(contacts, *, layers: int = 0, active: bool = False, local_reach
                 c = np.mean(xy[list(seg)], axis=0)
                 if np.any(np.linalg.norm(pts - c, axis=1) <= reach):
                     vmark[list(seg)] = True
-    flags = _grow(inc @ vmark > 0, inc, layers)
-    return Estimate("contact_zone", "indicator", flags.astype(float))
+    return _grow(inc @ vmark > 0, inc, layers)
 
 
 def _incidence(mesh) -> sp.csr_matrix:

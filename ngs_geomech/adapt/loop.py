@@ -7,7 +7,8 @@ last solution, transferred to the refined mesh, where the solver can use a start
 liquid fraction) and ``refine(marks)`` (refine the mesh, recurve it, rebuild spaces, forms and contact pairs
 on the new mesh and transfer the state); optionally ``refinement``: how the element values are marked and in
 which element order ``refine`` takes the marks (:class:`SerialRefinement` when absent,
-:class:`.distributed.DistributedRefinement` on a distributed mesh: the whole mesh's marks, on rank 0).
+:class:`.distributed.DistributedRefinement` on a distributed mesh: the whole mesh's marks, on rank 0; its
+``contact_input`` is what the contact-zone indicator reads there: rank 0's whole mesh).
 :class:`StationaryHeat` is the one for steady heat problems;
 :mod:`ngs_geomech.verification.adaptivity` has the Hertz contact one.
 
@@ -70,8 +71,17 @@ class SerialRefinement:
     """The adaptive loop's marking and refinement on a serial mesh: the element values are the whole mesh's,
     refined in place (:func:`refine_mesh`)."""
 
-    def mark(self, mesh, eta: np.ndarray, flags: np.ndarray, marker, theta: float) -> Marking:
-        return decide(np.asarray(eta, dtype=float), np.asarray(flags, dtype=bool), marker, theta)
+    def mark(self, mesh, eta: np.ndarray, flags: np.ndarray, marker, theta: float,
+             whole: np.ndarray | None = None) -> Marking:
+        """``flags``: the indicators' flags per element of ``mesh``; ``whole``: those given on the whole mesh
+        (:attr:`.estimators.Estimate.whole`; on a serial mesh the same order) or None."""
+        flags = np.asarray(flags, dtype=bool)
+        return decide(np.asarray(eta, dtype=float), flags if whole is None else flags | whole, marker, theta)
+
+    @staticmethod
+    def contact_input(mesh, contacts: list):
+        """The input of the contact-zone indicator: the mesh and its [(ContactOperator, nodal status)]."""
+        return mesh, contacts
 
     def refine(self, mesh, marks: np.ndarray, curve_order: int):
         refine_mesh(mesh, marks, curve_order)
@@ -169,6 +179,20 @@ def evaluate(name: str, problem: AdaptiveProblem, options: dict | None = None) -
     return entry.function(problem.estimator_input(entry.needs), **(options or {}))
 
 
+def indicator_flags(problem: AdaptiveProblem, indicators, options: dict) -> tuple[np.ndarray, np.ndarray | None]:
+    """The elements the ``indicators`` flag: (per element of ``problem.mesh``, per element of the whole mesh of a
+    distributed run on rank 0 from the indicators evaluated there (:attr:`.estimators.Estimate.whole`), or None)."""
+    flags = np.zeros(problem.mesh.ne, dtype=bool)
+    whole = None
+    for name in indicators:
+        e = evaluate(name, problem, options.get(name))
+        if e.whole:
+            whole = e.eta > 0 if whole is None else whole | (e.eta > 0)
+        else:
+            flags |= e.eta > 0
+    return flags, whole
+
+
 def adaptive_solve(problem: AdaptiveProblem, *, estimator: str = "zz", indicators=(), marker: str = "doerfler",
                    theta: float = 0.5, stop: StopRule | None = None, options: dict | None = None,
                    callback=None) -> AdaptiveRun:
@@ -196,10 +220,8 @@ def adaptive_solve(problem: AdaptiveProblem, *, estimator: str = "zz", indicator
         t_solve = time.perf_counter() - tic
         tic = time.perf_counter()
         est = evaluate(estimator, problem, options.get(estimator))
-        flags = np.zeros(problem.mesh.ne, dtype=bool)
-        for name in indicators:
-            flags |= evaluate(name, problem, options.get(name)).eta > 0
-        decision = refinement.mark(problem.mesh, est.eta, flags, mark, theta)
+        flags, whole = indicator_flags(problem, indicators, options)
+        decision = refinement.mark(problem.mesh, est.eta, flags, mark, theta, whole)
         t_est = time.perf_counter() - tic
         step = AdaptiveStep(refinements, problem.ndof, decision.elements, decision.total, 0, 0, t_solve, t_est, 0.0,
                             dict(quantities))

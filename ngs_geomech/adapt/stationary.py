@@ -71,7 +71,7 @@ class _Adaptive(MeshPolicy):
         if needs == "forms":
             return m.mechanics.forms if self.target == "mechanics" else m.thermal.forms
         if needs == "contact":
-            return self.mesh, contact_statuses(m.mechanics)
+            return self.refinement.contact_input(self.mesh, contact_statuses(m.mechanics))
         raise ValueError(f"a scene has no {needs!r} input for an estimator")
 
     def refine(self, marks) -> None:

@@ -43,17 +43,13 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
 
 def _adaptivity_problems(scene: Scene, why: str) -> list[Problem]:
     """What a distributed run cannot do with ``[adaptivity]``: rank 0 refines its copy of the whole mesh and sends
-    it out again (:mod:`ngs_geomech.adapt.distributed`), which serves the stationary adaptive loop and the mesh
-    adapted once; the meshes that follow a phase boundary or contact zones over time remesh the geometry on one
-    process (:mod:`ngs_geomech.adapt.front_following`, :mod:`ngs_geomech.adapt.contact_following`)."""
+    it out again (:mod:`ngs_geomech.adapt.distributed`), which serves the stationary adaptive loop (the estimators,
+    and the contact-zone indicator, evaluated on rank 0's whole mesh) and the mesh adapted once; the meshes that
+    follow a phase boundary or contact zones over time remesh the geometry on one process
+    (:mod:`ngs_geomech.adapt.front_following`, :mod:`ngs_geomech.adapt.contact_following`)."""
     a = scene.adaptivity
-    if a is None:
+    if a is None or scene.time is None:
         return []
-    if scene.time is None:
-        if "contact_zone" not in a.indicators:
-            return []
-        return [Problem("adaptivity.indicators", f"the 'contact_zone' indicator {why} (it reads the contact sides' "
-                        "segments and nodal statuses of one process); the estimators refine distributed meshes")]
     followed = [name for name in ("contact_zone", "phase_front") if name in a.indicators]
     if not followed:
         return []
