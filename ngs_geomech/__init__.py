@@ -12,3 +12,8 @@ __version__ = "0.1.0"
 # the package's messages (warnings of a run, notes, solver diagnostics) go to the "ngs_geomech" loggers; the
 # application (the command line, a script) decides where they go
 _logging.getLogger(__name__).addHandler(_logging.NullHandler())
+
+# before any MPI starts in this process: rank 0 of a distributed run sleeps in MPI's waits (parallel.py)
+from .parallel import sleep_while_waiting_on_rank_zero as _quiet  # noqa: E402
+
+_quiet()

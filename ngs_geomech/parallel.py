@@ -3,7 +3,9 @@
 A run under ``mpiexec -n N`` (N >= 2) works on a netgen distributed mesh: rank 0 meshes and sends the parts
 (``ngmesh.Distribute(comm)``), the other ranks receive them (``Mesh.Receive(comm)``); netgen keeps **no
 elements on rank 0**, so N ranks have N - 1 workers. Every rank then runs the same Python code on its part.
-The rules that keep the ranks in step (all checked on this machine with NGSolve 6.2 and mpich):
+The rules that keep the ranks in step (all checked on this machine with NGSolve 6.2 and the Open MPI wheel;
+with the mpich wheel, meshes split into more than 2 parts corrupted the heap or gave wrong solutions, even in a plain
+NGSolve Poisson solve):
 
 * Element loops (``mesh.Elements``, ``mesh.Boundaries(...).Elements()``) see this rank's part only: a fact
   about the whole mesh is gathered (:func:`allgather`) or reduced (:func:`allsum`, :func:`allmax`).
@@ -37,6 +39,37 @@ def launched_by_mpiexec() -> bool:
     return "MPI_LOCALNRANKS" in os.environ or "PMIX_RANK" in os.environ
 
 
+LAUNCH_ENVIRONMENT = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+                      "PRTE_MCA_rmaps_default_mapping_policy": ":oversubscribe"}
+"""What the package's own ``mpiexec`` launches (tests, studies) add to the environment: Open MPI may run as root
+(containers) and more ranks than cores (correctness runs on small machines; timings then mean little)."""
+
+
+def launch_environment() -> dict:
+    """``os.environ`` with :data:`LAUNCH_ENVIRONMENT` added where not set (for ``subprocess`` calls of mpiexec)."""
+    return {**LAUNCH_ENVIRONMENT, **os.environ}
+
+
+RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
+"""Where the launchers (mpich's hydra, Open MPI, PMIx) put a process's rank."""
+
+
+def sleep_while_waiting_on_rank_zero() -> None:
+    """In a process started by ``mpiexec`` as rank 0, before MPI starts: ask the MPI to sleep or yield in its waits.
+
+    Rank 0 holds no elements and waits in MPI while the workers compute; MPICH's waits busy-poll and, with as many
+    processes as cores, take a core from the workers (measured on 2 cores, 2 busy workers: rank 0 used 1.6 s of CPU
+    in a 2 s barrier, 0.5 s with the sleeping wait). The workers keep the fast polling their own collectives need.
+    MPICH sleeps (nanosleep), Open MPI yields the processor. A value set in the environment is kept; each MPI
+    ignores the other's variable."""
+    if not launched_by_mpiexec():
+        return
+    rank = next((os.environ[k] for k in RANK_VARIABLES if k in os.environ), None)
+    if rank == "0":
+        os.environ.setdefault("MPIR_CVAR_ENABLE_HEAVY_YIELD", "1")     # MPICH
+        os.environ.setdefault("OMPI_MCA_mpi_yield_when_idle", "1")     # Open MPI
+
+
 def world():
     """mpi4py's COMM_WORLD when this process is one of several MPI ranks, else None.
 
@@ -59,6 +92,13 @@ def world_rank() -> int:
     return 0 if comm is None else comm.rank
 
 
+def peak_rss_gib() -> float:
+    """This process's peak resident memory so far, GiB (Linux: ru_maxrss in KiB)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+
+
 def distributed(mesh) -> bool:
     """Whether ``mesh`` is a part of a distributed mesh."""
     return mesh.comm.size > 1
@@ -70,16 +110,20 @@ def comm(mesh):
 
 
 def allsum(mesh, value):
-    """The sum over the ranks of a number or array (the value itself on a serial mesh)."""
+    """The sum over the ranks of a number or array (the value itself on a serial mesh), the same to the last bit on
+    every rank: summed on rank 0 and broadcast (an all-reduce may round differently on different ranks, and a
+    decision taken from such sums would part the ranks)."""
     if not distributed(mesh):
         return value
     from mpi4py import MPI
 
+    c = comm(mesh)
     if np.ndim(value) == 0:
-        return comm(mesh).allreduce(value.item() if isinstance(value, np.generic) else value, op=MPI.SUM)
+        return c.bcast(c.reduce(value.item() if isinstance(value, np.generic) else value, op=MPI.SUM, root=0), root=0)
     arr = np.ascontiguousarray(value, dtype=float)
     out = np.empty_like(arr)
-    comm(mesh).Allreduce(arr, out, op=MPI.SUM)
+    c.Reduce(arr, out, op=MPI.SUM, root=0)
+    c.Bcast(out, root=0)
     return out
 
 
@@ -157,3 +201,58 @@ def first_valid(mesh, vals: np.ndarray) -> np.ndarray:
         fill = np.isnan(out) & ~np.isnan(other)
         out[fill] = other[fill]
     return out
+
+
+class GlobalDofs:
+    """A global numbering of the dofs of an H1 or VectorH1 ``space``, the same on every rank: scalar dof i of this
+    rank's part is global scalar dof ``scalar[i]`` (NGSolve's ``EnumerateGlobally``: each rank's master dofs one
+    contiguous range), vector dof (component c, scalar i) is global dof ``c * n_scalar + scalar[i]`` (component
+    major, as NGSolve orders a serial VectorH1 space). On a serial mesh the numbering is the space's own.
+    Creating it is collective over the mesh's ranks."""
+
+    def __init__(self, space):
+        self.space = space
+        import ngsolve as ngs
+
+        self.components = len(space.components) if isinstance(space, ngs.comp.ProductSpace) else 1
+        comp = space.components[0] if self.components > 1 else space
+        nc = comp.ndof
+        if space.ndof != self.components * nc:
+            raise AssertionError("GlobalDofs: the vector space's components differ in size")
+        self.mesh = space.mesh
+        if distributed(space.mesh):
+            pardofs = comp.ParallelDofs()
+            glob, count = pardofs.EnumerateGlobally(None)
+            self.scalar = np.asarray(glob, dtype=np.int64)
+            self.n_scalar = int(count)
+            self.master = np.array(list(pardofs.MasterDofs()), dtype=bool) if nc else np.zeros(0, dtype=bool)
+        else:
+            self.scalar, self.n_scalar = np.arange(nc, dtype=np.int64), nc
+            self.master = np.ones(nc, dtype=bool)
+        c = np.repeat(np.arange(self.components), nc)
+        self.vector = c * self.n_scalar + np.tile(self.scalar, self.components)
+        """(space.ndof,) the global number of each local dof."""
+        self.size = self.components * self.n_scalar
+        """The number of global dofs."""
+
+    @property
+    def owned(self) -> np.ndarray:
+        """Bool per local dof: this rank owns it (each global dof owned by exactly one rank)."""
+        return np.tile(self.master, self.components)
+
+    def gather(self, local: np.ndarray, cumulated: bool = True) -> np.ndarray:
+        """The global array (size) of a local one, on every rank: a cumulated array (every copy of a shared dof
+        holds the value: a GridFunction, Dirichlet values, a mask as 0/1) by its owned entries, a distributed one
+        (an assembled load: the copies sum to the value) by the sum of all."""
+        local = np.asarray(local, dtype=float)
+        out = np.zeros(self.size)
+        if cumulated:
+            own = self.owned
+            out[self.vector[own]] = local[own]
+        else:
+            np.add.at(out, self.vector, local)
+        return allsum(self.mesh, out) if distributed(self.mesh) else out
+
+    def local(self, glob: np.ndarray) -> np.ndarray:
+        """This rank's (cumulated) entries of a global array (size, or size x k)."""
+        return np.asarray(glob)[self.vector]

@@ -2,8 +2,16 @@
 
 from __future__ import annotations
 
+import os
+
 import ngsolve as ngs
 import pytest
+
+from ngs_geomech.parallel import LAUNCH_ENVIRONMENT
+
+# the tests' mpiexec runs (Open MPI): as root in containers, more ranks than cores
+for _key, _value in LAUNCH_ENVIRONMENT.items():
+    os.environ.setdefault(_key, _value)
 
 
 @pytest.fixture(scope="module")

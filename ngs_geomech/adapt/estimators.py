@@ -76,6 +76,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
+from .. import parallel
 from ..contact.laws import slip_bound
 from ..fem.coefficients import tensor_cf
 from ..heat.forms import HeatForms
@@ -171,6 +172,8 @@ def vertex_coords(mesh) -> np.ndarray:
 
 def element_sizes(mesh) -> np.ndarray:
     """h_T: the longest edge of every volume element (straight-sided measure), m."""
+    if mesh.ne == 0:                    # rank 0 of a distributed mesh
+        return np.zeros(0)
     xy = vertex_coords(mesh)
     ev = element_vertices(mesh)
     k = ev.shape[1]
@@ -188,7 +191,10 @@ def _p0_field(mesh, values: np.ndarray):
 class _FacetData:
     """Facet sizes h_E (m; the length in 2D, sqrt(2 area) in 3D) and facet weights as order-0 facet
     GridFunctions, from two assembled vectors (no loop over facets): int_{dT} v summed over the elements
-    (count x |E|) and int v ds over the boundary (|E| on boundary facets, 0 inside)."""
+    (count x |E|) and int v ds over the boundary (|E| on boundary facets, 0 inside). On a distributed mesh the
+    assembled vectors are cumulated (a facet between two parts gets both elements' parts), and ``share`` is the
+    fraction of a facet's elements on this rank (1 on a serial mesh): the local facet mass matrix is ``share``
+    times the whole mesh's."""
 
     def __init__(self, mesh):
         self.mesh = mesh
@@ -200,8 +206,14 @@ class _FacetData:
         bnd = ngs.LinearForm(self.F0)
         bnd += v * ngs.ds
         bnd.Assemble()
+        local = np.array(both.vec.FV().NumPy())
+        _cumulate(mesh, both.vec, bnd.vec)
         a = np.array(both.vec.FV().NumPy())
         b = np.array(bnd.vec.FV().NumPy())
+        self.share = None
+        if parallel.distributed(mesh):
+            self.share = ngs.GridFunction(self.F0)
+            self.share.vec.FV().NumPy()[:] = np.divide(local, a, out=np.ones_like(a), where=a > 0)
         self.boundary = b > 0
         self.mass0 = a
         size = np.where(self.boundary, a, 0.5 * a)     # interior facets are integrated from both sides
@@ -219,8 +231,17 @@ class _FacetData:
             lf = ngs.LinearForm(self.F0)
             lf += v * ngs.ds(definedon=self.mesh.Boundaries("|".join(sorted(set(zero_on)))))
             lf.Assemble()
+            _cumulate(self.mesh, lf.vec)
             arr[np.array(lf.vec.FV().NumPy()) > 0] = 0.0
         return w
+
+
+def _cumulate(mesh, *vectors) -> None:
+    """Make assembled (distributed) vectors of a distributed mesh cumulated: every copy of a shared dof holds the
+    sum of the ranks' parts (nothing on a serial mesh)."""
+    if parallel.distributed(mesh):
+        for vec in vectors:
+            vec.Cumulate()
 
 
 def _jump_terms(mesh, order: int, normal_fluxes: list, data: list[list], weights: list, scale, facets: _FacetData,
@@ -239,7 +260,9 @@ def _jump_terms(mesh, order: int, normal_fluxes: list, data: list[list], weights
         m = ngs.BilinearForm(F)
         m += uf * vf * ngs.dx(element_boundary=True)
         m.Assemble()
-        minv = m.mat.Inverse(inverse="sparsecholesky")
+        # block diagonal (one block per facet): a distributed mesh inverts this rank's part, J scaled by share below
+        mat = m.mat.local_mat if parallel.distributed(mesh) else m.mat
+        minv = mat.Inverse(inverse="sparsecholesky") if F.ndof else None
     vf = F.TestFunction()
     total = ngs.CoefficientFunction(0.0)
     for qn, bdata, w in zip(normal_fluxes, data, weights):
@@ -248,10 +271,15 @@ def _jump_terms(mesh, order: int, normal_fluxes: list, data: list[list], weights
         for name, g in bdata:
             lf += -g * vf * ngs.ds(definedon=mesh.Boundaries(name))
         lf.Assemble()
+        _cumulate(mesh, lf.vec)
         J = ngs.GridFunction(F)
-        if minv is None:
+        if order == 0:
             J.vec.FV().NumPy()[:] = np.divide(lf.vec.FV().NumPy(), facets.mass0, out=np.zeros(F.ndof),
                                               where=facets.mass0 > 0)
+        elif facets.share is not None:
+            if minv is not None:
+                J.vec.local_vec.data = minv * lf.vec.local_vec
+            J = facets.share * J
         else:
             J.vec.data = minv * lf.vec
         total = total + w * J * J
@@ -339,38 +367,124 @@ def _region_elements(mesh, region) -> np.ndarray:
     return np.flatnonzero(inside > 0)
 
 
+def _simplicial(mesh) -> bool:
+    """Whether the mesh part is simplicial (a part without elements is)."""
+    if mesh.ne == 0:
+        return mesh.dim in _SIMPLEX
+    try:
+        ev = element_vertices(mesh)
+    except ValueError:                                  # mixed element types
+        return False
+    return ev.ndim == 2 and ev.shape[1] == mesh.dim + 1 and mesh.dim in _SIMPLEX
+
+
 def _spr_eta2(mesh, cf, region, degree: int, scale_cf, metric: np.ndarray) -> np.ndarray | None:
     """Per element int_T scale (q* - q_h) . metric (q* - q_h) dx on ``region`` (0 elsewhere) with q* the
     superconvergent patch recovery of the field ``cf`` (module docstring): per vertex a least-squares fit P_a of
     degree ``degree`` to cf over the vertex patch (quadrature points, weighted: the local L2 projection; the
     patch of the region's boundary vertices widened by one ring of elements), blended by the barycentric
     coordinates, q* = sum_a lambda_a P_a (continuous, of degree ``degree`` + 1). None when the mesh is not
-    simplicial."""
-    dim = mesh.dim
-    try:
-        ev = element_vertices(mesh)
-    except ValueError:                                  # mixed element types
-        return None
-    if ev.ndim != 2 or ev.shape[1] != dim + 1 or dim not in _SIMPLEX:
+    simplicial.
+
+    On a distributed mesh the patches of the vertices on the parts' borders span several ranks: the workers send
+    their quadrature samples to rank 0, which fits the patches of the whole region (:func:`_spr_whole`) and sends
+    each worker its elements' values (the serial numbers up to round-off; rank 0 holds the region's samples
+    meanwhile)."""
+    if parallel.anyof(mesh, not _simplicial(mesh)):
         return None
     elems = _region_elements(mesh, region)
     eta2 = np.zeros(mesh.ne)
+    if parallel.distributed(mesh):
+        samples = _spr_samples(mesh, cf, region, elems, degree, scale_cf) if elems.size else None
+        eta2[elems] = _spr_whole(mesh, samples, degree, metric)
+        return eta2
     if elems.size == 0:
         return eta2
+    eta2[elems] = _spr_fit(*_spr_samples(mesh, cf, region, elems, degree, scale_cf), degree, metric)
+    return eta2
+
+
+def _spr_whole(mesh, samples, degree: int, metric: np.ndarray) -> np.ndarray:
+    """This rank's values of the SPR fit over the samples of all ranks (fitted on rank 0; collective). The
+    vertices are named by their coordinates (the parts hold exact copies of the whole mesh's)."""
+    com = parallel.comm(mesh)
+    gathered = com.gather(samples, root=0)
+    pieces = None
+    if com.rank == 0:
+        parts = [g for g in gathered if g is not None]
+        counts = [0 if g is None else len(g[0]) for g in gathered]
+        pieces = [np.zeros(0)] * len(gathered)
+        if parts:
+            offsets = np.cumsum([0] + [len(g[1]) for g in parts[:-1]])
+            _, number = np.unique(np.concatenate([g[1] for g in parts]), axis=0, return_index=False,
+                                  return_inverse=True)
+            number = np.asarray(number).ravel()
+            xv = np.zeros((int(number.max()) + 1, parts[0][1].shape[1]))
+            xv[number] = np.concatenate([g[1] for g in parts])
+            ev = np.concatenate([number[off + g[0]] for off, g in zip(offsets, parts)])
+            stack = [np.concatenate([g[k] for g in parts]) for k in range(2, 7)]
+            whole = _spr_fit(ev, xv, *stack, degree, metric)
+            pieces = np.split(whole, np.cumsum(counts)[:-1])
+    return np.asarray(com.scatter(pieces, root=0), dtype=float)
+
+
+def _spr_samples(mesh, cf, region, elems: np.ndarray, degree: int, scale_cf) -> tuple:
+    """What the patch fit needs of the elements ``elems`` of ``region`` (all simplices): their vertices (numbers
+    into the second entry, the vertex coordinates), sizes h_T, and at the quadrature points of order 2 degree + 2
+    the values of ``cf``, the points, the weights (|det J| w_i) and ``scale_cf``."""
+    dim = mesh.dim
     ir = ngs.IntegrationRule(_SIMPLEX[dim], 2 * degree + 2)
-    ref = np.array([tuple(p) for p in ir.points], dtype=float)[:, :dim]
-    lam = np.column_stack([ref, 1.0 - ref.sum(axis=1)])                  # barycentric, in element vertex order
-    nip = len(ref)
+    nip = len(ir.points)
     pts = mesh.MapToAllElements(ir, ngs.VOL)
-    ncomp = cf.dim
-    q = np.asarray(cf(pts), dtype=float).reshape(mesh.ne, nip, ncomp)[elems]
+    q = np.asarray(cf(pts), dtype=float).reshape(mesh.ne, nip, cf.dim)[elems]
     xyz = np.column_stack([c(pts) for c in (ngs.x, ngs.y, ngs.z)[:dim]]).reshape(mesh.ne, nip, dim)[elems]
     jac = np.asarray(ngs.specialcf.JacobianMatrix(dim)(pts), dtype=float).reshape(mesh.ne, nip, dim, dim)[elems]
     wq = np.abs(np.linalg.det(jac)) * np.asarray(ir.weights, dtype=float)
     s = np.asarray(ngs.CoefficientFunction(scale_cf)(pts), dtype=float).reshape(mesh.ne, nip)[elems]
-    used, ev = np.unique(ev[elems], return_inverse=True)                 # the region's vertices, local numbers
-    ev = ev.reshape(len(elems), dim + 1)
-    ne, nv = len(elems), len(used)
+    used, ev = np.unique(element_vertices(mesh)[elems], return_inverse=True)    # the region's vertices
+    ev = np.asarray(ev).reshape(len(elems), dim + 1)
+    return ev, vertex_coords(mesh)[used], element_sizes(mesh)[elems], q, xyz, wq, s
+
+
+def _spr_fit(ev, xv, hT, q, xyz, wq, s, degree: int, metric: np.ndarray) -> np.ndarray:
+    """The SPR values eta_T^2 of the elements ``ev`` (vertex numbers into ``xv``) from their samples
+    (:func:`_spr_samples`): the patch fits, blended by the barycentric coordinates, against the samples."""
+    ne, dim = ev.shape[0], xv.shape[1]
+    nv, nip = len(xv), q.shape[1]
+    ir = ngs.IntegrationRule(_SIMPLEX[dim], 2 * degree + 2)
+    ref = np.array([tuple(p) for p in ir.points], dtype=float)[:, :dim]
+    lam = np.column_stack([ref, 1.0 - ref.sum(axis=1)])                  # barycentric, in element vertex order
+    coef = _spr_coefficients(ev, xv, hT, q, xyz, wq, degree)
+    hv = _vertex_sizes(ev, hT, nv)
+    exps = _exponents(dim, degree)
+    nm = len(exps)
+    metric = np.asarray(metric, dtype=float)
+    eta2 = np.zeros(ne)
+    chunk = max(256, _CHUNK // (nip * nm * (dim + 1)))
+    for lo in range(0, ne, chunk):
+        sl = slice(lo, lo + chunk)
+        e = ev[sl]                                                          # n x (dim+1)
+        z = (xyz[sl][:, None, :, :] - xv[e][:, :, None, :]) / hv[e][:, :, None, None]
+        vals = np.einsum("nkim,nkmc->nkic", _monomials(z, exps), coef[e])  # n x verts x nip x ncomp
+        qs = np.einsum("ik,nkic->nic", lam, vals)
+        d = qs - q[sl]
+        eta2[sl] = np.einsum("ni,nic->n", wq[sl] * s[sl], (d @ metric) * d)
+    return eta2
+
+
+def _vertex_sizes(ev: np.ndarray, hT: np.ndarray, nv: int) -> np.ndarray:
+    """Per vertex the largest h_T of its elements (m): the scale of its patch polynomial."""
+    hv = np.zeros(nv)
+    np.maximum.at(hv, ev.ravel(), np.repeat(hT, ev.shape[1]))
+    hv[hv == 0] = 1.0
+    return hv
+
+
+def _spr_coefficients(ev, xv, hT, q, xyz, wq, degree: int) -> np.ndarray:
+    """The patch polynomials' coefficients (nv x monomials x components): per vertex the weighted least-squares
+    fit over its patch (its elements; on the region's boundary vertices also their neighbours' elements)."""
+    ne, dim = ev.shape[0], xv.shape[1]
+    nv, nip, ncomp = len(xv), q.shape[1], q.shape[2]
     # patches: vertex -> elements (sparse), widened on the region's boundary vertices
     inc = sp.csr_matrix((np.ones(ev.size), (np.repeat(np.arange(ne), dim + 1), ev.ravel())), shape=(ne, nv))
     facets = np.sort(np.concatenate([np.delete(ev, k, axis=1) for k in range(dim + 1)]), axis=1)
@@ -382,11 +496,7 @@ def _spr_eta2(mesh, cf, region, degree: int, scale_cf, metric: np.ndarray) -> np
     patch = (sp.diags((~boundary).astype(float)) @ ring1 + sp.diags(boundary.astype(float)) @ ring2).tocsr()
     patch.eliminate_zeros()
     patch = patch.tocoo()
-    xv = vertex_coords(mesh)[used]
-    hT = element_sizes(mesh)[elems]
-    hv = np.zeros(nv)
-    np.maximum.at(hv, ev.ravel(), np.repeat(hT, dim + 1))
-    hv[hv == 0] = 1.0
+    hv = _vertex_sizes(ev, hT, nv)
     exps = _exponents(dim, degree)
     nm = len(exps)
     A = np.zeros((nv, nm, nm))
@@ -400,18 +510,7 @@ def _spr_eta2(mesh, cf, region, degree: int, scale_cf, metric: np.ndarray) -> np
         mwt = mw.transpose(0, 2, 1)
         np.add.at(A, a, mwt @ m)
         np.add.at(b, a, mwt @ q[t])
-    coef = np.linalg.pinv(A, rcond=1e-10, hermitian=True) @ b
-    metric = np.asarray(metric, dtype=float)
-    chunk = max(256, _CHUNK // (nip * nm * (dim + 1)))
-    for lo in range(0, ne, chunk):
-        sl = slice(lo, lo + chunk)
-        e = ev[sl]                                                          # n x (dim+1)
-        z = (xyz[sl][:, None, :, :] - xv[e][:, :, None, :]) / hv[e][:, :, None, None]
-        vals = np.einsum("nkim,nkmc->nkic", _monomials(z, exps), coef[e])  # n x verts x nip x ncomp
-        qs = np.einsum("ik,nkic->nic", lam, vals)
-        d = qs - q[sl]
-        eta2[elems[sl]] = np.einsum("ni,nic->n", wq[sl] * s[sl], (d @ metric) * d)
-    return eta2
+    return np.linalg.pinv(A, rcond=1e-10, hermitian=True) @ b
 
 
 # ------------------------------------------------------------------------------------------------------------

@@ -5,7 +5,10 @@ A problem taking part implements :class:`AdaptiveProblem`: ``solve()`` on its cu
 last solution, transferred to the refined mesh, where the solver can use a start), ``ndof``,
 ``estimator_input(needs)`` (what a registered estimator needs: its forms, its contact operators and status, its
 liquid fraction) and ``refine(marks)`` (refine the mesh, recurve it, rebuild spaces, forms and contact pairs
-on the new mesh and transfer the state). :class:`StationaryHeat` is the one for steady heat problems;
+on the new mesh and transfer the state); optionally ``refinement``: how the element values are marked and in
+which element order ``refine`` takes the marks (:class:`SerialRefinement` when absent,
+:class:`.distributed.DistributedRefinement` on a distributed mesh: the whole mesh's marks, on rank 0).
+:class:`StationaryHeat` is the one for steady heat problems;
 :mod:`ngs_geomech.verification.adaptivity` has the Hertz contact one.
 
 Refinement is netgen's marked bisection (:func:`refine_mesh`): ``mesh.SetRefinementFlags`` then
@@ -16,6 +19,7 @@ the geometry order after every refinement.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -39,6 +43,39 @@ def refine_mesh(mesh, marks, curve_order: int = 0) -> None:
     mesh.Refine()
     if curve_order >= 2:
         mesh.Curve(curve_order)
+
+
+@dataclass
+class Marking:
+    """The decision of one step: ``total`` (sqrt(sum eta_T^2) over the whole mesh), ``elements`` (the whole
+    mesh's count), ``marks`` (marker's marks or indicator flags, in the order :meth:`refine` takes them; None on the
+    ranks that do not refine) and the counts ``marked`` (by the marker) and ``flagged`` (by the indicators only);
+    every number is the same on every rank."""
+
+    total: float
+    elements: int
+    marks: np.ndarray | None
+    marked: int
+    flagged: int
+
+
+def decide(eta: np.ndarray, flags: np.ndarray, marker, theta: float) -> Marking:
+    """The marking of the whole mesh's element values ``eta`` and indicator ``flags`` (serial numbers)."""
+    total = float(math.sqrt(float(np.sum(eta ** 2))))
+    marks = marker(eta, theta)
+    return Marking(total, len(eta), marks | flags, int(marks.sum()), int((flags & ~marks).sum()))
+
+
+class SerialRefinement:
+    """The adaptive loop's marking and refinement on a serial mesh: the element values are the whole mesh's,
+    refined in place (:func:`refine_mesh`)."""
+
+    def mark(self, mesh, eta: np.ndarray, flags: np.ndarray, marker, theta: float) -> Marking:
+        return decide(np.asarray(eta, dtype=float), np.asarray(flags, dtype=bool), marker, theta)
+
+    def refine(self, mesh, marks: np.ndarray, curve_order: int):
+        refine_mesh(mesh, marks, curve_order)
+        return mesh
 
 
 class Transfer:
@@ -150,6 +187,7 @@ def adaptive_solve(problem: AdaptiveProblem, *, estimator: str = "zz", indicator
     for name in indicators:
         get_estimator(name)
     mark = get_marker(marker)
+    refinement = getattr(problem, "refinement", None) or SerialRefinement()
     steps: list[AdaptiveStep] = []
     refinements, growth = 0, 1.0
     while True:
@@ -161,20 +199,20 @@ def adaptive_solve(problem: AdaptiveProblem, *, estimator: str = "zz", indicator
         flags = np.zeros(problem.mesh.ne, dtype=bool)
         for name in indicators:
             flags |= evaluate(name, problem, options.get(name)).eta > 0
+        decision = refinement.mark(problem.mesh, est.eta, flags, mark, theta)
         t_est = time.perf_counter() - tic
-        step = AdaptiveStep(refinements, problem.ndof, problem.mesh.ne, est.total, 0, 0, t_solve, t_est, 0.0,
+        step = AdaptiveStep(refinements, problem.ndof, decision.elements, decision.total, 0, 0, t_solve, t_est, 0.0,
                             dict(quantities))
         steps.append(step)
         if callback is not None:
             callback(step, problem)
-        reason = stop.reason(est.total, problem.ndof, refinements, growth)
+        reason = stop.reason(decision.total, problem.ndof, refinements, growth)
         if reason is not None:
             return AdaptiveRun(steps, reason)
-        marks = mark(est.eta, theta)
-        step.marked, step.flagged = int(marks.sum()), int((flags & ~marks).sum())
+        step.marked, step.flagged = decision.marked, decision.flagged
         before = problem.ndof
         tic = time.perf_counter()
-        problem.refine(marks | flags)
+        problem.refine(decision.marks)
         step.refine_s = time.perf_counter() - tic
         growth = problem.ndof / max(before, 1)
         refinements += 1

@@ -26,6 +26,9 @@ class MeshPolicy:
 
     checkpoints = True
     adapts_first = False
+    serial_copy = None
+    """Where rank 0 keeps the whole mesh of a distributed run (a
+    :class:`~ngs_geomech.geometry.mesh.SerialCopy`, for policies that refine it; None: not kept)."""
 
     def __init__(self) -> None:
         self.factorizations_before = 0

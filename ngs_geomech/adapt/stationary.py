@@ -9,9 +9,13 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
+from .. import parallel
+from ..geometry.mesh import SerialCopy
+from ..parallel import comm, distributed
 from ..scene.model import Scene
 from .contact_following import contact_statuses
-from .loop import AdaptiveRun, adaptive_solve, refine_mesh
+from .distributed import DistributedRefinement
+from .loop import AdaptiveRun, SerialRefinement, adaptive_solve
 from .marking import StopRule
 from .policy import MeshPolicy
 
@@ -21,13 +25,18 @@ log = logging.getLogger(__name__)
 class _Adaptive(MeshPolicy):
     """A scene on a mesh refined by the adaptive loop: an :class:`~.loop.AdaptiveProblem` whose solve is the
     scene's heat problem (and, stationary, its mechanics) on the current mesh; refining bisects the marked
-    elements (curved again to the mesh order) and builds the model anew on the refined mesh."""
+    elements (curved again to the mesh order) and builds the model anew on the refined mesh. On a distributed
+    mesh rank 0 refines its copy of the whole mesh (``serial_copy``, filled by
+    :func:`~ngs_geomech.geometry.mesh.make_mesh`; the scene's geometry ``geo`` curves the parts) and sends the
+    refined mesh out (:class:`.distributed.DistributedRefinement`)."""
 
     adapts_first = True
 
-    def __init__(self, scene: Scene, build: Callable):
+    def __init__(self, scene: Scene, build: Callable, geo=None):
         super().__init__()
-        self.scene, self.build = scene, build
+        self.scene, self.build, self.geo = scene, build, geo
+        self.serial_copy = SerialCopy()
+        self.refinement = SerialRefinement()
         self.model = None
         self.result: AdaptiveRun | None = None
         self.refinements = 0
@@ -41,10 +50,13 @@ class _Adaptive(MeshPolicy):
 
     @property
     def ndof(self) -> int:
-        return self.model.ndof
+        """The unknowns on the whole mesh (every rank of a distributed run: the stop rule's dof budget)."""
+        return self.model.ndof_global
 
     def prepare(self, model, t0: float | None):
         self.model = model
+        if distributed(model.mesh):
+            self.refinement = DistributedRefinement(self.serial_copy, self.geo, self.scene.mesh, comm(model.mesh))
         a = self.scene.adaptivity
         self.result = adaptive_solve(self, estimator=a.estimator, indicators=tuple(a.indicators), marker=a.marker,
                                      theta=a.theta, stop=StopRule(tolerance=a.tolerance, max_dofs=a.max_dofs,
@@ -64,9 +76,9 @@ class _Adaptive(MeshPolicy):
 
     def refine(self, marks) -> None:
         order = self.scene.mesh.order
-        refine_mesh(self.mesh, marks, order if order >= 2 else 0)
+        mesh = self.refinement.refine(self.mesh, marks, order if order >= 2 else 0)
         self.refinements += 1
-        self.model = self.build(self.mesh)
+        self.model = self.build(mesh)
 
     def summary(self) -> dict:
         r = self.result
@@ -83,14 +95,15 @@ class StationaryAdaptive(_Adaptive):
     mechanics; the scene's estimator measures the target problem's error (default: the mechanics when the
     scene has it)."""
 
-    def __init__(self, scene: Scene, build: Callable):
-        super().__init__(scene, build)
+    def __init__(self, scene: Scene, build: Callable, geo=None):
+        super().__init__(scene, build, geo)
         self.target = scene.adaptivity.target or ("mechanics" if scene.physics.mechanics else "heat")
 
     def solve(self) -> dict:
         where = f"adaptive step {self.refinements} (steady state)"
         self.model.steady(where)
-        log.info("adaptivity: step %d: %d dofs, %d elements", self.refinements, self.ndof, self.mesh.ne)
+        log.info("adaptivity: step %d: %d dofs, %d elements", self.refinements, self.ndof,
+                 parallel.allsum(self.mesh, self.mesh.ne))
         return {}
 
     def steady(self, model, where: str):
@@ -116,7 +129,8 @@ class PreAdapted(_Adaptive):
     def solve(self) -> dict:
         where = f"adaptive step {self.refinements} (steady state)"
         self.model.thermal.steady_at(self.t0, where)
-        log.info("adaptivity: step %d: %d dofs, %d elements", self.refinements, self.ndof, self.mesh.ne)
+        log.info("adaptivity: step %d: %d dofs, %d elements", self.refinements, self.ndof,
+                 parallel.allsum(self.mesh, self.mesh.ne))
         return {}
 
     def summary(self) -> dict:

@@ -33,9 +33,11 @@ from dataclasses import dataclass
 
 import ngsolve as ngs
 import numpy as np
+import numpy.polynomial.polynomial as npp
 import scipy.sparse as sp
 
-from ..fem.mortar import Segment
+from .. import parallel
+from ..fem.mortar import Segment, SegmentCurve
 
 
 @dataclass
@@ -107,11 +109,11 @@ def _ray_hit(seg: Segment, p: np.ndarray, n: np.ndarray) -> tuple[float, float] 
     return float(g), float(min(max(t, 0.0), 1.0))
 
 
-def _outward_signs(mesh, side: str, segments) -> list[float]:
-    """+1 or -1 per boundary element of ``side``: the factor that makes NGSolve's normal point out of the body
-    the element bounds. (The normal of a boundary segment follows the segment's orientation; on the copied
-    sides of a contact interface it pointed into the body for one of the two blocks, which turned contact
-    into adhesion.)"""
+def _outward_signs(mesh, side: str, segments) -> tuple[list[float], int]:
+    """(+1 or -1 per boundary element of ``side``: the factor that makes NGSolve's normal point out of the body
+    the element bounds, the number of elements without a volume element of this part behind them: +1). (The
+    normal of a boundary segment follows the segment's orientation; on the copied sides of a contact interface
+    it pointed into the body for one of the two blocks, which turned contact into adhesion.)"""
     els = list(mesh.Boundaries(side).Elements())
     wanted = {frozenset(v.nr for v in el.vertices) for el in els}
     centroid = {}
@@ -122,14 +124,15 @@ def _outward_signs(mesh, side: str, segments) -> list[float]:
             if key in wanted:
                 centroid[key] = np.mean([mesh[v].point[:2] for v in el.vertices], axis=0)
     nrm = ngs.specialcf.normal(2)
-    out = []
+    out, missing = [], 0
     for el, sg in zip(els, segments):
         c = centroid.get(frozenset(v.nr for v in el.vertices))
+        missing += c is None
         mip = sg.trafo(0.5)
         n = np.array(nrm(mip)).ravel()[:2]
         p = np.array([ngs.x(mip), ngs.y(mip)])
         out.append(-1.0 if c is not None and float(np.dot(n, c - p)) > 0 else 1.0)
-    return out
+    return out, missing
 
 
 def scalar_space(mesh, V, dim: int, message: str):
@@ -197,6 +200,98 @@ def _side_nodes(mesh, side: str, sides: list[Segment]):
     return np.array(list(vert), dtype=int), coords, seg_nodes
 
 
+class _SampledSegment(SegmentCurve):
+    """A boundary segment as numbers (gathered from the parts of a distributed mesh): the monomial coefficients
+    of its map x(s) (``geo`` (q + 1, 2), the lattice interpolant of NGSolve's map, exact for polynomial maps of
+    degree <= q) and of its shapes (``shp`` (order + 1, nloc)), its global scalar dofs, whether it is curved and
+    ``turn`` (+1 or -1: the outward normal is turn (x'_y, -x'_x) / |x'|)."""
+
+    def __init__(self, geo: np.ndarray, shp: np.ndarray, dofs: np.ndarray, curved: bool, turn: float):
+        self.geo, self.shp, self.dofs, self.curved, self.turn = geo, shp, [int(d) for d in dofs], curved, turn
+        self.p0, self.p1 = self.point(0.0), self.point(1.0)
+
+    def point(self, s: float) -> np.ndarray:
+        return npp.polyval(s, self.geo)
+
+    def shape(self, s: float) -> np.ndarray:
+        return npp.polyval(s, self.shp)
+
+    def speed(self, s: float) -> float:
+        """|dx/ds| (m per unit reference length) of the polynomial map (the serial :class:`.mortar.Segment` takes a
+        central difference of step 1e-6 on curved segments: the two differ by its round-off, ~1e-10 relative)."""
+        return float(np.linalg.norm(npp.polyval(s, npp.polyder(self.geo))))
+
+    def frame(self, s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(the point, the outward unit normal (2,)) at the reference coordinate s."""
+        d = npp.polyval(s, npp.polyder(self.geo))
+        n = self.turn * np.array([d[1], -d[0]])
+        return self.point(s), n / np.linalg.norm(n)
+
+
+def _segment_arrays(mesh, S, name: str, order: int, numbering) -> dict:
+    """This part's segments of the boundary ``name`` as the arrays of :class:`_SampledSegment` (global dofs
+    through ``numbering``), with ``ends`` (the global vertex numbers at s = 0, 1), their points ``at`` (k, 2, 2)
+    and ``missing`` (segments without the volume element behind them on this part)."""
+    q = max(order, mesh.GetCurveOrder(), 1)
+    lat, lat_u = np.linspace(0.0, 1.0, q + 1), np.linspace(0.0, 1.0, order + 1)
+    sides = [Segment(mesh, S, el.nr) for el in mesh.Boundaries(name).Elements()]
+    signs, missing = _outward_signs(mesh, name, sides)
+    out = {"geo": np.zeros((0, q + 1, 2)), "shp": np.zeros((0, order + 1, order + 1)),
+           "dofs": np.zeros((0, order + 1), dtype=int), "curved": np.zeros(0, dtype=bool), "turn": np.zeros(0),
+           "ends": np.zeros((0, 2), dtype=int), "at": np.zeros((0, 2, 2)), "missing": missing}
+    if not sides:
+        return out
+    geo = np.array([npp.polyfit(lat, np.array([sg.point(t) for t in lat]), q) for sg in sides])
+    shp = np.array([npp.polyfit(lat_u, np.array([sg.shape(t) for t in lat_u]), order) for sg in sides])
+    turn, ends, at = [], [], []
+    for el, sg, sign, c in zip(mesh.Boundaries(name).Elements(), sides, signs, geo):
+        d = npp.polyval(0.5, npp.polyder(c))
+        turn.append(1.0 if float(np.dot(sign * sg.frame(0.5)[1], [d[1], -d[0]])) > 0 else -1.0)
+        vs = [v.nr for v in el.vertices]
+        pts = [np.array(mesh[v].point)[:2] for v in el.vertices]
+        if np.linalg.norm(pts[0] - sg.p0) > np.linalg.norm(pts[1] - sg.p0):     # the vertex at s = 0 first
+            vs, pts = vs[::-1], pts[::-1]
+        ends.append(numbering.scalar[vs])
+        at.append(pts)
+    out.update(geo=geo, shp=shp, dofs=numbering.scalar[np.array([sg.dofs for sg in sides], dtype=int)],
+               curved=np.array([sg.curved for sg in sides]), turn=np.array(turn), ends=np.array(ends),
+               at=np.array(at))
+    return out
+
+
+def _gathered_segments(mesh, S, name: str, order: int, numbering) -> tuple[list, dict]:
+    """The segments of the boundary ``name`` of all parts of a distributed mesh, gathered in rank order onto every
+    rank (a segment found on two parts counted once): (:class:`_SampledSegment` list, their arrays)."""
+    parts = parallel.allgather(mesh, _segment_arrays(mesh, S, name, order, numbering))
+    held = [p for p in parts if len(p["ends"])] or parts[:1]       # the parts' curve orders may differ
+    a = {k: np.concatenate([p[k] for p in held]) for k in parts[0] if k != "missing"}
+    a["missing"] = sum(p["missing"] for p in parts)
+    if len(a["ends"]):
+        keep = np.sort(np.unique(np.sort(a["ends"], axis=1), axis=0, return_index=True)[1])
+        a = {k: (v[keep] if k != "missing" else v) for k, v in a.items()}
+    return [_SampledSegment(*args) for args in zip(a["geo"], a["shp"], a["dofs"], a["curved"], a["turn"])], a
+
+
+def _gathered_sides(name: str, mesh, S, side: str, opposite: str | None, order: int, numbering):
+    """(sides, their outward signs, nodes, coords, per segment its nodes, opposite segments) of a distributed
+    mesh, as :func:`_side_nodes` gives them on a serial one (``nodes``: global vertex numbers)."""
+    sides, a = _gathered_segments(mesh, S, side, order, numbering)
+    opps = [] if opposite is None else _gathered_segments(mesh, S, opposite, order, numbering)[0]
+    if sides and a["missing"]:
+        raise ValueError(f"contact interface {name!r}: the volume element behind a segment of {side!r} lies on "
+                         "another part of the distributed mesh")
+    vert: dict[int, int] = {}
+    coords, seg_nodes = [], []
+    for (v0, v1), pts in zip(a["ends"], a["at"]):
+        for v, p in ((v0, pts[0]), (v1, pts[1])):
+            if int(v) not in vert:
+                vert[int(v)] = len(vert)
+                coords.append(p)
+        seg_nodes.append((vert[int(v0)], vert[int(v1)]))
+    return (sides, [1.0] * len(sides), np.array(list(vert), dtype=int), np.array(coords).reshape(-1, 2),
+            seg_nodes, opps)
+
+
 class _Opposite2D:
     """What the rays of the contact side meet: the segments of the opposite side O, or (``plane`` = (point,
     outward unit normal)) a rigid straight foundation; rays longer than ``reach`` (m) are ignored."""
@@ -243,7 +338,7 @@ class _Opposite2D:
         """(scalar dofs, shape values) of O at the point t of its segment ``k`` (none for the foundation)."""
         if k < 0:
             return [], np.zeros(0)
-        return self.opps[k].dofs, np.array(self.opps[k].fe.CalcShape(t))
+        return self.opps[k].dofs, self.opps[k].shape(t)
 
 
 class _Mortar2D:
@@ -271,7 +366,6 @@ class _Mortar2D:
     def add_segment(self, sg: Segment, nodes: tuple[int, int], sign: float, opposite: _Opposite2D) -> None:
         """Integrate over the segment ``sg`` (its multiplier ``nodes`` at s = 0, 1; ``sign`` the factor of its
         outward normal), piece by piece between the projections of O's nodes."""
-        nrm = ngs.specialcf.normal(2)
         dual = self.dual_basis(sg)
         cand = opposite.candidates(sg)
         cuts = opposite.cuts(sg, cand)
@@ -280,9 +374,7 @@ class _Mortar2D:
                 continue
             for xq, wq in zip(self.gx, self.gw):
                 s = a + (b - a) * xq
-                mip = sg.trafo(s)
-                p = np.array([ngs.x(mip), ngs.y(mip)])
-                n = np.array(nrm(mip)).ravel()[:2]
+                p, n = sg.frame(s)
                 n = sign * n / np.linalg.norm(n)
                 wt = wq * (b - a) * sg.speed(s) * (p[0] if self.axisymmetric else 1.0)
                 phi = (1.0 - s, s)
@@ -299,7 +391,7 @@ class _Mortar2D:
         of its ``nodes``, unit normal ``n``) whose ray meets O at ``hit`` = (g, t, k)."""
         g, t, k = hit
         tvec = np.array([-n[1], n[0]])
-        NS = np.array(sg.fe.CalcShape(s))
+        NS = sg.shape(s)
         odofs, NO = opposite.shapes(k, t)
         for j, ph, ps in zip(nodes, (1.0 - s, s), psi):
             self.covered[j] += wt * ph
@@ -327,22 +419,31 @@ def contact_operator_2d(mesh, V, name: str, side: str, opposite: str | None, *, 
     the boundary ``opposite`` of another body, or (``opposite`` None) against a rigid straight foundation
     ``obstacle`` = (point, outward unit normal of the foundation) that does not move; ``V`` is the VectorH1
     displacement space. ``search_distance`` (m): rays longer than this (|g0| larger) are ignored (default: a
-    quarter of the extent of the side; the nearest crossing of O counts)."""
+    quarter of the extent of the side; the nearest crossing of O counts). On a distributed mesh (collective)
+    every rank gets the same operator of the whole interface in the global numbering of
+    :class:`.parallel.GlobalDofs` ``(V)`` (``nodes``: the global scalar dofs of the vertices), from the parts'
+    boundary segments gathered in rank order."""
     order, S, ns = scalar_space(mesh, V, 2, "contact_operator_2d needs a 2D VectorH1 space")
-    sides = [Segment(mesh, S, el.nr) for el in mesh.Boundaries(side).Elements()]
-    opps = [] if opposite is None else [Segment(mesh, S, el.nr) for el in mesh.Boundaries(opposite).Elements()]
+    numbering = parallel.GlobalDofs(V) if parallel.distributed(mesh) else None
+    if numbering is None:
+        sides = [Segment(mesh, S, el.nr) for el in mesh.Boundaries(side).Elements()]
+        opps = [] if opposite is None else [Segment(mesh, S, el.nr) for el in mesh.Boundaries(opposite).Elements()]
+    else:
+        sides, outward, nodes, coords, seg_nodes, opps = _gathered_sides(name, mesh, S, side, opposite, order,
+                                                                         numbering)
     if not sides or (opposite is not None and not opps):
         raise ValueError(f"contact interface {name!r}: side {side!r} or {opposite!r} has no boundary elements")
     plane = foundation_plane(name, obstacle, 2) if opposite is None else None
-    outward = _outward_signs(mesh, side, sides)
-    nodes, coords, seg_nodes = _side_nodes(mesh, side, sides)
+    if numbering is None:
+        outward = _outward_signs(mesh, side, sides)[0]
+        nodes, coords, seg_nodes = _side_nodes(mesh, side, sides)
     if search_distance is None:
         search_distance = default_search_distance(np.array([p for sg in sides for p in (sg.p0, sg.p1)]))
     reach = float(search_distance)
     found = _Opposite2D(opps, plane, reach)
-    sums = _Mortar2D(len(nodes), ns, order, axisymmetric)
+    sums = _Mortar2D(len(nodes), ns if numbering is None else numbering.n_scalar, order, axisymmetric)
     for sg, jj, sign in zip(sides, seg_nodes, outward):
         sums.add_segment(sg, jj, sign, found)
-    Bn, Bt = sums.matrices((len(nodes), V.ndof))
+    Bn, Bt = sums.matrices((len(nodes), V.ndof if numbering is None else numbering.size))
     return ContactOperator(name, side, opposite, nodes, coords, Bn, Bt, sums.g0, sums.weight, sums.length,
                            covered_fraction(sums.covered, sums.weight), search_distance=reach)

@@ -41,6 +41,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
+from .. import parallel
 from .forms import (
     ContactOperator,
     covered_fraction,
@@ -75,52 +76,92 @@ def _duffy_rule(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 class _Surface:
-    """The flat triangles of one boundary as arrays: corners (NGSolve's reference vertices (1,0), (0,1),
-    (0,0) map to el.vertices 0, 1, 2), the affine map x = P + J xi, outward unit normals of the body,
-    scalar H1 dofs and the monomial coefficients of the shapes (N(xi) = monomials(xi) @ coef)."""
+    """The flat triangles of one boundary as arrays: corners X (NGSolve's reference vertices (1,0), (0,1), (0,0)
+    map to el.vertices 0, 1, 2), the affine map x = P + J xi, outward unit normals n of the body, the vertex
+    numbers ``verts`` and scalar H1 dofs ``dofs`` (global numbers on a distributed mesh) and the monomial
+    coefficients of the shapes (N(xi) = monomials(xi) @ coef)."""
 
-    def __init__(self, mesh, pts: np.ndarray, space, name: str, order: int, what: str, iname: str):
-        els = list(mesh.Boundaries(name).Elements())
-        if not els:
-            raise ValueError(f"contact interface {iname!r}: the {what} boundary {name!r} has no boundary elements "
-                             f"(boundaries of the mesh: {sorted(set(mesh.GetBoundaries()))})")
-        self.verts = np.array([[v.nr for v in el.vertices] for el in els], dtype=int)
-        if self.verts.shape[1] != 3:
-            raise ValueError(f"contact interface {iname!r}: boundary {name!r} must consist of triangles")
-        self.X = pts[self.verts]                              # (nt, 3 corners, 3)
+    def __init__(self, verts: np.ndarray, X: np.ndarray, n: np.ndarray, dofs: np.ndarray, coef: np.ndarray):
+        self.verts, self.X, self.n, self.dofs, self.coef = verts, X, n, dofs, coef
         self.P = self.X[:, 2]
         self.J = np.stack([self.X[:, 0] - self.P, self.X[:, 1] - self.P], axis=2)     # (nt, 3, 2)
-        nrm = np.cross(self.J[:, :, 0], self.J[:, :, 1])
-        self.area2 = np.linalg.norm(nrm, axis=1)              # twice the area
-        if np.any(self.area2 <= 0):
-            raise ValueError(f"contact interface {iname!r}: boundary {name!r} has degenerate triangles")
-        n = nrm / self.area2[:, None]
-        # outward: away from the one volume element behind the face
-        inner = np.empty((len(els), 3))
-        for k, el in enumerate(els):
-            vols = mesh[el.faces[0]].elements
-            if len(vols) != 1:
-                raise ValueError(f"contact interface {iname!r}: boundary {name!r} is not on the outer boundary of "
-                                 "a body (a face between two volume elements): contact sides need independent "
-                                 "meshes (netgen.occ Compound, not Glue)")
-            inner[k] = pts[[v.nr for v in mesh[vols[0]].vertices]].mean(axis=0)
-        flip = np.einsum("ij,ij->i", n, self.X.mean(axis=1) - inner) < 0
-        n[flip] *= -1
-        self.n = n
-        lat = _lattice(order)
-        vand = _monomials(lat, order)
-        dofs, shapes = [], []
-        for el in els:
-            ei = ngs.ElementId(ngs.BND, el.nr)
-            fe = space.GetFE(ei)
-            dofs.append(list(space.GetDofNrs(ei)))
-            shapes.append([np.array(fe.CalcShape(float(a), float(b))) for a, b in lat])
-        self.dofs = np.array(dofs, dtype=int)
-        self.coef = np.linalg.solve(vand[None], np.array(shapes))     # (nt, nmono, nloc)
+        self.area2 = np.linalg.norm(np.cross(self.J[:, :, 0], self.J[:, :, 1]), axis=1)   # twice the area
         self.lo, self.hi = self.X.min(axis=1), self.X.max(axis=1)
 
     def __len__(self) -> int:
         return len(self.verts)
+
+
+def _outward(mesh, pts: np.ndarray, els: list, X: np.ndarray) -> tuple[np.ndarray, int]:
+    """(unit normals of the flat triangles ``els`` (corners X) pointing away from the one volume element behind
+    each face, the number of faces without exactly one volume element of this part behind them)."""
+    nrm = np.cross(X[:, 0] - X[:, 2], X[:, 1] - X[:, 2])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n = nrm / np.linalg.norm(nrm, axis=1)[:, None]
+    inner = np.empty((len(els), 3))
+    inside = 0
+    for k, el in enumerate(els):
+        vols = mesh[el.faces[0]].elements
+        inside += len(vols) != 1
+        inner[k] = pts[[v.nr for v in mesh[vols[0]].vertices]].mean(axis=0) if vols else X[k].mean(axis=0)
+    flip = np.einsum("ij,ij->i", n, X.mean(axis=1) - inner) < 0
+    n[flip] *= -1
+    return n, inside
+
+
+def _surface_arrays(mesh, pts: np.ndarray, space, name: str, order: int, numbering) -> dict:
+    """This part's triangles of the boundary ``name`` as the arrays of :class:`_Surface` (vertex numbers and dofs
+    global through ``numbering``, a :class:`.parallel.GlobalDofs`, when given), with ``corners`` (the largest
+    corner count) and ``inside`` (faces between two volume elements)."""
+    els = list(mesh.Boundaries(name).Elements())
+    nloc = (order + 1) * (order + 2) // 2
+    corners = max((len(el.vertices) for el in els), default=3)
+    out = {"corners": corners, "inside": 0, "verts": np.zeros((0, 3), dtype=int), "X": np.zeros((0, 3, 3)),
+           "n": np.zeros((0, 3)), "dofs": np.zeros((0, nloc), dtype=int), "coef": np.zeros((0, nloc, nloc))}
+    if not els or corners != 3:
+        return out
+    verts = np.array([[v.nr for v in el.vertices] for el in els], dtype=int)
+    X = pts[verts]                                        # (nt, 3 corners, 3)
+    n, inside = _outward(mesh, pts, els, X)
+    lat = _lattice(order)
+    vand = _monomials(lat, order)
+    dofs, shapes = [], []
+    for el in els:
+        ei = ngs.ElementId(ngs.BND, el.nr)
+        fe = space.GetFE(ei)
+        dofs.append(list(space.GetDofNrs(ei)))
+        shapes.append([np.array(fe.CalcShape(float(a), float(b))) for a, b in lat])
+    dofs = np.array(dofs, dtype=int)
+    if numbering is not None:      # a vertex's dof is its number (NGSolve numbers the vertex dofs first)
+        verts, dofs = numbering.scalar[verts], numbering.scalar[dofs]
+    out.update(inside=inside, verts=verts, X=X, n=n, dofs=dofs, coef=np.linalg.solve(vand[None], np.array(shapes)))
+    return out
+
+
+def _surface(mesh, pts: np.ndarray, space, name: str, order: int, what: str, iname: str, numbering) -> _Surface:
+    """The :class:`_Surface` of the whole boundary ``name``: on a distributed mesh (``numbering`` given) every
+    part's triangles, gathered in rank order onto every rank (each face of an outer boundary lies on one part,
+    with the volume element behind it; a face found on two parts lies between two volume elements)."""
+    a = _surface_arrays(mesh, pts, space, name, order, numbering)
+    if numbering is not None:
+        parts = parallel.allgather(mesh, a)
+        a = {k: (np.concatenate([p[k] for p in parts]) if isinstance(a[k], np.ndarray) else
+                 (max if k == "corners" else sum)(p[k] for p in parts)) for k in a}
+        keys = np.sort(a["verts"], axis=1)
+        a["inside"] += len(keys) - len(np.unique(keys, axis=0))
+    if not len(a["verts"]) and a["corners"] == 3:
+        raise ValueError(f"contact interface {iname!r}: the {what} boundary {name!r} has no boundary elements "
+                         f"(boundaries of the mesh: {sorted(set(mesh.GetBoundaries()))})")
+    if a["corners"] != 3:
+        raise ValueError(f"contact interface {iname!r}: boundary {name!r} must consist of triangles")
+    sf = _Surface(a["verts"], a["X"], a["n"], a["dofs"], a["coef"])
+    if np.any(sf.area2 <= 0):
+        raise ValueError(f"contact interface {iname!r}: boundary {name!r} has degenerate triangles")
+    if a["inside"]:
+        raise ValueError(f"contact interface {iname!r}: boundary {name!r} is not on the outer boundary of "
+                         "a body (a face between two volume elements): contact sides need independent "
+                         "meshes (netgen.occ Compound, not Glue)")
+    return sf
 
 
 def _clip(poly: np.ndarray, eps: float = 1e-13) -> np.ndarray:
@@ -284,17 +325,24 @@ def contact_operator_3d(mesh, V, name: str, side: str, opposite: str | None, *, 
     against the rigid plane ``obstacle`` = (a point of it, its outward unit normal, pointing towards the body);
     ``V`` is the 3D VectorH1 displacement space (any order; the multipliers are P1). ``search_distance`` (m):
     rays longer than this (|g0| larger) are ignored (default: a quarter of the extent of the side). The
-    extra field ``Bt2`` holds the second tangential direction t2 = n x t1 (``Bt`` holds t1)."""
+    extra field ``Bt2`` holds the second tangential direction t2 = n x t1 (``Bt`` holds t1).
+
+    On a distributed mesh (collective) every rank gets the same operator of the whole interface in the global
+    numbering of :class:`.parallel.GlobalDofs` ``(V)``: columns c * n_scalar + the global scalar dof, ``nodes``
+    the global scalar dofs of the vertices; the parts' boundary triangles are gathered in rank order."""
     if mesh.dim != 3:
         raise ValueError(f"contact interface {name!r}: contact_operator_3d needs a 3D mesh (got dim {mesh.dim})")
     _check_names(name, side, opposite)
     order, S, ns = scalar_space(mesh, V, 3, f"contact interface {name!r}: contact_operator_3d needs a 3D "
                                             "VectorH1 space")
     plane = foundation_plane(name, obstacle, 3) if opposite is None else None
+    numbering = parallel.GlobalDofs(V) if parallel.distributed(mesh) else None
+    ndof = V.ndof if numbering is None else numbering.size
+    ns = ns if numbering is None else numbering.n_scalar
     pts = np.asarray(mesh.ngmesh.Coordinates(), dtype=float)[:mesh.nv]     # vertex k = point k + 1 of netgen
-    sf = _Surface(mesh, pts, S, side, order, "contact side", name)
-    of = None if opposite is None else _Surface(mesh, pts, S, opposite, order, "opposite", name)
-    nodes, tri_nodes = np.unique(sf.verts, return_inverse=True)
+    sf = _surface(mesh, pts, S, side, order, "contact side", name, numbering)
+    of = None if opposite is None else _surface(mesh, pts, S, opposite, order, "opposite", name, numbering)
+    nodes, first, tri_nodes = np.unique(sf.verts, return_index=True, return_inverse=True)
     tri_nodes = tri_nodes.reshape(len(sf), 3)
     m = len(nodes)
     if search_distance is None:
@@ -304,12 +352,13 @@ def contact_operator_3d(mesh, V, name: str, side: str, opposite: str | None, *, 
     np.add.at(weight, tri_nodes, np.repeat(sf.area2[:, None] / 6.0, 3, axis=1))
     p_tri, p_opp, p_abc = _facing_pieces(sf, plane[1]) if of is None else _clipped_pieces(sf, of, reach)
     g0, covered = np.zeros(m), np.zeros(m)
-    Bs = [sp.csr_matrix((m, V.ndof)) for _ in range(3)]
+    Bs = [sp.csr_matrix((m, ndof)) for _ in range(3)]
     if len(p_tri):
         pieces = _Pieces(sf, np.array(p_tri, dtype=int), np.array(p_opp, dtype=int), np.array(p_abc), order)
         g0, covered, rows3, M, dofs = _mortar_3d(pieces, sf, of, plane, reach, tri_nodes, m, order)
         t1 = _tangent(sf.n)
         directions = (pieces.n, t1[pieces.tri], np.cross(sf.n, t1)[pieces.tri])
-        Bs = _mortar_matrices(rows3, M, dofs, directions, ns, (m, V.ndof))
-    return ContactOperator(name, side, opposite, nodes.astype(int), pts[nodes], Bs[0], Bs[1], g0, weight,
+        Bs = _mortar_matrices(rows3, M, dofs, directions, ns, (m, ndof))
+    coords = sf.X.reshape(-1, 3)[first]                   # the vertices' points
+    return ContactOperator(name, side, opposite, nodes.astype(int), coords, Bs[0], Bs[1], g0, weight,
                            np.sqrt(weight), covered_fraction(covered, weight), Bt2=Bs[2], search_distance=reach)

@@ -140,7 +140,7 @@ class SaddleKrylov:
         d = np.where(d == 0.0, self.diag_aug, d)
         Dt = Dfull.tolil()
         Dt.setdiag(d)
-        Dinv_full = self._block_inverse(Dt.tocsr())
+        Dinv_full = block_inverse(Dt.tocsr(), self.node_blocks)
         Dinv = Dinv_full[self.fl][:, self.fl].tocsr()
         S = (K - C @ Dinv @ R).tocsr()
         self.C, self.Dinv = C.tocsr(), Dinv
@@ -153,28 +153,6 @@ class SaddleKrylov:
                                  previous=self._amg)
         self.stats.amg_setups += fresh
         self.stats.setup_s += time.perf_counter() - tic
-
-    def _block_inverse(self, D: sp.csr_matrix) -> sp.csr_matrix:
-        """The inverse of the block-diagonal multiplier matrix (one dense block per node)."""
-        rows, cols, vals = [], [], []
-        for idx in self.node_blocks:                    # (m, b)
-            m, b = idx.shape
-            blocks = np.zeros((m, b, b))
-            for p in range(b):
-                for q in range(b):
-                    blocks[:, p, q] = np.asarray(D[idx[:, p], idx[:, q]]).ravel()
-            try:
-                inv = np.linalg.inv(blocks)
-            except np.linalg.LinAlgError:
-                inv = np.linalg.pinv(blocks)
-            for p in range(b):
-                for q in range(b):
-                    rows.append(idx[:, p])
-                    cols.append(idx[:, q])
-                    vals.append(inv[:, p, q])
-        size = D.shape[0]
-        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(size, size))
 
     def _apply_pre(self, v: np.ndarray) -> np.ndarray:
         """P^-1 v on the free unknowns (v unscaled)."""
@@ -244,6 +222,31 @@ class SaddleKrylov:
     def reference(self, b: np.ndarray) -> float:
         """The scaled norm of a Newton step's right-hand side b (N), the reference of the stopping test."""
         return float(np.linalg.norm(b[self.f_all] * self.scale))
+
+
+def block_inverse(D: sp.csr_matrix, node_blocks: list) -> sp.csr_matrix:
+    """The inverse of the block-diagonal multiplier matrix ``D`` (one dense block per node: ``node_blocks`` per
+    interface the (m, b) indices of each node's rows)."""
+    rows, cols, vals = [], [], []
+    for idx in node_blocks:                         # (m, b)
+        m, b = idx.shape
+        blocks = np.zeros((m, b, b))
+        for p in range(b):
+            for q in range(b):
+                blocks[:, p, q] = np.asarray(D[idx[:, p], idx[:, q]]).ravel()
+        try:
+            inv = np.linalg.inv(blocks)
+        except np.linalg.LinAlgError:
+            inv = np.linalg.pinv(blocks)
+        for p in range(b):
+            for q in range(b):
+                rows.append(idx[:, p])
+                cols.append(idx[:, q])
+                vals.append(inv[:, p, q])
+    size = D.shape[0]
+    if not rows:
+        return sp.csr_matrix((size, size))
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(size, size))
 
 
 class _IterationLimit(Exception):

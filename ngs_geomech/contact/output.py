@@ -36,7 +36,9 @@ _STATUS = ("open", "stick", "slip", "prescribed")
 class ContactOutput:
     """Records the contact state of each mechanics solve (see the module docstring)."""
 
-    def __init__(self, forms, specs: list[ContactSpec]):
+    def __init__(self, forms, specs: list[ContactSpec], dofs=None):
+        """``dofs``: on a distributed mesh the :class:`~ngs_geomech.parallel.GlobalDofs` of the contact solve (its
+        arrays are global; every rank records the same)."""
         self.forms = forms
         self.specs = specs
         V = forms.V
@@ -51,27 +53,32 @@ class ContactOutput:
             comps["xyz".index(d)] = 1.0
             g.Set(ngs.CoefficientFunction(tuple(comps)))
             rows.append(np.array(g.vec.FV().NumPy()))
-        self.translations = np.array(rows)
         mesh = forms.mesh
-        self.side = [side_dofs(mesh, V, s.op.side) for s in specs]
-        self.opposite = [side_dofs(mesh, V, s.op.opposite) if s.op.opposite else None for s in specs]
+
+        def on(side):
+            local = side_dofs(mesh, V, side)
+            if dofs is None:
+                return local
+            mask = np.zeros(V.ndof)
+            mask[local] = 1.0
+            return np.flatnonzero(dofs.gather(mask, cumulated=False) > 0.5)     # (any rank's elements)
+
+        self.translations = np.array(rows if dofs is None else [dofs.gather(r) for r in rows])
+        self.side = [on(s.op.side) for s in specs]
+        self.opposite = [on(s.op.opposite) if s.op.opposite else None for s in specs]
         self.latest: list[dict] = []
         self.history: list[dict] = []
 
     def record(self, t: float, solver) -> None:
         """After a solve of :class:`ElasticContactSolver`: the interface arrays and the balance at time t."""
-        f = self.forms
-        n = f.V.ndof
-        u = np.array(f.gf.vec.FV().NumPy())
-        K = f.secant_form.mat
+        u = solver.displacement()                      # (global arrays on a distributed mesh)
+        n = self.translations.shape[1]                 # the displacement dofs (X may add mixed pressures)
         rhs = solver.load()
-        ku = f.gf.vec.CreateVector()
-        ku.data = K * f.gf.vec
-        force = np.array(ku.FV().NumPy()) - rhs         # K u - f - B^T lam: the support reactions
+        force = solver.stiffness_times_displacement() - rhs       # K u - f - B^T lam: the support reactions
         self.latest = []
         entry = {"time_s": t, "interfaces": {}}
         foundation = np.zeros(len(self.directions))
-        free = np.array(list(f.X.FreeDofs()), dtype=bool)
+        free = solver.free
         for k, (spec, (lam_n, lam_t)) in enumerate(zip(self.specs, solver.contact.multipliers)):
             lam_n, lam_t, prescribed = supported_nodes(spec, free[:n], u, lam_n, lam_t)
             res = interface_results(spec, u, lam_n, lam_t, prescribed)
@@ -124,6 +131,9 @@ class ContactOutput:
         entry["gmres_max"] = max((g for i in infos for g in getattr(i, "gmres_iterations", [])), default=0)
         entry["condensed_dofs"] = max((getattr(i, "condensed_dofs", 0) for i in infos), default=0)
         entry["condensed_fallbacks"] = sum(bool(getattr(i, "condensed_fallback", False)) for i in infos)
+        entry["wall_s"] = sum(i.wall_s for i in infos)
+        comm = [i.communication for i in infos if getattr(i, "communication", None)]
+        entry["communication"] = {k: sum(c.get(k, 0) for c in comm) for k in sorted({k for c in comm for k in c})}
         self.history.append(entry)
 
     def _resultant(self, bt: np.ndarray, dofs: np.ndarray) -> np.ndarray:
@@ -142,6 +152,9 @@ class ContactOutput:
                                     max(v["max_tangential_displacement_m"] for v in over)}
         return {"contact": {"interfaces": interfaces, "force_balance": last.get("force_balance", {}),
                             "iterations_per_solve": [sum(h["contact_iterations"]) for h in self.history],
+                            "wall_s_per_solve": [h["wall_s"] for h in self.history],
+                            "communication_per_solve": ([h["communication"] for h in self.history]
+                                                        if any(h["communication"] for h in self.history) else None),
                             "linear_solver": last.get("linear", "direct"),
                             "gmres_max_per_solve": ([h["gmres_max"] for h in self.history]
                                                     if last.get("linear") == "iterative" else None),

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import ngsolve as ngs
 import numpy as np
 
+from .. import parallel
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel
 from ..linalg.iterative import choose_solver
@@ -95,35 +96,44 @@ def contact_options(scene: Scene, specs: list[ContactSpec], forms, *, dynamic: b
                               uzawa_settings=(" / ".join(f"{k}.uzawa_step" for k in keys), "mechanics.uzawa_max_steps"))
     sv = scene.solver
     spd = forms.X is forms.V
-    linear = choose_solver(sv.linear, forms.X.ndof, forms.mesh.dim, spd=spd, auto_dofs=AUTO_DOFS)
+    linear = choose_solver(sv.linear, forms.X.ndof, forms.mesh.dim, spd=spd, auto_dofs=AUTO_DOFS,
+                           distributed=forms.mesh.comm.size > 1)
     if linear == "direct" and spd:
         linear = "auto"        # a direct solve: condensed onto the contact surface where it applies
     return ContactOptions(method=method, linear=linear, linear_tol=sv.tolerance, linear_maxit=sv.max_iterations)
 
 
-def _cells(mesh, side: str, op: ContactOperator) -> np.ndarray:
+def _cells(mesh, side: str, op: ContactOperator, numbering=None) -> np.ndarray:
     """The boundary elements of ``side`` as indices into op's nodes: 2D (k, 2) segments; 3D (k, 3) triangles
-    whose right-hand normal points out of the body (away from the volume element behind the face)."""
+    whose right-hand normal points out of the body (away from the volume element behind the face, which lies on
+    the face's part of a distributed mesh). On a distributed mesh (``numbering`` its
+    :class:`.parallel.GlobalDofs` of V) every part's cells, gathered in rank order onto every rank."""
     index = {int(v): j for j, v in enumerate(op.nodes)}
     els = list(mesh.Boundaries(side).Elements())
     if mesh.dim == 2:
-        return np.array([[index[el.vertices[0].nr], index[el.vertices[1].nr]] for el in els],
-                        dtype=int).reshape(-1, 2)
-    pts = np.asarray(mesh.ngmesh.Coordinates(), dtype=float)[:mesh.nv]
-    tris = []
-    for el in els:
-        vs = [v.nr for v in el.vertices]
-        p = pts[vs]
-        inner = pts[[v.nr for v in mesh[mesh[el.faces[0]].elements[0]].vertices]].mean(axis=0)
-        if float(np.dot(np.cross(p[1] - p[0], p[2] - p[0]), p.mean(axis=0) - inner)) < 0:
-            vs = [vs[0], vs[2], vs[1]]
-        tris.append([index[v] for v in vs])
-    return np.array(tris, dtype=int).reshape(-1, 3)
+        cells = np.array([[el.vertices[0].nr, el.vertices[1].nr] for el in els], dtype=int).reshape(-1, 2)
+    else:
+        pts = np.asarray(mesh.ngmesh.Coordinates(), dtype=float)[:mesh.nv]
+        tris = []
+        for el in els:
+            vs = [v.nr for v in el.vertices]
+            p = pts[vs]
+            inner = pts[[v.nr for v in mesh[mesh[el.faces[0]].elements[0]].vertices]].mean(axis=0)
+            if float(np.dot(np.cross(p[1] - p[0], p[2] - p[0]), p.mean(axis=0) - inner)) < 0:
+                vs = [vs[0], vs[2], vs[1]]
+            tris.append(vs)
+        cells = np.array(tris, dtype=int).reshape(-1, 3)
+    if numbering is not None:       # global vertex numbers (a vertex's scalar dof), each cell once
+        cells = parallel.concat(mesh, numbering.scalar[cells].reshape(cells.shape))
+        cells = cells[np.sort(np.unique(np.sort(cells, axis=1), axis=0, return_index=True)[1])]
+    return np.array([[index[int(v)] for v in c] for c in cells], dtype=int).reshape(-1, mesh.dim)
 
 
 def contact_specs(scene: Scene, geo: GeometryModel, mesh, V) -> list[ContactSpec]:
     """The mechanical contacts of a validated scene on its mesh (``V`` the displacement space): 2D (plane,
-    axisymmetric) operators of :func:`contact_operator_2d`, 3D ones of :func:`contact_operator_3d`."""
+    axisymmetric) operators of :func:`contact_operator_2d`, 3D ones of :func:`contact_operator_3d`. On a
+    distributed mesh (collective) every rank gets the same specs of the whole mesh: operators in the global
+    numbering of :class:`.parallel.GlobalDofs` ``(V)``, cells and blocks gathered from the parts."""
     axi = scene.scene.dimension == "axisymmetric"
 
     def operator(name, side, opposite, obstacle, search_distance):
@@ -133,6 +143,7 @@ def contact_specs(scene: Scene, geo: GeometryModel, mesh, V) -> list[ContactSpec
         return contact_operator_2d(mesh, V, name, side, opposite, axisymmetric=axi, obstacle=obstacle,
                                    search_distance=search_distance)
 
+    numbering = parallel.GlobalDofs(V) if parallel.distributed(mesh) else None
     byname = {i.name: i for i in scene.interfaces}
     foundations = {n: bc.foundation for n, bc in scene.boundary_conditions.items() if bc.foundation is not None}
     settings = [byname[name] for name in geo.contacts] + list(foundations.values())
@@ -142,12 +153,12 @@ def contact_specs(scene: Scene, geo: GeometryModel, mesh, V) -> list[ContactSpec
         itf = byname[name]
         op = operator(name, cs.master, cs.minion, None, itf.search_distance)
         out.append(ContactSpec(name, "interface", op, contact_law(itf, op.coords, next(penalty)), itf,
-                               (cs.master_block, cs.minion_block), _cells(mesh, cs.master, op)))
+                               (cs.master_block, cs.minion_block), _cells(mesh, cs.master, op, numbering)))
     for bname, fd in foundations.items():
         op = operator(bname, bname, None, (tuple(fd.point), tuple(fd.normal)), fd.search_distance)
-        blocks = sorted({el.mat for el in _volume_neighbours(mesh, bname)})
+        blocks = sorted(set().union(*parallel.allgather(mesh, {el.mat for el in _volume_neighbours(mesh, bname)})))
         out.append(ContactSpec(bname, "foundation", op, contact_law(fd, op.coords, next(penalty)), fd,
-                               (tuple(blocks), None), _cells(mesh, bname, op)))
+                               (tuple(blocks), None), _cells(mesh, bname, op, numbering)))
     return out
 
 
@@ -310,9 +321,13 @@ def resultant(op: ContactOperator, translations: np.ndarray, lam_n: np.ndarray, 
     return np.array([float(t[:n][side_dofs] @ f[side_dofs]) for t in translations])
 
 
-def side_dofs(mesh, V, side: str) -> np.ndarray:
-    """The dofs of the vector space V on the boundary ``side`` (all components)."""
+def side_dofs(mesh, V, side: str, numbering=None) -> np.ndarray:
+    """The dofs of the vector space V on the boundary ``side`` (all components); on a distributed mesh with
+    ``numbering`` (its :class:`.parallel.GlobalDofs` of V, collective) their global numbers from all parts."""
     dofs = set()
     for el in mesh.Boundaries(side).Elements():
         dofs.update(d for d in V.GetDofNrs(el) if d >= 0)
-    return np.array(sorted(dofs), dtype=int)
+    local = np.array(sorted(dofs), dtype=int)
+    if numbering is None:
+        return local
+    return np.unique(parallel.concat(mesh, numbering.vector[local].astype(int)))

@@ -50,6 +50,9 @@ class ContactInfo:
     """linear="condensed": the candidate sets tried (1 when the first held every node in contact)."""
     condensed_fallback: bool = False
     """linear="condensed": the condensed path could not take the problem and the sparse direct path solved it."""
+    communication: dict = field(default_factory=dict)
+    """Distributed solves (:mod:`.distributed`): the wall time (s) and the numbers (8-byte values per rank) of the
+    reductions and gathers of replicated arrays, and the PETSc set-up and GMRES times (s)."""
 
 
 class InterfaceState:

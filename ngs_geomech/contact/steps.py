@@ -198,25 +198,11 @@ class KrylovSteps(NewtonSteps):
         """The saddle-point matrix, and the GMRES solver of this solve's steps: row scales c, the augmented
         diagonals -w / c and the node blocks of the multipliers."""
         modes, vertex, dim = self.modes()
-        n, N = s.n, s.N
+        n = s.n
         if modes.shape[0] != n:
             raise ValueError(f"the iterative contact solver's displacement space has {modes.shape[0]} dofs, the matrix "
                              f"{n} (the mixed formulation is solved directly)")
-        scale = np.ones(N - n)
-        aug = np.ones(N - n)
-        blocks = []
-        for it in s.ifs:
-            o = it.offset - n
-            m = it.m
-            # the rows scaled to forces by their own augmentation; the exact rows' zero diagonal replaced by
-            # -w / c with the normal augmentation c = E / h for the tangential rows too (their c_t = E / L is the
-            # active-set test's; with it the GMRES iterations of the 3D punch's slip steps grew 86, 130, 212
-            # from h = 0.2 to 0.05)
-            cs = [it.c] + [it.ct] * (it.blocks - 1)
-            for k, c in enumerate(cs):
-                scale[o + k * m:o + (k + 1) * m] = c
-                aug[o + k * m:o + (k + 1) * m] = -it.w / it.c
-            blocks.append(np.column_stack([o + k * m + np.arange(m) for k in range(it.blocks)]))
+        scale, aug, blocks = multiplier_scaling(s)
         # with scipy.sparse.linalg: loaded when the Krylov path runs
         from .krylov import DEFAULT_TOL, SaddleKrylov
 
@@ -239,12 +225,36 @@ class KrylovSteps(NewtonSteps):
             xs[:n] -= q @ (q.T @ xs[:n])
 
 
+def multiplier_scaling(s: NewtonSystem) -> tuple[np.ndarray, np.ndarray, list]:
+    """What the iterative steps need of the multiplier rows (N - n each): the row scales c (Pa/m), the -w / c that
+    replaces an exact row's zero diagonal in the preconditioner, and per interface the (m, blocks) indices of each
+    node's rows (into the multiplier unknowns)."""
+    n, N = s.n, s.N
+    scale = np.ones(N - n)
+    aug = np.ones(N - n)
+    blocks = []
+    for it in s.ifs:
+        o = it.offset - n
+        m = it.m
+        # the rows scaled to forces by their own augmentation; the exact rows' zero diagonal replaced by -w / c
+        # with the normal augmentation c = E / h for the tangential rows too (their c_t = E / L is the active-set
+        # test's; with it the GMRES iterations of the 3D punch's slip steps grew 86, 130, 212 from h = 0.2 to 0.05)
+        cs = [it.c] + [it.ct] * (it.blocks - 1)
+        for k, c in enumerate(cs):
+            scale[o + k * m:o + (k + 1) * m] = c
+            aug[o + k * m:o + (k + 1) * m] = -it.w / it.c
+        blocks.append(np.column_stack([o + k * m + np.arange(m) for k in range(it.blocks)]))
+    return scale, aug, blocks
+
+
 def newton_steps(matrix, linear: str, *, reuse_rows: int, quasi_definite: bool, modes, tol: float | None,
                  maxit: int):
     """The strategy for the Newton steps of one solve: the dense elimination for a dense bulk (numpy: the condensed
     problem), GMRES for ``linear="iterative"``, else the sparse factorizations. The one type test of a solve."""
     if isinstance(matrix, np.ndarray):
         return DenseSchurSteps()
+    if hasattr(matrix, "newton_steps"):      # a distributed bulk (:class:`.distributed.DistributedBulk`)
+        return matrix.newton_steps(tol, maxit)
     if linear == "iterative":
         return KrylovSteps(modes, tol, maxit)
     return SparseDirectSteps(reuse_rows, quasi_definite)

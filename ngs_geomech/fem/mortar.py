@@ -26,21 +26,16 @@ import ngsolve as ngs
 import numpy as np
 
 
-class Segment:
-    """One boundary segment: its id, dofs, finite element and a map from the reference coordinate."""
+class SegmentCurve:
+    """What a boundary segment computes from its map ``point(s)`` (s in [0, 1]): the speed and the closest point;
+    ``p0``, ``p1`` (its end points) and ``curved`` are set by the subclass."""
 
-    def __init__(self, mesh, space, nr: int):
-        self.ei = ngs.ElementId(ngs.BND, nr)
-        self.trafo = mesh.GetTrafo(self.ei)
-        self.curved = bool(self.trafo.curved)
-        self.fe = space.GetFE(self.ei)
-        self.dofs = list(space.GetDofNrs(self.ei))
-        self.p0 = self.point(0.0)
-        self.p1 = self.point(1.0)
+    p0: np.ndarray
+    p1: np.ndarray
+    curved: bool
 
     def point(self, s: float) -> np.ndarray:
-        mip = self.trafo(s)
-        return np.array([ngs.x(mip), ngs.y(mip)])
+        raise NotImplementedError
 
     def speed(self, s: float) -> float:
         """|dx/ds| (m per unit reference length)."""
@@ -65,8 +60,34 @@ class Segment:
                     break
         return s
 
+
+class Segment(SegmentCurve):
+    """One boundary segment: its id, dofs, finite element and a map from the reference coordinate."""
+
+    _normal = None
+
+    def __init__(self, mesh, space, nr: int):
+        self.ei = ngs.ElementId(ngs.BND, nr)
+        self.trafo = mesh.GetTrafo(self.ei)
+        self.curved = bool(self.trafo.curved)
+        self.fe = space.GetFE(self.ei)
+        self.dofs = list(space.GetDofNrs(self.ei))
+        self.p0 = self.point(0.0)
+        self.p1 = self.point(1.0)
+
+    def point(self, s: float) -> np.ndarray:
+        mip = self.trafo(s)
+        return np.array([ngs.x(mip), ngs.y(mip)])
+
     def shape(self, s: float) -> np.ndarray:
         return np.array(self.fe.CalcShape(s))
+
+    def frame(self, s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(the point, NGSolve's normal of the boundary element there (2,)) at the reference coordinate s."""
+        if Segment._normal is None:
+            Segment._normal = ngs.specialcf.normal(2)
+        mip = self.trafo(s)
+        return np.array([ngs.x(mip), ngs.y(mip)]), np.array(Segment._normal(mip)).ravel()[:2]
 
 
 def mortar_coupling_2d(mesh, V, L, master: str, minion: str, *, axisymmetric: bool, order: int,

@@ -23,7 +23,18 @@ def element_estimate(geo: GeometryModel, settings: MeshSettings) -> dict[tuple[s
     return element_counts(geo, settings) if settings.structured else geo.element_estimate(settings.maxh)
 
 
-def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=(), comm=None):
+class SerialCopy:
+    """Rank 0's serial netgen mesh of a distributed mesh (``ngmesh``; None on the other ranks): the whole mesh,
+    with its geometry, as it was before being sent to the workers. A distributed adaptive run refines it
+    (:mod:`ngs_geomech.adapt.distributed`) and sends the refined mesh out again (:func:`distribute_mesh`).
+    Only a netgen mesh is kept: no ``ngsolve.Mesh`` of it may live while a copy of it is being distributed."""
+
+    def __init__(self) -> None:
+        self.ngmesh = None
+
+
+def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=(), comm=None,
+              serial_copy: SerialCopy | None = None):
     """Mesh the geometry (sizes from blocks, boundaries and ``settings``); curve it to the field order.
     ``restrictions``: points (x, y, z, h) where the local size is at most h (m; netgen's RestrictH, graded
     from there by ``settings.grading``): front-following meshes (:mod:`ngs_geomech.adapt.front_following`).
@@ -31,7 +42,8 @@ def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=(), comm=
 
     ``comm`` (an mpi4py communicator of several ranks): a distributed mesh. Rank 0 meshes and checks, then sends
     the parts (netgen's ``Distribute``: rank 0 keeps no elements); the others receive theirs. Every rank calls
-    this; a SceneError found on rank 0 is raised on every rank.
+    this; a SceneError found on rank 0 is raised on every rank. ``serial_copy``: where rank 0 keeps a copy of the
+    whole (serial) mesh before it is sent (a distributed adaptive run refines it).
 
     ``settings.structured``: the structured mesh of the axis-aligned blocks (:mod:`.structured`) instead.
 
@@ -39,16 +51,14 @@ def make_mesh(geo: GeometryModel, settings: MeshSettings, restrictions=(), comm=
     if settings.structured:        # no restrictions (adaptivity is refused), straight sides: nothing to curve
         return structured_mesh(geo, settings)
     if comm is not None and comm.size > 1:
-        return _distributed_mesh(geo, settings, comm)
+        return _distributed_mesh(geo, settings, comm, serial_copy)
     mesh = _serial_mesh(geo, settings, restrictions)
     if settings.order > 1:
         mesh.Curve(settings.order)
     return mesh
 
 
-def _distributed_mesh(geo: GeometryModel, settings: MeshSettings, comm):
-    import netgen.meshing as ngm
-
+def _distributed_mesh(geo: GeometryModel, settings: MeshSettings, comm, serial_copy: SerialCopy | None):
     if comm.rank == 0:
         error = None
         try:
@@ -60,11 +70,25 @@ def _distributed_mesh(geo: GeometryModel, settings: MeshSettings, comm):
             raise SceneError(*error)
         ngmesh = serial.ngmesh
         del serial              # no ngsolve.Mesh of it may live while it is distributed (MPI_Allreduce abort)
-        mesh = ngs.Mesh(ngmesh.Distribute(comm))
+        if serial_copy is not None:
+            serial_copy.ngmesh = ngmesh.Copy()
     else:
         error = comm.bcast(None, root=0)
         if error is not None:
             raise SceneError(*error)
+        ngmesh = None
+    return distribute_mesh(ngmesh, geo, settings, comm)
+
+
+def distribute_mesh(ngmesh, geo: GeometryModel, settings: MeshSettings, comm):
+    """The distributed mesh of the whole netgen mesh ``ngmesh`` (given on rank 0, which sends it and keeps no
+    elements; ignored on the other ranks, which receive their parts), curved to ``settings.order`` with the
+    geometry. Every rank of ``comm`` calls this. ``ngmesh`` itself is sent (keep a copy to refine it later)."""
+    import netgen.meshing as ngm
+
+    if comm.rank == 0:
+        mesh = ngs.Mesh(ngmesh.Distribute(comm))
+    else:
         mesh = ngs.Mesh(ngm.Mesh.Receive(comm))
     if settings.order > 1:
         # the parts arrive without the geometry: curving without it leaves curved boundaries straight (measured:

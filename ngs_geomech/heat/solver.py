@@ -50,6 +50,7 @@ class HeatSolver:
                                     distributed=self.distributed)
         self._pcg = PCG(tol, maxit) if self.solver == "iterative" else None
         self._pre = None
+        self._pre_gmres = None
         self.cg_iterations: list[int] = []
         """CG iterations of every iterative solve, in order."""
         self.newton_tol = newton_tol
@@ -177,11 +178,11 @@ class HeatSolver:
             except Exception as exc:  # NgException from the preconditioner's set-up
                 raise SolverError(f"heat solve at {where}: the preconditioner ({self._pre.kind}) could not be "
                                   f"built ({exc}). Check the material data and boundary conditions.") from None
+            self._pre.update()
             self._iter_key = key
             self.factorizations += 1
-        info = self._pcg.solve(f.lhs.mat, self._pre.mat, rhs, f.gf.vec, f"heat solve at {where}",
-                               "Check the material data and boundary conditions of the scene, or use the direct "
-                               "solver.")
+        info = self._pre.cg(self._pcg, f.lhs.mat, rhs, f.gf.vec, f"heat solve at {where}",
+                            "Check the material data and boundary conditions of the scene, or use the direct solver.")
         check_finite(f.gf.vec, f"heat solve at {where}")
         self.cg_iterations.append(info.iterations)
         return StepInfo(1, info.residual, fresh, info.iterations)
@@ -322,11 +323,11 @@ class HeatSolver:
         (its preconditioner, registered on the form, is rebuilt with it), GMRES to the relative residual of the
         CG solves (J is not symmetric: k'(T) grad T . grad dT)."""
         f = self.f
-        if self._pre is None:
-            self._pre = Preconditioned(f.lhs, f.V, f.setup.order, vector=False, choice=self.preconditioner)
+        if self._pre_gmres is None:       # GMRES needs the preconditioner as an operator: NGSolve's BDDC
+            self._pre_gmres = Preconditioned(f.lhs, f.V, f.setup.order, vector=False, choice="bddc")
         f.lhs.AssembleLinearization(state)
         du[:] = 0.0
-        solver = ngs.krylovspace.GMRESSolver(f.lhs.mat, self._pre.mat, tol=self._pcg.tol,
+        solver = ngs.krylovspace.GMRESSolver(f.lhs.mat, self._pre_gmres.mat, tol=self._pcg.tol,
                                              maxiter=self._pcg.maxit, restart=200)
         solver.Solve(rhs=res, sol=du)
         self.cg_iterations.append(solver.iterations)

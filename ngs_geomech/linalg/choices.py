@@ -7,8 +7,9 @@ SOLVERS = ("auto", "direct", "iterative")
 :class:`~ngs_geomech.mechanics.solver.ElasticSolver` (and of the scene key ``solver.linear``): sparse direct
 factorizations, preconditioned CG, or the choice by size of :func:`~ngs_geomech.linalg.iterative.choose_solver`."""
 
-PRECONDITIONERS = ("auto", "bddc")
+PRECONDITIONERS = ("auto", "bddc", "gamg")
 """Values of their ``preconditioner`` argument (and of ``solver.preconditioner``): "auto" the choice of
-:mod:`ngs_geomech.linalg.iterative`, "bddc" NGSolve's BDDC with the vertex wirebasket and its vertex problem factored
-directly for every order >= 2 (what distributed meshes use; the serial default before the two-level preconditioner,
-kept for comparison: ``studies/scaling``)."""
+:mod:`ngs_geomech.linalg.iterative` (on a distributed mesh "gamg" when petsc4py is installed, else "bddc"), "bddc"
+NGSolve's BDDC with the vertex wirebasket and its vertex problem factored directly for every order >= 2 (the serial
+default before the two-level preconditioner, kept for comparison: ``studies/scaling``), "gamg" PETSc's CG with
+algebraic multigrid and the rigid-body near-null space (:mod:`ngs_geomech.linalg.petsc`, needs petsc4py)."""

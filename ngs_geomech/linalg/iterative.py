@@ -48,6 +48,13 @@ import numpy as np
 from ..errors import SolverError
 from .choices import PRECONDITIONERS, SOLVERS
 
+
+def petsc_available() -> bool:
+    """Whether PETSc's GAMG (:mod:`.petsc`, petsc4py) can be used; "auto" takes it on distributed meshes."""
+    from .petsc import available
+
+    return available()
+
 AUTO_DOFS = {2: 1_000_000, 3: 60_000}
 """Dofs above which ``solver="auto"`` takes preconditioned CG (per mesh dimension, per system). Measured
 (``studies/scaling``, 3D P2 thermo-elastic box, 2 threads): CG (two-level AMG for elasticity, BDDC
@@ -168,8 +175,13 @@ class Preconditioned:
         self._p1 = None
         # BDDC with its vertex problem factored: asked for, or on a distributed mesh (the two-level injection and
         # h1amg of the vertex problem are serial)
+        self._vector = vector
+        self._gamg = None
         bddc_only = distributed or choice == "bddc"
-        if order == 2 and vector and space.mesh.dim == 3 and dirichlet is not None and not bddc_only:
+        if choice == "gamg" or (choice == "auto" and distributed and petsc_available()):
+            self.kind = "gamg"          # PETSc's CG with GAMG (:mod:`.petsc`): nothing registered on the form
+            self.pre = None
+        elif order == 2 and vector and space.mesh.dim == 3 and dirichlet is not None and not bddc_only:
             self.kind = "two_level_amg"
             self.pre = None
             self._dirichlet = list(dirichlet)
@@ -195,6 +207,17 @@ class Preconditioned:
             self.kind = "h1amg_per_component"
             self.pre = None
 
+    def cg(self, pcg: PCG, mat, rhs, x, what: str, hint: str = "") -> CGInfo:
+        """Solve ``mat`` x = ``rhs`` by CG with this preconditioner: ``pcg`` (its tolerance and iteration limit) with
+        :attr:`mat`, or PETSc's CG with GAMG (:class:`.petsc.GamgCG`)."""
+        if self.kind != "gamg":
+            return pcg.solve(mat, self.mat, rhs, x, what, hint)
+        if self._gamg is None:
+            from .petsc import GamgCG
+
+            self._gamg = GamgCG(self._space, self._vector, pcg.tol, pcg.maxit)
+        return CGInfo(*self._gamg.solve(mat, rhs, x, what, hint))
+
     @property
     def mat(self):
         if self.pre is not None:
@@ -207,6 +230,8 @@ class Preconditioned:
         """After an assembly of the form: rebuild the auxiliary component forms (P1 elasticity and the P1 part of
         the two-level preconditioner: the coefficients may have changed) and the Jacobi part of the two-level
         preconditioner (the matrix's diagonal)."""
+        if self._gamg is not None:
+            self._gamg.update()
         if self.pre is None:
             self._aux = []
             self._two_level = None

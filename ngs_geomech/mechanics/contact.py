@@ -25,6 +25,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
+from .. import parallel
 from ..contact.solver import ContactSolver
 from ..errors import SolverError
 from ..fem.normals import outward_normal
@@ -50,7 +51,9 @@ class ElasticContactSolver:
         lam_max = max(p.lam for p in forms.setup.props.values())
         self.relaxation = relaxation if relaxation is not None else min(1.0, 1.0 / lam_max)
         self._dirichlet = ElasticSolver(forms)      # its Dirichlet handling only
-        self._free = np.array(list(forms.X.FreeDofs()), dtype=bool)
+        # a distributed mesh: the contact solve runs on global arrays (contact.distributed), numbered by dofs
+        self.dofs = parallel.GlobalDofs(forms.X) if parallel.distributed(forms.mesh) else None
+        self._free = self.array(np.array(list(forms.X.FreeDofs()), dtype=float)) > 0.5
         self.method = "secant" if forms.setup.nonlinear else "linear"
         self.history: list[NonlinearInfo] = []
         self.contact_infos: list[list] = []
@@ -59,9 +62,30 @@ class ElasticContactSolver:
     def factorizations(self) -> int:
         return sum(i.factorizations for infos in self.contact_infos for i in infos)
 
+    def array(self, local: np.ndarray, cumulated: bool = True) -> np.ndarray:
+        """A vector of X as the contact solve sees it: the local array itself, or on a distributed mesh the global
+        array (:class:`~ngs_geomech.parallel.GlobalDofs`; ``cumulated`` as there)."""
+        return local if self.dofs is None else self.dofs.gather(local, cumulated)
+
+    @property
+    def free(self) -> np.ndarray:
+        """The free dofs of X (bool; global on a distributed mesh)."""
+        return self._free
+
+    def displacement(self) -> np.ndarray:
+        """The displacement vector of X (global on a distributed mesh)."""
+        return self.array(np.array(self.f.gf.vec.FV().NumPy()))
+
+    def stiffness_times_displacement(self) -> np.ndarray:
+        """K u with the matrix of the last contact solve (N; global on a distributed mesh)."""
+        ku = self.f.gf.vec.CreateVector()
+        ku.data = self.f.secant_form.mat * self.f.gf.vec
+        return self.array(np.array(ku.FV().NumPy()), cumulated=False)
+
     def load(self) -> np.ndarray:
-        """The load of the last contact solve (N, a vector of X): the assembled load and the in-situ correction."""
-        rhs = np.array(self.f.secant_rhs.vec.FV().NumPy())
+        """The load of the last contact solve (N, a vector of X; global on a distributed mesh): the assembled load
+        and the in-situ correction."""
+        rhs = self.array(np.array(self.f.secant_rhs.vec.FV().NumPy()), cumulated=False)
         return rhs if self._correction is None else rhs + self._correction
 
     def _contact_solve(self, where: str, infos: list) -> None:
@@ -69,11 +93,16 @@ class ElasticContactSolver:
         f = self.f
         f.secant_form.Assemble()
         f.secant_rhs.Assemble()
-        x0 = np.array(f.gf.vec.FV().NumPy())
+        x0 = self.displacement()
         if self.insitu is not None:
-            self._correction = self.insitu.load(f.X.ndof)
-        u, info = self.contact.solve(f.secant_form.mat, self.load(), self._free, x0, where)
-        f.gf.vec.FV().NumPy()[:] = u
+            self._correction = self.insitu.load(len(x0))
+        matrix = f.secant_form.mat
+        if self.dofs is not None:         # (PETSc and the Krylov path load only for distributed runs)
+            from ..contact.distributed import DistributedBulk
+
+            matrix = DistributedBulk(matrix, self.dofs)
+        u, info = self.contact.solve(matrix, self.load(), self._free, x0, where)
+        f.gf.vec.FV().NumPy()[:] = u if self.dofs is None else self.dofs.local(u)
         infos.append(info)
 
     def solve(self, where: str) -> NonlinearInfo:
@@ -143,9 +172,11 @@ class InSituTraction:
     is exact without a correction."""
 
     def __init__(self, forms, ops: list):
-        """``ops``: the interfaces' :class:`ContactOperator` (each with an opposite side)."""
+        """``ops``: the interfaces' :class:`ContactOperator` (each with an opposite side; on a distributed mesh in the
+        global numbering of :class:`~ngs_geomech.parallel.GlobalDofs`, and so are the arrays here)."""
         self.forms = forms
         self.ops = ops
+        self.dofs = parallel.GlobalDofs(forms.V) if parallel.distributed(forms.mesh) else None
         self.fits = [self._fit(op) for op in ops]
         self.normals: dict = {}
         self._last: tuple | None = None        # (time, c) of the last load
@@ -157,6 +188,8 @@ class InSituTraction:
         k = op.constrained
         B = sp.vstack([M[k] for M in (op.Bn, op.Bt, op.Bt2) if M is not None]).tocsr()
         sdofs = np.array(list(self.forms.V.GetDofs(self.forms.mesh.Boundaries(op.side))), dtype=bool)
+        if self.dofs is not None:         # a dof of S on any rank's elements
+            sdofs = self.dofs.gather(sdofs.astype(float), cumulated=False) > 0.5
         Bs = B[:, sdofs]
         # loaded with an initial stress only (start-up)
         import scipy.sparse.linalg as spla
@@ -186,7 +219,8 @@ class InSituTraction:
                 lf += f.weight * ((sigma0 * n) * v) * ngs.ds(definedon=f.mesh.Boundaries(side),
                                                             intrules=f.bnd_intrules)
             lf.Assemble()
-            out.append(np.array(lf.vec.FV().NumPy()))
+            local = np.array(lf.vec.FV().NumPy())
+            out.append(local if self.dofs is None else self.dofs.gather(local, cumulated=False))
         return out
 
     def load(self, ndof: int) -> np.ndarray:

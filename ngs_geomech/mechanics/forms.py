@@ -671,9 +671,20 @@ class ElasticForms:
         return _rigid_modes(self.setup.model, self.dim, c)
 
     def _unheld_distributed(self) -> list[str]:
-        """:meth:`unheld_rigid_motions` on a distributed mesh: the bodies are the groups of regions sharing a node
-        (:func:`_region_groups`), and each body's constraint matrix A (rows on this rank's constrained dofs and
-        oblique-symmetry vertices) enters through its Gram matrix A^T A summed over the ranks (same null space)."""
+        """:meth:`unheld_rigid_motions` on a distributed mesh (:meth:`_distributed_bodies`)."""
+        bodies = self._distributed_bodies()
+        out = []
+        for regions, _, _, _, names in bodies:
+            label = f" of body {'+'.join(sorted(regions))}" if len(bodies) > 1 else ""
+            out += [f"{name}{label}" for name in names]
+        return out
+
+    def _distributed_bodies(self) -> list[tuple]:
+        """The bodies of a distributed mesh and their free rigid motions: per body (regions, its rigid motions
+        (:meth:`_body_modes`), the mask of its dofs on this rank, the null combinations and their names of
+        :func:`_free_combinations`). The bodies are the groups of regions sharing a node (:func:`_region_groups`),
+        and each body's constraint matrix A (rows on this rank's constrained dofs and oblique-symmetry vertices)
+        enters through its Gram matrix A^T A summed over the ranks (same null space)."""
         mesh, dim = self.mesh, self.dim
         groups = _region_groups(mesh)
         fixed = ~np.array(list(self.V.FreeDofs()), dtype=bool)
@@ -700,9 +711,24 @@ class ElasticForms:
             gram = parallel.allsum(mesh, A.T @ A)
             w, vec = np.linalg.eigh(gram)
             a_eff = (vec * np.sqrt(np.maximum(w, 0.0))).T        # same singular values and vectors as A
-            names = _free_combinations(a_eff, list(modes))[1]
-            label = f" of body {'+'.join(sorted(regions))}" if len(groups) > 1 else ""
-            out += [f"{name}{label}" for name in names]
+            null, names = _free_combinations(a_eff, list(modes))
+            out.append((regions, modes, mask, null, names))
+        return out
+
+    def _floating_distributed(self) -> list[FloatingBody]:
+        """:meth:`floating_bodies` on a distributed mesh: the modes as global arrays
+        (:class:`~ngs_geomech.parallel.GlobalDofs` of V, the numbering of the distributed contact solve)."""
+        dofs = parallel.GlobalDofs(self.V)
+        g = ngs.GridFunction(self.V)
+        out = []
+        for regions, modes, mask, null, names in self._distributed_bodies():
+            if len(null) == 0:
+                continue
+            vecs = []
+            for comps in modes.values():
+                g.Set(ngs.CoefficientFunction(comps))
+                vecs.append(dofs.gather(np.where(mask, g.vec.FV().NumPy(), 0.0)))
+            out.append(FloatingBody(sorted(regions), names, np.array(vecs).T @ null.T))
         return out
 
     def _bodies(self):
@@ -771,6 +797,8 @@ class ElasticForms:
 
         Per body its regions, the names of its free rigid motions (rotations about the body's centroid) and
         their coefficient vectors in X (columns of ``modes``, zero outside the body)."""
+        if parallel.distributed(self.mesh):
+            return self._floating_distributed()
         mesh, dim = self.mesh, self.dim
         ncomp, labels, elem_body, elem_region = self._bodies()
         if ncomp == 1 and not self._unheld_whole_mesh():

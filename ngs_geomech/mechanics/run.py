@@ -212,7 +212,7 @@ class StaticMechanicsRun(MechanicsPart):
         relax = ms.secant_relaxation if ms.secant_relaxation is not None and ms.secant_relaxation <= 1 else None
         self.solver = ElasticContactSolver(self.forms, csolver, tol=ms.tolerance, maxit=ms.max_iterations,
                                            relaxation=relax, insitu=InSituTraction.of(self.forms, self.contacts))
-        self.contact_output = ContactOutput(self.forms, self.contacts)
+        self.contact_output = ContactOutput(self.forms, self.contacts, dofs=self.solver.dofs)
 
     def _plain_solver(self, scene: Scene, geo: GeometryModel, temperature) -> None:
         ms, sv = scene.mechanics, scene.solver

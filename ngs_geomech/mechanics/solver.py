@@ -176,8 +176,8 @@ class ElasticSolver:
                               f"{_SINGULAR_HINT}") from None
 
     def _cg(self, mat, pre: Preconditioned, rhs, x, what: str) -> int:
-        info = self._pcg.solve(mat, pre.mat, rhs, x, what, "Check the elastic data and the supports (" + _SINGULAR_HINT
-                               + "), or use the direct solver.")
+        info = pre.cg(self._pcg, mat, rhs, x, what, "Check the elastic data and the supports (" + _SINGULAR_HINT
+                      + "), or use the direct solver.")
         check_finite(x, what)
         self.cg_iterations.append(info.iterations)
         return info.iterations

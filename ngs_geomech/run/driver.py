@@ -232,11 +232,11 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
          cp: Checkpoint | None = None, comm=None) -> RunResult:
     """Mesh, build the model on the mesh its policy chooses, solve (stationary, or step by step), write."""
     tic = _time.perf_counter()
-    mesh = make_mesh(geo, scene.mesh, comm=comm)
-    timings["mesh_s"] = _time.perf_counter() - tic
-    tic = _time.perf_counter()
     build = functools.partial(Model, scene, geo)
     policy = mesh_policy(scene, geo, build)
+    mesh = make_mesh(geo, scene.mesh, comm=comm, serial_copy=policy.serial_copy)
+    timings["mesh_s"] = _time.perf_counter() - tic
+    tic = _time.perf_counter()
     model = policy.prepare(build(mesh), scene.time.start if scene.time is not None else None)
     if policy.adapts_first:
         timings["adaptivity_s"] = _time.perf_counter() - tic
@@ -356,7 +356,8 @@ def _summary(scene: Scene, model: Model, policy: MeshPolicy, state: RunState, ns
         by_part = {p.key: p.ndof_global for p in model.parts}
         dofs = sum(by_part.values())
         counts = {"vertices": ngs.H1(mesh, order=1).ndofglobal, "elements": parallel.allsum(mesh, mesh.ne),
-                  "ranks": comm.size, "elements_per_rank": parallel.allgather(mesh, mesh.ne)}
+                  "ranks": comm.size, "elements_per_rank": parallel.allgather(mesh, mesh.ne),
+                  "peak_rss_gib_per_rank": parallel.allgather(mesh, parallel.peak_rss_gib())}
     thermal_times = next((probes.times[p.name] for p in scene.output.probes if p.quantity in THERMAL), [])
     summary = {
         "scene": to_dict(scene),

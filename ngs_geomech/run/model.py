@@ -97,6 +97,11 @@ class Model:
         return sum(p.ndof for p in self.parts)
 
     @property
+    def ndof_global(self) -> int:
+        """The unknowns on the whole mesh (``ndof`` on a serial one; the same on every rank)."""
+        return sum(p.ndof_global for p in self.parts)
+
+    @property
     def factorizations(self) -> int:
         return sum(p.factorizations for p in self.parts)
 
@@ -108,7 +113,7 @@ def mesh_policy(scene: Scene, geo: GeometryModel, build) -> MeshPolicy:
         return FixedMesh()
     if scene.time is None:
         from ..adapt.stationary import StationaryAdaptive
-        return StationaryAdaptive(scene, build)
+        return StationaryAdaptive(scene, build, geo)
     if "contact_zone" in ad.indicators:       # validated: static mechanics with contact, plane or axisymmetric
         from ..adapt.contact_following import ContactFollowing
         return ContactFollowing(scene, geo, build)
@@ -116,4 +121,4 @@ def mesh_policy(scene: Scene, geo: GeometryModel, build) -> MeshPolicy:
         from ..adapt.front_following import FrontFollowing
         return FrontFollowing(scene, geo, build)
     from ..adapt.stationary import PreAdapted
-    return PreAdapted(scene, build)           # transient heat without a followed feature
+    return PreAdapted(scene, build, geo)      # transient heat without a followed feature

@@ -621,10 +621,12 @@ class SolverSettings:
                              doc="relative residual of the iterative solver")
     max_iterations: int = field(bounded(integer, 1), 2000, doc="iteration limit of the iterative solver")
     preconditioner: str = field(one_of(*PRECONDITIONERS), "auto",
-                                doc="of the iterative solver: 'auto' (two-level AMG for 3D P2 elasticity, BDDC with an "
-                                    "AMG vertex problem for 3D P2 heat, BDDC for order >= 2 otherwise, AMG for P1) or "
-                                    "'bddc' (BDDC with the vertex problem factored directly, order >= 2; what "
-                                    "distributed meshes use)")
+                                doc="of the iterative solver: 'auto' (serial: two-level AMG for 3D P2 elasticity, "
+                                    "BDDC with an AMG vertex problem for 3D P2 heat, BDDC for order >= 2 otherwise, "
+                                    "AMG for P1; distributed: 'gamg' when petsc4py is installed, else BDDC), 'bddc' "
+                                    "(BDDC with the vertex problem factored directly, order >= 2) or 'gamg' (PETSc's "
+                                    "CG with algebraic multigrid and the rigid-body near-null space; needs the extra "
+                                    "'petsc')")
 
 
 @dataclass(frozen=True, kw_only=True)

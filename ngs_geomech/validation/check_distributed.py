@@ -10,34 +10,24 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
     """What a distributed run (``mpiexec -n N ngs-geomech run``, N >= 2) cannot do, each naming its scene key.
 
     Supported: thermal (steady, transient, k(T)), thermo-elastic (static mechanics, the lambda law) and Stefan
-    scenes with glued interfaces. Not supported, and why:
+    scenes with glued interfaces; static contact (every law, interfaces and foundations, floating bodies) with
+    PETSc. Not supported, and why:
 
-    * contact interfaces and foundations: the contact and mortar operators pair the two sides of an interface by
-      searching the other side's elements (``ContactBoundary``, segment mortar integrals), and the Newton steps
-      factor saddle-point systems directly; a distributed mesh splits both sides over ranks that do not see each
-      other's elements;
-    * adaptivity: ``mesh.Refine()`` on a distributed mesh hung (NGSolve 6.2), and front-following remeshes on
-      rank 0 only;
+    * contact without PETSc, with Uzawa's method, or carrying heat (:func:`_contact_problems`);
+    * meshes that follow a phase boundary or contact zones over time, and the contact-zone indicator
+      (:func:`_adaptivity_problems`); adaptive refinement of stationary scenes by the estimators (and the mesh
+      adapted once for a transient heat scene) is supported;
     * dynamic and viscous mechanics and nested iteration: their matrices are scipy (local) or coarse meshes are
       re-made serially;
     * checkpoints and --resume: a checkpoint holds one process's vectors.
     """
     problems: list[Problem] = []
     why = "is not supported in distributed runs (mpiexec -n N, N >= 2): run serially"
-    for i, itf in enumerate(scene.interfaces):
-        if itf.type == "contact":
-            problems.append(Problem(f"interfaces[{i}] ({itf.name}).type", f"a contact interface {why} (the contact "
-                                    "and mortar operators pair the sides of an interface by searching the other "
-                                    "side's elements, which a distributed mesh splits over ranks)"))
-    for name, bc in scene.boundary_conditions.items():
-        if bc.foundation is not None:
-            problems.append(Problem(f"boundary_conditions.{name}.foundation", f"contact with a foundation {why}"))
+    problems += _contact_problems(scene, why)
     if scene.mesh.structured:
         problems.append(Problem("mesh.structured", f"a structured mesh {why} (it is built serially; the "
                                 "distributed path sends netgen's mesh of the OCC geometry)"))
-    if scene.adaptivity is not None:
-        problems.append(Problem("adaptivity", f"adaptive refinement {why} (mesh refinement of a distributed mesh "
-                                "is not available)"))
+    problems += _adaptivity_problems(scene, why)
     if scene.physics.mechanics in RATE_MECHANICS:
         problems.append(Problem("physics.mechanics", f"mechanics = {scene.physics.mechanics!r} {why}; 'static' is "
                                 "supported"))
@@ -45,7 +35,61 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
         problems.append(Problem("mechanics.nested_levels", f"nested iteration {why}; set it to 0"))
     if scene.solver.linear == "direct":
         problems.append(Problem("solver.linear", "'direct' is not available in distributed runs (the systems are "
-                                "solved by CG with BDDC); use 'auto' or 'iterative'"))
+                                "solved by CG with GAMG or BDDC); use 'auto' or 'iterative'"))
     if resume:
         problems.append(Problem("--resume", "distributed runs write no checkpoints, so they cannot be resumed"))
+    return problems
+
+
+def _adaptivity_problems(scene: Scene, why: str) -> list[Problem]:
+    """What a distributed run cannot do with ``[adaptivity]``: rank 0 refines its copy of the whole mesh and sends
+    it out again (:mod:`ngs_geomech.adapt.distributed`), which serves the stationary adaptive loop and the mesh
+    adapted once; the meshes that follow a phase boundary or contact zones over time remesh the geometry on one
+    process (:mod:`ngs_geomech.adapt.front_following`, :mod:`ngs_geomech.adapt.contact_following`)."""
+    a = scene.adaptivity
+    if a is None:
+        return []
+    if scene.time is None:
+        if "contact_zone" not in a.indicators:
+            return []
+        return [Problem("adaptivity.indicators", f"the 'contact_zone' indicator {why} (it reads the contact sides' "
+                        "segments and nodal statuses of one process); the estimators refine distributed meshes")]
+    followed = [name for name in ("contact_zone", "phase_front") if name in a.indicators]
+    if not followed:
+        return []
+    return [Problem("adaptivity.indicators", f"meshes that follow the {' and '.join(followed)} over time {why} "
+                    "(they remesh the geometry on one process); stationary scenes refine adaptively")]
+
+
+def _contact_problems(scene: Scene, why: str) -> list[Problem]:
+    """What a distributed run cannot do with contact: contact needs PETSc (its Newton steps are solved by PETSc's
+    GMRES, :mod:`ngs_geomech.contact.distributed`), static mechanics and the semi-smooth Newton method (Uzawa's
+    method factors K), and heat does not cross contact interfaces (the mortar and conductance couplings of heat
+    are serial)."""
+    contacts = [(f"interfaces[{i}] ({itf.name})", itf) for i, itf in enumerate(scene.interfaces)
+                if itf.type == "contact"]
+    contacts += [(f"boundary_conditions.{name}.foundation", bc.foundation)
+                  for name, bc in scene.boundary_conditions.items() if bc.foundation is not None]
+    if not contacts:
+        return []
+    from ..linalg.iterative import petsc_available
+
+    problems = []
+    if not petsc_available():
+        key = contacts[0][0] + (".type" if contacts[0][0].startswith("interfaces") else "")
+        problems.append(Problem(key, "contact in distributed runs needs petsc4py (its Newton steps are solved by "
+                                "PETSc): pip install -e '.[petsc]' (docs/parallel.md), or run serially"))
+    for key, c in contacts:
+        if c.method == "uzawa":
+            problems.append(Problem(f"{key}.method", f"'uzawa' {why}; use 'ssn' or 'penalty'"))
+    thermal = scene.physics.thermal is not None
+    for key, c in contacts:
+        if not key.startswith("interfaces") or not thermal:
+            continue
+        heat = c.sides is None or any(getattr(c, k) is not None for k in (
+            "conductance", "conductance_coefficient", "gap_conductivity", "emissivities", "thermal_penalty"))
+        if heat:
+            problems.append(Problem(f"{key}", f"heat crossing a contact interface {why} (its mortar and "
+                                    "conductance couplings are serial); a contact between blocks with a gap "
+                                    "('sides') and no conductance keys carries no heat and is supported"))
     return problems

