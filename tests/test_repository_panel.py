@@ -1,9 +1,10 @@
-"""The built-in 3D scene ``repository_panel_3d`` (a KBS-3 panel: four deposition holes in two tunnels on either
-side of a steep Coulomb fracture zone that crosses the panel, each canister in contact with its buffer), at a
-short level (the quick mesh, 30 years, mechanics at t = 0 and 30 years), checked against what its data imply.
+"""The built-in 3D scene ``repository_panel_3d`` (a KBS-3 panel: four deposition holes along a tunnel, each
+canister in contact with its buffer, and a steep Coulomb fracture zone crossing the tunnels beyond their
+deposition section), at a short level (the quick mesh, 30 years, mechanics at t = 0 and 30 years), checked against
+what its data imply.
 
 - Contacts: the scene has five contact interfaces, the four canister/buffer gaps (canister_i against buffer_i)
-  and the fracture (rock against rock_below); the gaps' initial gaps are zero to rounding (flat facets).
+  and the fracture (rock against rock_east); the gaps' initial gaps are zero to rounding (flat facets).
 - Temperature: the mirror images (holes 1 and 4, 2 and 3: x -> -x) have equal canister temperatures (to the
   meshes' asymmetry); the inner holes are warmer than the outer ones by what the decaying point sources of the
   panel give (their neighbours' contributions, verification.md section 5, as line sources summed over the row
@@ -12,7 +13,7 @@ short level (the quick mesh, 30 years, mechanics at t = 0 and 30 years), checked
 - Energy: no heat has reached the surface, the base or the far planes in 30 years, and the mirror planes are
   insulated, so the heat stored, int rho c (T - T_init), is four canisters' released heat int_0^t P.
 - Mechanics: at t = 0 every gap is closed, pressed by the in-situ stress (sigma0 continues through the canisters:
-  the nodal pressure lies between its vertical and horizontal normal stress at the canisters' depths); heated,
+  the gap's normal force is sigma0's normal stress integrated over the canister's surface); heated,
   the canisters expand against their buffers (no gap node opens, the normal force grows). The fracture is closed;
   near the panel it sticks, its shear / normal stress below both the friction (0.6) and the in-situ ratio plus the
   heat's increment (cot 80 = 0.18 of the added normal stress); nodes in slip sit on the Coulomb bound; the global
@@ -21,7 +22,9 @@ short level (the quick mesh, 30 years, mechanics at t = 0 and 30 years), checked
 
 from __future__ import annotations
 
+import importlib.util
 import math
+from pathlib import Path
 
 import ngsolve as ngs
 import numpy as np
@@ -55,6 +58,7 @@ FRICTION = 0.6
 DIP = math.radians(80.0)                          # the fracture's dip
 END = 30.0 * YEAR
 
+STUDY = Path(__file__).resolve().parents[1] / "studies" / "repository_panel" / "run.py"
 COARSE = ["time.end=30 year", "time.dt_max=5 year", "output.every=100", "output.vtk=false",
           "output.figures=false"]
 """The test level: the quick mesh, 30 years (past the canisters' peak), mechanics at t = 0 and at the end."""
@@ -185,3 +189,15 @@ def test_fracture_stuck_near_the_panel(panel):
     np.testing.assert_allclose(q[slip], FRICTION * p[slip], rtol=1e-6)
     assert np.all(q[stick] <= res["bound"][stick] * (1 + 1e-9))
     assert c["force_balance"]["imbalance_rel"] < 1e-8
+
+
+@pytest.mark.slow
+def test_large_level_has_the_size_for_distributed_runs():
+    """The large level of studies/repository_panel (P2, finer near the holes) meshes to 0.5-1.5 M dofs."""
+    spec = importlib.util.spec_from_file_location("study_repository_panel", STUDY)
+    study = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(study)
+    size, _ = study.large_mesh()
+    print(f"\nlarge level: {size['large_elements']} elements, {size['dofs_large']} dofs (heat "
+          f"{size['dofs_large_heat']}, mechanics {size['dofs_large_mechanics']}), mesh {size['large_mesh_s']:.1f} s")
+    assert 5e5 <= size["dofs_large"] <= 1.5e6
