@@ -50,6 +50,7 @@ PICTURES = {
     "plate_collision": "principal_stress_change.png",
     "repository_3d": "probes.png",
     "repository_fracture_3d": "von_mises_section_across_tunnel.png",
+    "repository_panel_3d": "temperature_section_along_tunnel.png",
     "repository_section": "temperature_zoom.png",
 }
 """The picture of each scene in the documentation: a file of the run's ``figures/``."""
