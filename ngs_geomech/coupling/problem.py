@@ -141,7 +141,8 @@ class DeformationHeating:
 
     def restore(self, arrays: dict) -> None:
         self.rate.vec.FV().NumPy()[:] = arrays["coupling/rate"]
-        self._zero = not np.any(arrays["coupling/rate"])
+        # the same on every rank of a distributed mesh (a zero rate skips collective assembly)
+        self._zero = not parallel.anyof(self.space.mesh, bool(np.any(arrays["coupling/rate"])))
 
 
 def relative_change(new: np.ndarray, old: np.ndarray, mesh=None) -> float:

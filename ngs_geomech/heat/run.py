@@ -206,6 +206,9 @@ class HeatRun(ThermalPart):
             out["balance"] = self.balance.as_data(lengths["balance"])
         return out
 
+    def checkpoint_spaces(self) -> dict:
+        return {"heat": self.forms.gf.space}
+
     def restore(self, arrays: dict, meta: dict) -> None:
         self.forms.gf.vec.FV().NumPy()[:] = arrays["heat"]
         self.forms.gf_old.vec.data = self.forms.gf.vec

@@ -306,6 +306,14 @@ class StaticMechanicsRun(MechanicsPart):
                 "contact_history": out.history[:lengths["contact_history"]] if out is not None else [],
                 "contact_latest": lengths["contact_latest"]}
 
+    def checkpoint_spaces(self) -> dict:
+        return {"mechanics": self.forms.gf.space}
+
+    def partition_bound(self) -> tuple[str, ...]:
+        """The contact solver's warm start and last results: node arrays of the contact interfaces in the order
+        of the run's global dof numbering."""
+        return ("warm/", "latest/") if self.contact_output is not None else ()
+
     def restore(self, arrays: dict, meta: dict) -> None:
         self.forms.gf.vec.FV().NumPy()[:] = arrays["mechanics"]
         self.times[:] = meta["times"]
