@@ -49,7 +49,7 @@ def launch(ranks: int, scene: str, out: Path, sets: list[str], *extra: str) -> d
     cmd = [mpiexec(), "-n", str(ranks), sys.executable, str(CASE), scene, str(out), str(result), *extra]
     for s in sets:
         cmd += ["--set", s]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=parallel.launch_environment())
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=parallel.launch_environment())
     assert proc.returncode == 0, proc.stderr[-4000:]
     return json.loads(result.read_text())
 

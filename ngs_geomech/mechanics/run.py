@@ -316,6 +316,8 @@ class StaticMechanicsRun(MechanicsPart):
 
     def restore(self, arrays: dict, meta: dict) -> None:
         self.forms.gf.vec.FV().NumPy()[:] = arrays["mechanics"]
+        if parallel.distributed(self.forms.mesh):               # every copy of a shared dof holds the value
+            self.forms.gf.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
         self.times[:] = meta["times"]
         self.solver.history[:] = [NonlinearInfo(**d) for d in meta["history"]]
         out = self.contact_output

@@ -41,12 +41,12 @@ class WholeMesh:
     def __init__(self, ngmesh):
         dim = ngmesh.dim
         arr = ngmesh.Elements2D() if dim == 2 else ngmesh.Elements3D()
-        nodes = np.asarray(arr.NumPy()["nodes"], dtype=np.int64)
+        nodes = np.array(arr.NumPy()["nodes"], dtype=np.int64)        # copies: the netgen mesh may go
         if np.any((nodes > 0).sum(axis=1) != dim + 1):
             raise ValueError("checkpoints of distributed runs need a simplicial mesh (triangles or tetrahedra)")
         self.nodes = nodes[:, :dim + 1] - 1
-        coords = np.asarray(ngmesh.Coordinates(), dtype=float)
-        self.xyz = coords[:, :dim]
+        coords = np.array(ngmesh.Coordinates(), dtype=float)
+        self.xyz = np.ascontiguousarray(coords[:, :dim])
         self.coordinates_sha256 = hashlib.sha256(np.round(coords, 9).tobytes()).hexdigest()
 
 
@@ -67,7 +67,7 @@ def whole_vertex_numbers(mesh, whole: WholeMesh | None) -> np.ndarray:
     if comm.rank == 0:
         try:
             matched = _match(parts, whole)
-        except RuntimeError as exc:           # said on every rank (the others wait in the scatter)
+        except Exception as exc:              # noqa: BLE001 - said on every rank (the others wait in the scatter)
             matched = [str(exc)] * comm.size
     mine = comm.scatter(matched, root=0)
     if isinstance(mine, str):
