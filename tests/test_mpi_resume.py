@@ -24,6 +24,7 @@ from ngs_geomech import parallel
 from ngs_geomech.api import run
 from ngs_geomech.errors import SolverError
 from ngs_geomech.io.checkpoint import load_checkpoint
+from ngs_geomech.linalg import petsc
 
 pytestmark = [pytest.mark.usefixtures("one_thread"), needs_mpi, one_mpi_job]
 
@@ -155,3 +156,33 @@ def test_stefan_checkpoints_move_between_serial_and_distributed_runs(tmp_path, m
           f"resumed on 3 ranks {df}")
     assert max(d3.values()) <= 1e-10
     assert max(ds.values()) <= 1e-8 and max(df.values()) <= 1e-8
+
+
+@pytest.mark.skipif(not petsc.available(), reason="petsc4py not installed (extra 'petsc')")
+def test_contact_checkpoint_resumes_on_the_same_rank_count_only(tmp_path):
+    """The Tresca stack of tests/test_mpi_contact.py (P1) loaded over 4 time steps: stopped by its solve of step 3, the
+    contact solver's warm start (its node arrays follow the partition) resumes on 3 ranks to the uninterrupted
+    run's state; on 5 ranks the resume is refused naming both rank counts."""
+    from ngs_geomech.verification.distributed_contact import stack_scene
+
+    data = stack_scene("tresca", 0.4, 1)
+    data["time"] = {"end": 4.0, "dt": 1.0}
+    data["boundary_conditions"]["top"] = {"pressure": "2e5 * (1 + t)"}
+    data["output"]["checkpoint_every"] = 1
+    scene = tmp_path / "stack.json"
+    scene.write_text(json.dumps(data))
+    ref = launch(3, str(scene), tmp_path / "REF", [])
+    out = tmp_path / "a" / "OUT"
+    out.parent.mkdir()
+    got = launch(3, str(scene), out, [], "--fail-contact-at", "4")
+    assert "injected divergence" in got["error"] and "--resume" in got["error"]
+    cp = load_checkpoint(staging(out.parent) / "checkpoint")
+    assert cp.meta["step"] == 2 and any(k.startswith("warm/") for k in cp.arrays)
+    other = copy_interrupted(out.parent, tmp_path / "b")
+    same = launch(3, str(scene), out, [], "--resume")
+    d3 = differences(same["state"], ref["state"])
+    print(f"\ncontact stack stopped after step 2 of 4, resumed on 3 ranks: relative difference {d3}")
+    assert max(d3.values()) <= 1e-10
+    refused = launch(5, str(scene), other, [], "--resume")
+    assert "written by a run on 3 ranks and this run is on 5 ranks" in refused["error"]
+    assert "resume on 3 ranks" in refused["error"]

@@ -325,8 +325,10 @@ class StaticMechanicsRun(MechanicsPart):
             out.history[:] = meta["contact_history"]
             out.latest = [{k.split("/", 2)[2]: v for k, v in arrays.items() if k.startswith(f"latest/{i}/")}
                           for i in range(meta["contact_latest"])]
-            self.solver.contact.restore(self.forms.X.ndof, {k.split("/", 1)[1]: v for k, v in arrays.items()
-                                                            if k.startswith("warm/")})
+            # the contact solver's arrays are global (distributed: in the numbering of parallel.GlobalDofs)
+            ndof = self.forms.X.ndofglobal if parallel.distributed(self.forms.mesh) else self.forms.X.ndof
+            self.solver.contact.restore(ndof, {k.split("/", 1)[1]: v for k, v in arrays.items()
+                                               if k.startswith("warm/")})
 
     def summary(self) -> dict:
         h = self.solver.history

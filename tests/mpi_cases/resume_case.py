@@ -3,8 +3,11 @@
 
     mpiexec -n 3 python resume_case.py SCENE OUT RESULT.json [--fail-at N] [--resume] [--set key=value ...]
 
+SCENE: a scene file or built-in name, or a ``.json`` file holding a scene dict.
+
 ``--fail-at N``: the N-th and later thermal solves (heat solves or Stefan steps) raise a SolverError on every rank
-(a diverging step): the run saves its last good state and stops. ``--resume``: continue the interrupted run into OUT.
+(a diverging step; ``--fail-contact-at N``: the mechanics solves with contact): the run saves its last good state
+and stops. ``--resume``: continue the interrupted run into OUT.
 Rank 0 writes RESULT.json: ``error`` (the message, or None), ``summary`` (probes, steps, resumed) and ``state``, the
 parts' checkpointed vectors of the final state in the canonical numbering of :mod:`ngs_geomech.run.numbering`
 (comparable between rank counts and serial runs).
@@ -65,12 +68,28 @@ def fail_thermal_solve_at(n: int, patch=setattr) -> None:
     patch(StefanSolver, "step", failing(StefanSolver.step))
 
 
+def fail_contact_solve_at(n: int, patch=setattr) -> None:
+    """The n-th and later mechanics solves with contact raise a SolverError (on every rank)."""
+    from ngs_geomech.errors import SolverError
+    from ngs_geomech.mechanics.contact import ElasticContactSolver
+
+    original, calls = ElasticContactSolver.solve, {"n": 0}
+
+    def solve(self, where):
+        calls["n"] += 1
+        if calls["n"] >= n:
+            raise SolverError(f"injected divergence at contact solve {n}")
+        return original(self, where)
+    patch(ElasticContactSolver, "solve", solve)
+
+
 def main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser()
     parser.add_argument("scene")
     parser.add_argument("out")
     parser.add_argument("result")
     parser.add_argument("--fail-at", type=int, default=None)
+    parser.add_argument("--fail-contact-at", type=int, default=None)
     parser.add_argument("--resume", action="store_true")
     parser.add_argument("--set", action="append", default=[])
     args = parser.parse_args(argv)
@@ -82,9 +101,17 @@ def main(argv: list[str]) -> int:
     comm = parallel.world()
     if args.fail_at is not None:
         fail_thermal_solve_at(args.fail_at)
+    if args.fail_contact_at is not None:
+        fail_contact_solve_at(args.fail_contact_at)
     data = {"error": None, "summary": None, "state": None}
+    scene = args.scene
+    if scene.endswith(".json"):                   # a scene dict (the --set values do not apply)
+        from ngs_geomech.scene.parse import scene_from_dict
+
+        with open(scene) as f:
+            scene = scene_from_dict(json.load(f), source=scene)
     try:
-        result = run(args.scene, args.out, overrides=args.set, progress=False, threads=1, resume=args.resume,
+        result = run(scene, args.out, overrides=args.set, progress=False, threads=1, resume=args.resume,
                      comm=comm)
     except (SolverError, ResumeError) as exc:
         data["error"] = f"{type(exc).__name__}: {exc}"
