@@ -3,10 +3,12 @@ ranks (2 workers) stopped by a failing thermal solve saves its last good state (
 vectors in the partition-independent numbering of :mod:`ngs_geomech.run.numbering`); resumed on 3 ranks it equals
 the uninterrupted distributed run to round-off, resumed on 5 ranks or serially to the solver tolerances; a
 checkpoint of another scene is refused naming the key; a serial run's checkpoint of an order-1 (Stefan) scene
-resumes distributed.
+resumes distributed; a contact scene's checkpoint (the contact solver's warm start follows the partition) resumes on
+the same rank count to round-off and is refused on another.
 
 Scenes: the warm slab with thermal stresses of tests/test_mpi_scenes.py (P2, curved inclusion, k(T), hardening
-lambda law, deformation heating, iterated coupling; 10 steps) and the built-in ``melting_block`` (Stefan, P1)."""
+lambda law, deformation heating, iterated coupling; 10 steps), the built-in ``melting_block`` (Stefan, P1) and the
+Tresca stack of tests/test_mpi_contact.py loaded over 4 steps (3D, P1, PETSc)."""
 
 from __future__ import annotations
 
