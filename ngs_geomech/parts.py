@@ -84,6 +84,17 @@ class Part(abc.ABC):
         """Put the state of :meth:`capture` / :meth:`meta` back."""
         return None
 
+    def checkpoint_spaces(self) -> dict:
+        """The arrays of :meth:`capture` that are vectors of a finite element space (name -> space): on a
+        distributed mesh this rank's (cumulated) part of the vector, which a checkpoint holds in a numbering of
+        the whole mesh (:mod:`ngs_geomech.run.numbering`). The other arrays are the same on every rank."""
+        return {}
+
+    def partition_bound(self) -> tuple[str, ...]:
+        """Prefixes of the names of :meth:`capture`'s arrays whose order follows how the mesh is split over the
+        ranks (a checkpoint holding them resumes on the same number of ranks only)."""
+        return ()
+
     # -- reporting ------------------------------------------------------------------------------------------
     @property
     def factorizations(self) -> int:

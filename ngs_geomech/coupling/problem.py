@@ -141,7 +141,10 @@ class DeformationHeating:
 
     def restore(self, arrays: dict) -> None:
         self.rate.vec.FV().NumPy()[:] = arrays["coupling/rate"]
-        self._zero = not np.any(arrays["coupling/rate"])
+        if parallel.distributed(self.space.mesh):               # every copy of a shared dof holds the value
+            self.rate.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
+        # the same on every rank of a distributed mesh (a zero rate skips collective assembly)
+        self._zero = not parallel.anyof(self.space.mesh, bool(np.any(arrays["coupling/rate"])))
 
 
 def relative_change(new: np.ndarray, old: np.ndarray, mesh=None) -> float:

@@ -132,6 +132,12 @@ class CouplingRun(Part):
     def meta(self, lengths: dict) -> dict:
         return {n: v[:lengths["steps"]] for n, v in self.history.items()}
 
+    def checkpoint_spaces(self) -> dict:
+        return {"coupling/rate": self.heating.rate.space}
+
+    def partition_bound(self) -> tuple[str, ...]:
+        return ("coupling/friction/",) if self.friction is not None else ()
+
     def restore(self, arrays: dict, meta: dict) -> None:
         self.heating.restore(arrays)
         if self.friction is not None:

@@ -10,6 +10,7 @@ import math
 import ngsolve as ngs
 import numpy as np
 
+from .. import parallel
 from ..geometry.assemble import GeometryModel
 from ..io.meshdata import vertex_values
 from ..io.summary import finite
@@ -206,8 +207,13 @@ class HeatRun(ThermalPart):
             out["balance"] = self.balance.as_data(lengths["balance"])
         return out
 
+    def checkpoint_spaces(self) -> dict:
+        return {"heat": self.forms.gf.space}
+
     def restore(self, arrays: dict, meta: dict) -> None:
         self.forms.gf.vec.FV().NumPy()[:] = arrays["heat"]
+        if parallel.distributed(self.forms.gf.space.mesh):     # every copy of a shared dof holds the value
+            self.forms.gf.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
         self.forms.gf_old.vec.data = self.forms.gf.vec
         self.newton_iterations[:] = meta["newton_iterations"]
         self.flows.clear()

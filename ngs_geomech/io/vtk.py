@@ -96,7 +96,7 @@ class VtkSeries:
         self.names = list(fields)
         self.coefs = list(fields.values())
         self.subdivision = subdivision
-        self.entries: list[tuple[float, str]] = []
+        self.entries: list[tuple] = []       # (t, file) or, distributed, (t, name, ranks with a part)
         self._vertices: tuple | None = None       # (mesh, ElementVertices) of the last fast write
         self._compiled: tuple | None = None       # (ids of the fields, their compiled tuple, their dimensions)
         self.derived = dict(derived or {})
@@ -164,26 +164,35 @@ class VtkSeries:
             written = self._write_file(self.directory / f".{name}.tmp", time)
             os.replace(written, self.directory / f"{name}_proc{rank}.vtu")
         ranks = [r for r, ne in enumerate(parallel.allgather(self.mesh, self.mesh.ne)) if ne]
-        self.entries.append((float(time), name))
+        self.entries.append((float(time), name, ranks))
         if rank == 0:
             (self.directory / f".{name}.tmp.pvd").unlink(missing_ok=True)    # VTKOutput's collection (subdivision)
-            self._write_pvd(ranks)
+            self._write_pvd()
 
-    def _write_pvd(self, parts: list[int] | None = None) -> None:
-        if parts is None:
-            sets = "".join(f'<DataSet timestep="{t:.12g}" file="{f}"/>\n' for t, f in self.entries)
-        else:
-            sets = "".join(f'<DataSet timestep="{t:.12g}" part="{r}" file="{f}_proc{r}.vtu"/>\n'
-                           for t, f in self.entries for r in parts)
+    @staticmethod
+    def _files(entry: tuple) -> list[str]:
+        """The files of one entry: the .vtu, or a distributed run's parts (a resumed run's entries may come from
+        runs on other rank counts)."""
+        return [entry[1]] if len(entry) == 2 else [f"{entry[1]}_proc{r}.vtu" for r in entry[2]]
+
+    def _write_pvd(self) -> None:
+        sets = "".join(f'<DataSet timestep="{e[0]:.12g}" file="{f}"/>\n' if len(e) == 2 else
+                       f'<DataSet timestep="{e[0]:.12g}" part="{r}" file="{f}"/>\n'
+                       for e in self.entries for r, f in zip(e[2] if len(e) > 2 else [None], self._files(e)))
         write_text_atomic(self.directory / f"{self.basename}.pvd",
                           '<?xml version="1.0"?>\n<VTKFile type="Collection" version="1.0" '
                           f'byte_order="LittleEndian">\n<Collection>\n{sets}</Collection>\n</VTKFile>\n')
 
-    def restore(self, entries: list) -> None:
-        """Continue the series after ``entries`` (from a checkpoint): files written after them are removed."""
-        self.entries = [(float(t), str(f)) for t, f in entries]
-        keep = {f for _, f in self.entries}
-        for p in [self.directory / f"{self.basename}.vtu", *self.directory.glob(f"{self.basename}_step*.vtu")]:
+    def restore(self, entries: list, files: bool = True) -> None:
+        """Continue the series after ``entries`` (from a checkpoint): files written after them are removed
+        (``files`` False: the entries only, on the ranks other than 0 of a distributed run)."""
+        self.entries = [(float(e[0]), str(e[1])) if len(e) == 2 else (float(e[0]), str(e[1]), [int(r) for r in e[2]])
+                        for e in entries]
+        if not files:
+            return
+        keep = {f for e in self.entries for f in self._files(e)}
+        for p in [self.directory / f"{self.basename}.vtu", *self.directory.glob(f"{self.basename}_step*.vtu"),
+                  *self.directory.glob(f"{self.basename}_proc*.vtu")]:
             if p.name not in keep and p.exists():
                 p.unlink()
         if self.entries:

@@ -306,8 +306,18 @@ class StaticMechanicsRun(MechanicsPart):
                 "contact_history": out.history[:lengths["contact_history"]] if out is not None else [],
                 "contact_latest": lengths["contact_latest"]}
 
+    def checkpoint_spaces(self) -> dict:
+        return {"mechanics": self.forms.gf.space}
+
+    def partition_bound(self) -> tuple[str, ...]:
+        """The contact solver's warm start and last results: node arrays of the contact interfaces in the order
+        of the run's global dof numbering."""
+        return ("warm/", "latest/") if self.contact_output is not None else ()
+
     def restore(self, arrays: dict, meta: dict) -> None:
         self.forms.gf.vec.FV().NumPy()[:] = arrays["mechanics"]
+        if parallel.distributed(self.forms.mesh):               # every copy of a shared dof holds the value
+            self.forms.gf.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
         self.times[:] = meta["times"]
         self.solver.history[:] = [NonlinearInfo(**d) for d in meta["history"]]
         out = self.contact_output
@@ -315,8 +325,10 @@ class StaticMechanicsRun(MechanicsPart):
             out.history[:] = meta["contact_history"]
             out.latest = [{k.split("/", 2)[2]: v for k, v in arrays.items() if k.startswith(f"latest/{i}/")}
                           for i in range(meta["contact_latest"])]
-            self.solver.contact.restore(self.forms.X.ndof, {k.split("/", 1)[1]: v for k, v in arrays.items()
-                                                            if k.startswith("warm/")})
+            # the contact solver's arrays are global (distributed: in the numbering of parallel.GlobalDofs)
+            ndof = self.forms.X.ndofglobal if parallel.distributed(self.forms.mesh) else self.forms.X.ndof
+            self.solver.contact.restore(ndof, {k.split("/", 1)[1]: v for k, v in arrays.items()
+                                               if k.startswith("warm/")})
 
     def summary(self) -> dict:
         h = self.solver.history

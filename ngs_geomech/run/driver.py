@@ -23,7 +23,11 @@ of the mesh (rank 0 meshes and distributes, keeping no elements); what a distrib
 (:func:`~ngs_geomech.validation.validate.distributed_problems`). Rank 0 creates, commits or removes the staging
 directory, prints the progress and writes summary.json, figures and line series; every rank with elements writes
 its VTK parts; values that need the whole mesh (probes, mesh counts, figure data) are gathered collectively, so
-every rank takes every output branch. No checkpoints are written.
+every rank takes every output branch. Checkpoints: rank 0 keeps the whole mesh's element table and coordinates
+(:class:`~ngs_geomech.run.numbering.WholeMesh`), every step's state is gathered to rank 0 in a numbering that does
+not depend on the partition, and rank 0 writes the checkpoints (:mod:`ngs_geomech.run.checkpoint`); ``--resume``
+reads the checkpoint on rank 0 and sends it to the others, so that a distributed run resumes on any number of
+ranks, or serially, and a serial run's checkpoint of an order-1 scene resumes distributed.
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ from __future__ import annotations
 import functools
 import logging
 import os
+import pickle
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,7 +46,7 @@ from .. import parallel
 from ..adapt.policy import MeshPolicy
 from ..errors import OutputError, ResumeError, SceneError, SolverError
 from ..geometry.assemble import GeometryModel
-from ..geometry.mesh import element_estimate, make_mesh
+from ..geometry.mesh import SerialCopy, element_estimate, make_mesh
 from ..io.atomic import OutputDir, is_locked, staging_dirs, write_json_atomic
 from ..io.checkpoint import Checkpoint, find_resumable, has_checkpoint, scene_hash
 from ..io.outdir import disk_full
@@ -57,6 +62,7 @@ from ..validation.validate import distributed_problems, validate
 from .checkpoint import Checkpointer, Plan, RunState, check_scene, plan_steps
 from .checkpoint import where as checkpoint_where
 from .model import Model, mesh_policy
+from .numbering import WholeMesh
 from .output import RunOutput
 
 log = logging.getLogger(__package__)
@@ -111,13 +117,14 @@ def run_scene(scene: Scene, out: str | Path | None, *, progress: bool = True, th
         comm = None
     geo = geometry or validate(scene)
     if comm is not None:
-        problems = distributed_problems(scene, resume)
+        problems = distributed_problems(scene)
         if problems:
             raise SceneError(problems, source=f"scene {scene.scene.name!r} (distributed run, {comm.size} ranks)")
     timings["validate_s"] = _time.perf_counter() - t0
     cp = None
     if resume:
-        cp = _checkpoint_to_resume(scene, out)
+        cp = _checkpoint_to_resume(scene, out) if comm is None else _on_rank_zero(
+            comm, functools.partial(_checkpoint_to_resume, scene, out))
     # one thread per rank unless asked (ranks x threads <= cores); serially by the problem's size
     threads = threads or (1 if comm is not None else default_threads(
         sum(element_estimate(geo, scene.mesh).values()) * scene.mesh.order ** geo.dim, geo.dim))
@@ -184,7 +191,7 @@ def _staging(out: Path, cp: Checkpoint | None, comm, overwrite: bool, name: str)
         return OutputDir(out, resume=cp.staging if cp is not None else None, overwrite=overwrite, scene=name)
     if comm.rank == 0:
         try:
-            staging = OutputDir(out, overwrite=overwrite, scene=name)
+            staging = OutputDir(out, resume=cp.staging if cp is not None else None, overwrite=overwrite, scene=name)
         except BaseException:
             comm.bcast(None, root=0)
             raise
@@ -194,6 +201,27 @@ def _staging(out: Path, cp: Checkpoint | None, comm, overwrite: bool, name: str)
     if path is None:
         raise SolverError(f"rank {comm.rank}: rank 0 could not create the staging directory of {out}")
     return _RankStaging(Path(path))
+
+
+def _on_rank_zero(comm, fn):
+    """``fn()`` computed on rank 0 and sent to every rank; an exception it raises is raised on every rank."""
+    if comm.rank == 0:
+        try:
+            value = fn()
+        except Exception as exc:
+            try:
+                pickle.dumps(exc)
+                sent = exc
+            except Exception:                 # noqa: BLE001 - an exception that does not pickle: its message
+                sent = ResumeError(str(exc))
+            comm.bcast((False, sent), root=0)
+            raise
+        comm.bcast((True, value), root=0)
+        return value
+    ok, value = comm.bcast(None, root=0)
+    if not ok:
+        raise value
+    return value
 
 
 def _checkpoint_to_resume(scene: Scene, out) -> Checkpoint:
@@ -234,7 +262,14 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
     tic = _time.perf_counter()
     build = functools.partial(Model, scene, geo)
     policy = mesh_policy(scene, geo, build)
-    mesh = make_mesh(geo, scene.mesh, comm=comm, serial_copy=policy.serial_copy)
+    # a distributed run's checkpoints name the dofs by the whole mesh's vertices: rank 0 keeps its tables
+    checkpoints = staging is not None and _transient(scene) and policy.checkpoints and \
+        (comm is None or scene.adaptivity is None)
+    copy = policy.serial_copy or (SerialCopy() if checkpoints and comm is not None else None)
+    mesh = make_mesh(geo, scene.mesh, comm=comm, serial_copy=copy)
+    whole = WholeMesh(copy.ngmesh) if checkpoints and comm is not None and comm.rank == 0 else None
+    if copy is not policy.serial_copy:
+        copy.ngmesh = None
     timings["mesh_s"] = _time.perf_counter() - tic
     tic = _time.perf_counter()
     model = policy.prepare(build(mesh), scene.time.start if scene.time is not None else None)
@@ -250,10 +285,9 @@ def _run(scene: Scene, geo: GeometryModel, staging: OutputDir | None, show: bool
             log.warning("%s", w)
     out = RunOutput(scene, model, staging.path if staging is not None else None, root)
     timings["setup_s"] = _time.perf_counter() - tic
-    state = RunState(to_dict(scene), model, out)
+    state = RunState(to_dict(scene), model, out, comm, whole)
     if _transient(scene):
-        saving = staging is not None and policy.checkpoints and comm is None
-        model, nsteps = _march(scene, policy, state, staging if saving else None, show, timings, cp)
+        model, nsteps = _march(scene, policy, state, staging if checkpoints else None, show, timings, cp)
     else:
         model, nsteps = _steady(policy, model, out, timings), 0
     if root:                                  # the warnings of the solves (small-strain range)
@@ -279,12 +313,17 @@ def _steady(policy: MeshPolicy, model: Model, out: RunOutput, timings: dict) -> 
     return model
 
 
-def _march(scene: Scene, policy: MeshPolicy, state: RunState, scratch_dir: OutputDir | None, show: bool,
+def _march(scene: Scene, policy: MeshPolicy, state: RunState, staging, show: bool,
            timings: dict, cp: Checkpoint | None) -> tuple[Model, int]:
     """The time steps of the scene (from the checkpoint ``cp`` when resuming): each advances the model (its mesh
-    as the policy decides), records and writes; checkpoints into ``scratch_dir`` (None: none)."""
+    as the policy decides), records and writes; checkpoints into ``staging`` (None: none; in a distributed run
+    every rank captures, rank 0 writes)."""
     ts, model, out = scene.time, state.model, state.output
     plan = plan_steps(ts, cp)
+    root = state.comm is None or state.comm.rank == 0
+    scratch_dir = staging if root else None
+    if staging is not None or cp is not None:
+        state.prepare()
     if cp is None:
         model, timings["initial_s"] = _initial(scene, policy, model, out)
         solve_s = 0.0
@@ -294,7 +333,7 @@ def _march(scene: Scene, policy: MeshPolicy, state: RunState, scratch_dir: Outpu
         solve_s = float(cp.meta["solve_s"])
         log.info("resuming from the checkpoint at %s of %d", checkpoint_where(cp), plan.total)
     saver = Checkpointer(state, scratch_dir.scratch if scratch_dir is not None else None, plan,
-                         scene.output.checkpoint_every)
+                         scene.output.checkpoint_every, capturing=staging is not None)
     saver.capture(plan.k0, ts.start if cp is None else float(cp.meta["time_s"]), solve_s)
     bar = Progress(ts.end - ts.start, scene.scene.name, enabled=show)
     try:

@@ -106,9 +106,10 @@ class RunOutput:
             p.times[n][:] = meta["probes"]["times"].get(n, [])
             p.series[n][:] = meta["probes"]["series"].get(n, [])
         if self.vtk is not None:
-            self.vtk.restore(meta["vtk"])
+            self.vtk.restore(meta["vtk"], files=self.root)
         for n, s in self.lines.items():
-            s.restore(meta["lines"].get(n, []))
+            if self.root:                         # rank 0 alone writes the line series
+                s.restore(meta["lines"].get(n, []))
         if self.profile is not None:
             self.profile.restore(meta.get("profile", {}))
 

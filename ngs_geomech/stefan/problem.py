@@ -587,6 +587,13 @@ class StefanRun(ThermalPart):
                             "melted_volume": {r: v[:k] for r, v in rec["melted_volume"].items()},
                             "latent_heat_stored": {r: v[:k] for r, v in rec["latent_heat_stored"].items()}}}
 
+    def checkpoint_spaces(self) -> dict:
+        """The nodal enthalpy and its predictor rate (the nodes of the P1 space). The Newton matrix's reuse state
+        is a serial run's only (a distributed run's Krylov Jacobian keeps none and ignores it; a serial run resumed
+        from a distributed run's checkpoint factors anew)."""
+        V = self.solver.f.V
+        return {"stefan/enthalpy": V, "stefan/rate": V}
+
     def restore(self, arrays: dict, meta: dict) -> None:
         self.solver.restore({k.split("/", 1)[1]: v for k, v in arrays.items()
                              if k.startswith("stefan/") and k != "stefan/step_control"})

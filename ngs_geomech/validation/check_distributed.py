@@ -6,7 +6,7 @@ from ..errors import Problem
 from ..scene.model import RATE_MECHANICS, Scene
 
 
-def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
+def distributed_problems(scene: Scene) -> list[Problem]:
     """What a distributed run (``mpiexec -n N ngs-geomech run``, N >= 2) cannot do, each naming its scene key.
 
     Supported: thermal (steady, transient, k(T)), thermo-elastic (static mechanics, the lambda law) and Stefan
@@ -18,8 +18,12 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
       (:func:`_adaptivity_problems`); adaptive refinement of stationary scenes by the estimators (and the mesh
       adapted once for a transient heat scene) is supported;
     * dynamic and viscous mechanics and nested iteration: their matrices are scipy (local) or coarse meshes are
-      re-made serially;
-    * checkpoints and --resume: a checkpoint holds one process's vectors.
+      re-made serially.
+
+    Checkpoints and ``--resume`` work as in serial runs (:mod:`ngs_geomech.run.checkpoint`: the vectors are kept
+    in a numbering of the whole mesh, so a checkpoint resumes on any rank count or serially); what cannot be
+    resumed on another rank count (the contact solver's warm start) or from a serial run's checkpoint (fields of
+    mesh.order > 1) is refused on resume, naming both.
     """
     problems: list[Problem] = []
     why = "is not supported in distributed runs (mpiexec -n N, N >= 2): run serially"
@@ -36,8 +40,6 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
     if scene.solver.linear == "direct":
         problems.append(Problem("solver.linear", "'direct' is not available in distributed runs (the systems are "
                                 "solved by CG with GAMG or BDDC); use 'auto' or 'iterative'"))
-    if resume:
-        problems.append(Problem("--resume", "distributed runs write no checkpoints, so they cannot be resumed"))
     return problems
 
 
