@@ -14,9 +14,9 @@ def distributed_problems(scene: Scene) -> list[Problem]:
     PETSc. Not supported, and why:
 
     * contact without PETSc, with Uzawa's method, or carrying heat (:func:`_contact_problems`);
-    * meshes that follow a phase boundary or contact zones over time, and the contact-zone indicator
-      (:func:`_adaptivity_problems`); adaptive refinement of stationary scenes by the estimators (and the mesh
-      adapted once for a transient heat scene) is supported;
+    * meshes that follow a phase boundary or contact zones over time (:func:`_adaptivity_problems`); adaptive
+      refinement of stationary scenes by the estimators and the contact-zone indicator (and the mesh adapted once
+      for a transient heat scene) is supported;
     * dynamic and viscous mechanics and nested iteration: their matrices are scipy (local) or coarse meshes are
       re-made serially.
 
