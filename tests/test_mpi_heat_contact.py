@@ -1,6 +1,7 @@
 """Heat crossing contact interfaces on a distributed mesh (:mod:`ngs_geomech.heat.distributed`): the cases of
 :mod:`mpi_cases.heat_contact_case` (3D perfect contact P1 and P2, a constant conductance, the power law of the
-mechanics' contact pressure; 2D perfect contact with cross points P1 and P2, a conductance with linearized radiation)
+mechanics' contact pressure, k(T) with a conductance; 2D perfect contact with cross points P1 and P2, k(T), a
+conductance with linearized and exact radiation)
 on 3 and 5 ranks (2 and 4 workers) against the serial run in this process: the temperatures at points of both bodies
 and the interface heat flow of every step equal to 1e-8 (relative to the largest value)."""
 
@@ -45,7 +46,8 @@ def differences(got: dict, want: dict) -> dict:
 @pytest.mark.parametrize("case,ranks", [("3d_perfect_p1", 3), ("3d_perfect_p1", 5), ("3d_perfect_p2", 3),
                                         ("3d_conductance", 3), ("3d_conductance", 5), ("3d_pressure_law", 3),
                                         ("3d_pressure_law", 5), ("2d_perfect_p1", 3), ("2d_perfect_p2", 5),
-                                        ("2d_radiation", 3)])
+                                        ("2d_radiation", 3), ("2d_exact_radiation", 3), ("2d_kT_perfect", 3),
+                                        ("3d_kT_conductance", 5)])
 def test_distributed_heat_across_contacts_equals_serial(tmp_path, case, ranks):
     if case == "3d_pressure_law" and not petsc.available():
         pytest.skip("distributed contact needs petsc4py (extra 'petsc')")
@@ -62,3 +64,29 @@ def test_distributed_heat_across_contacts_equals_serial(tmp_path, case, ranks):
     assert d["temperature"] < 1e-8 and d["flow"] < 1e-8
     if want["conductance"] is not None:
         assert got["conductance"]["joint"]["state"] == want["conductance"]["joint"]["state"]
+
+
+@needs_mpi
+@one_mpi_job
+@pytest.mark.parametrize("scene,overrides", [("block3d", ["output.vtk=false", "output.figures=false"])])
+def test_a_builtin_contact_scene_runs_distributed_as_serially(tmp_path, scene, overrides):
+    """A built-in scene with heat crossing a contact interface through the command line on 3 ranks: its probes and
+    interface heat flows equal the serial run's."""
+    from ngs_geomech.api import run
+
+    out = tmp_path / "mpi"
+    cmd = [mpiexec(), "-n", "3", sys.executable, "-m", "ngs_geomech.cli", "run", scene, "--out", str(out), "--quiet",
+           "--threads", "1"]
+    for o in overrides:
+        cmd += ["--set", o]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env=launch_environment())
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    got = json.loads((out / "summary.json").read_text())
+    want = run(scene, None, overrides=overrides, progress=False).summary
+    assert got["mesh"]["ranks"] == 3 and got["mesh"]["dofs"] == want["mesh"]["dofs"]
+    probes = {k: v for k, v in want["probe_series"].items() if k not in ("time_s", "times_s")}
+    d = differences({"T": [got["probe_series"][k][-1] for k in probes], "flows": got["interface_heat_flow_W"]},
+                    {"T": [v[-1] for v in probes.values()], "flows": want["interface_heat_flow_W"]})
+    print(f"\n{scene}, 3 ranks, {got['mesh']['dofs']} dofs: relative differences to serial: probes "
+          f"{d['temperature']:.1e}, interface flows {d['flow']:.1e}")
+    assert want["interface_heat_flow_W"] and d["temperature"] < 1e-8 and d["flow"] < 1e-8

@@ -21,6 +21,8 @@ are those of the serial heat solve with interfaces (the scalar heat system: a th
 
 from __future__ import annotations
 
+import math
+
 import ngsolve as ngs
 import numpy as np
 
@@ -247,7 +249,8 @@ class GlobalInterfaces:
 class GatheredSolve:
     """The step solve of heat forms with contact interfaces on a distributed mesh (module docstring): the global
     system gathered on rank 0, factored there (the last two step operators kept, as serially) and solved; every
-    rank gets the solution. ``symmetric``: factor by sparse Cholesky (else UMFPACK)."""
+    rank gets the solution. ``symmetric``: factor by sparse Cholesky (else UMFPACK). Steps that need Newton's
+    method (k(T), exact radiation) take :meth:`newton`."""
 
     def __init__(self, forms, symmetric: bool = False):
         self.f = forms
@@ -255,6 +258,8 @@ class GatheredSolve:
         self.comm = parallel.comm(forms.mesh)
         self.keys: list[str] = []
         self._factors: dict[str, tuple] = {}       # rank 0: key -> (matrix, inverse)
+        self._tmp = ngs.GridFunction(forms.X).vec
+        self._out = self._tmp.CreateVector()
 
     def forget(self) -> None:
         self.keys.clear()
@@ -319,3 +324,93 @@ class GatheredSolve:
         except SolverError as exc:
             return None, str(exc)
         return xv.FV().NumPy().copy(), None
+
+    # -- Newton's method (k(T), exact radiation) ----------------------------------------------------------------
+    def newton(self, where: str, rhs, tol: float, maxit: int) -> tuple[int, float, tuple]:
+        """Newton's method of the serial heat solver (:meth:`.solver.HeatSolver._newton`: the residual with the
+        interface terms, a backtracking line search) on the global state: the parts' residuals and tangents gathered
+        on rank 0, which adds the interface terms, factors the tangent and takes the line search's decisions, which
+        every rank follows (collective). Returns (iterations = factorizations, relative residual, its history); the
+        state is put into the forms'."""
+        f, g = self.f, self.f.interface_dofs
+        root = self.comm.rank == 0
+        loads = self.comm.gather(g.local_load(rhs), root=0)
+        b = self._vector(g, loads) if root else None
+        x = g.state(f.gf.vec)
+        r0, res = self._residual(x, b)
+        scale = self.comm.bcast(max(r0, float(np.linalg.norm(b.FV().NumPy())), 1e-300) if root else None, root=0)
+        rel, history, it = r0 / scale, [r0 / scale], 0
+        while rel > tol:
+            if it >= maxit:
+                raise SolverError(f"Newton for the k(T) heat problem at {where} did not converge in {maxit} "
+                                  f"iterations (relative residual {rel:.3e}). Reduce the time step or check that "
+                                  "kappa(T) stays positive.")
+            du = self._tangent_solve(x, res)
+            step, new_rel = 1.0, math.inf
+            while step > 1e-4:
+                trial = x - step * du if root else None
+                rn, res_t = self._residual(trial, b)
+                new_rel = rn / scale
+                if math.isfinite(new_rel) and new_rel < (1 - 1e-4 * step) * rel:
+                    break
+                step /= 2
+            if not math.isfinite(new_rel) or new_rel >= rel:
+                if rel < 1e3 * tol:
+                    break
+                raise SolverError(f"Newton for the k(T) heat problem at {where} stagnated at relative residual "
+                                  f"{rel:.3e}. Reduce the time step or check kappa(T) > 0.")
+            x, res, rel = self._x, res_t, new_rel
+            history.append(rel)
+            it += 1
+        g.scatter(x, f.gf.vec)
+        return it, rel, tuple(history)
+
+    def _vector(self, g, parts: list):
+        """Rank 0: the global vector (an NGSolve vector of the state's size) of the parts' distributed entries."""
+        v = ngs.la.BaseVector(g.size)
+        arr = v.FV().NumPy()
+        arr[:] = 0.0
+        for idx, vals in parts:
+            np.add.at(arr, np.asarray(idx, dtype=int), vals)
+        return v
+
+    def _residual(self, x, b) -> tuple[float, object]:
+        """The norm of the residual lhs(x) + interface terms(x) - b on the free dofs, on every rank, and (rank 0)
+        the residual; ``x`` (rank 0's) is sent to every rank and kept as ``self._x``."""
+        f, g = self.f, self.f.interface_dofs
+        x = self.comm.bcast(x, root=0)
+        self._x = x
+        g.scatter(x, self._tmp)
+        f.lhs.Apply(self._tmp, self._out)
+        parts = self.comm.gather(g.local_load(self._out), root=0)
+        norm, res = None, None
+        if self.comm.rank == 0:
+            res = self._vector(g, parts)
+            xv = self._vector(g, [(np.arange(g.size), x)])
+            f.add_coupling(xv, res)
+            res.data -= b
+            arr = res.FV().NumPy()
+            arr[~g.free] = 0.0
+            norm = float(np.linalg.norm(arr))
+        return self.comm.bcast(norm, root=0), res
+
+    def _tangent_solve(self, x: np.ndarray, res) -> np.ndarray | None:
+        """Rank 0: the Newton correction J^-1 res, J the tangent at ``x`` (the parts' linearizations and the
+        interface terms' derivative); None elsewhere. A failed factorization raises on every rank."""
+        f, g = self.f, self.f.interface_dofs
+        g.scatter(x, self._tmp)
+        f.lhs.AssembleLinearization(self._tmp)
+        parts = self.comm.gather(g.local_entries(f.lhs.mat), root=0)
+        du, message = None, None
+        if self.comm.rank == 0:
+            jac = f.coupling_jacobian(self._vector(g, [(np.arange(g.size), x)]))
+            message = self._factor("tangent", parts, jac, g)
+            if message is None:
+                mat, inv = self._factors.pop("tangent")
+                d = res.CreateVector()
+                d.data = inv * res
+                du = d.FV().NumPy().copy()
+        message = self.comm.bcast(message, root=0)
+        if message is not None:
+            raise SolverError(message)
+        return du

@@ -498,19 +498,19 @@ class HeatForms:
         if coupling is not None:
             res.data += coupling * vec
         terms = self.interface_terms
-        if terms is not None and terms.exact_radiation:
-            res.FV().NumPy()[:self.V.ndof] += self.theta.Get() * terms.radiation(vec.FV().NumPy()[:self.V.ndof])[0]
+        if terms is not None and terms.exact_radiation:      # (terms.nV: the temperature dofs of their numbering)
+            res.FV().NumPy()[:terms.nV] += self.theta.Get() * terms.radiation(vec.FV().NumPy()[:terms.nV])[0]
 
     def coupling_jacobian(self, vec):
         """The derivative of :meth:`add_coupling` at ``vec`` (an NGSolve matrix, or None)."""
         terms = self.interface_terms
         if terms is None or not terms.exact_radiation:
             return self.coupling
-        jac = (self.theta.Get() * terms.radiation(vec.FV().NumPy()[:self.V.ndof])[1]).tocoo()
+        jac = (self.theta.Get() * terms.radiation(vec.FV().NumPy()[:terms.nV])[1]).tocoo()
         r, c, v = (np.array(a) for a in self.coupling.COO())
         r, c, v = np.concatenate([r, jac.row]), np.concatenate([c, jac.col]), np.concatenate([v, jac.data])
         return ngs.la.SparseMatrixd.CreateFromCOO(list(map(int, r)), list(map(int, c)), list(map(float, v)),
-                                                  self.X.ndof, self.X.ndof)
+                                                  terms.ndof, terms.ndof)
 
     def right_hand_side(self):
         """The right-hand side of the step from t_old to t_new (see the module docstring), W."""

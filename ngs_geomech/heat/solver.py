@@ -69,13 +69,10 @@ class HeatSolver:
     @staticmethod
     def _interface_solve(forms: HeatForms):
         """The solve of a distributed mesh with contact interfaces (:class:`.distributed.GatheredSolve`), or None
-        without interfaces. A step that needs Newton's method (k(T), exact radiation) is not supported there."""
+        without interfaces."""
         s = forms.setup
         if not (s.contacts or s.conductances):
             return None
-        if s.nonlinear or any(c.exact_radiation for c in s.conductances):
-            raise ValueError("heat contact interfaces on a distributed mesh: steps that need Newton's method (a "
-                             "temperature-dependent conductivity or heat capacity, exact radiation) are not supported")
         from .distributed import GatheredSolve
 
         return GatheredSolve(forms)
@@ -166,6 +163,11 @@ class HeatSolver:
         self.set_dirichlet()
         self.f.prepare_step()
         rhs = self.f.right_hand_side()
+        if self._gathered is not None and self.f.nonlinear:
+            it, rel, history = self._gathered.newton(where, rhs, self.newton_tol, self.newton_maxit)
+            self.factorizations += it
+            self.check_conductivity(where)
+            return StepInfo(max(it, 1), rel, True, residuals=history)
         if self._gathered is not None:
             fresh = self._gathered.solve(where, rhs)
             self.factorizations += fresh

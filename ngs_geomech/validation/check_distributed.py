@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..errors import Problem
-from ..heat.materials import VARYING_KEYS, has_phase_change, uses_temperature
+from ..heat.materials import has_phase_change
 from ..scene.model import RATE_MECHANICS, Scene
 
 
@@ -13,12 +13,11 @@ def distributed_problems(scene: Scene, resume: bool = False) -> list[Problem]:
     Supported: thermal (steady, transient, k(T)), thermo-elastic (static mechanics, the lambda law) and Stefan
     scenes with glued interfaces; static contact (every law, interfaces and foundations, floating bodies) with
     PETSc; heat crossing contact interfaces (perfect contact by the mortar coupling; contact conductance: constant,
-    power law in the contact pressure, tables, gap conductivity, linearized radiation) in heat and thermo-elastic
-    scenes. Not supported, and why:
+    power law in the contact pressure, tables, gap conductivity, radiation; k(T)) in heat and thermo-elastic scenes.
+    Not supported, and why:
 
     * contact without PETSc or with Uzawa's method (:func:`_contact_problems`); heat crossing a contact interface
-      with Newton steps (k(T), material values of T, exact radiation) or in Stefan scenes
-      (:func:`_contact_heat_problems`);
+      in Stefan scenes and frictional heating (:func:`_contact_heat_problems`);
     * meshes that follow a phase boundary or contact zones over time, and the contact-zone indicator
       (:func:`_adaptivity_problems`); adaptive refinement of stationary scenes by the estimators (and the mesh
       adapted once for a transient heat scene) is supported;
@@ -90,10 +89,9 @@ def _contact_problems(scene: Scene, why: str) -> list[Problem]:
 
 
 def _contact_heat_problems(scene: Scene, contacts: list, why: str) -> list[Problem]:
-    """What a distributed run cannot do with heat crossing a contact interface: the couplings (mortar, contact
-    conductance) are built in a global numbering and the step systems solved on one rank
-    (:mod:`ngs_geomech.heat.distributed`) for linear steps only; Newton steps (k(T), material values of T, exact
-    radiation), the jump penalty of Stefan scenes and frictional heating stay serial."""
+    """What a distributed run cannot do with heat crossing a contact interface: the couplings of heat scenes
+    (mortar, contact conductance) are built in a global numbering and the step systems solved on one rank
+    (:mod:`ngs_geomech.heat.distributed`); the jump penalty of Stefan scenes and frictional heating stay serial."""
     if scene.physics.thermal is None:
         return []
     problems = [Problem(f"{key}.frictional_heating", f"frictional heating {why} (its sources are transferred "
@@ -109,24 +107,4 @@ def _contact_heat_problems(scene: Scene, contacts: list, why: str) -> list[Probl
         return problems + [Problem(heated[0][0], f"heat crossing a contact interface in a Stefan scene (phase change "
                                    f"in materials.{stefan[0]}) {why} (the jump penalty of the enthalpy forms is "
                                    "serial); heat and thermo-elastic scenes are supported")]
-    for key, c in heated:
-        if c.emissivities is not None and (c.radiation or "exact") == "exact":
-            problems.append(Problem(f"{key}.radiation", f"exact radiation across a contact interface {why} (its "
-                                    "Newton steps are serial); set radiation = 'linearized'"))
-    for name, m in scene.materials.items():
-        what = _temperature_key(m)
-        if what is not None:
-            problems.append(Problem(f"materials.{name}.{what}", f"a conductivity or heat capacity that depends on "
-                                    f"T with heat crossing a contact interface ({heated[0][0]}) {why} (its Newton "
-                                    "steps are serial)"))
     return problems
-
-
-def _temperature_key(m) -> str | None:
-    """The thermal key of material ``m`` that makes its heat law depend on T (k(T) or a value of T), or None."""
-    if m.conductivity_temperature_coefficient != 0.0:
-        return "conductivity_temperature_coefficient"
-
-    def of_t(v) -> bool:
-        return uses_temperature(v) or isinstance(v, (list, tuple)) and any(of_t(e) for e in v)
-    return next((k for k in VARYING_KEYS if of_t(getattr(m, k))), None)

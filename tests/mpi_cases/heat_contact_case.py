@@ -6,9 +6,10 @@ tests/test_mpi_heat_contact.py), through the run path (:func:`ngs_geomech.api.ru
 Cases (:data:`CASES`): a box on a box in 3D (non-matching meshes, Crank-Nicolson) with perfect contact (the mortar
 coupling, P1 and P2) and a constant conductance; the same boxes pressed together by the mechanics with the power law
 h = C p^m of the contact pressure (staggered coupling); side-by-side blocks in 2D whose interface ends on Dirichlet
-boundaries (the cross points of the modified mortar space, P1 and P2), and with a conductance plus linearized
-radiation (degC). Rank 0 writes the temperatures at fixed points of both bodies, the interface heat flows of every
-step and the dofs (:func:`case_result`)."""
+boundaries (the cross points of the modified mortar space, P1 and P2), with a conductance plus linearized and exact
+radiation (degC); k(T) (Newton's method) with perfect contact (2D) and a conductance (3D). Rank 0 writes the
+temperatures at fixed points of both bodies, the interface heat flows of every step and the dofs
+(:func:`case_result`)."""
 
 from __future__ import annotations
 
@@ -69,6 +70,13 @@ def blocks_2d(order: int, interface: dict, celsius: bool = False) -> dict:
             "output": {"vtk": False, "figures": False}}
 
 
+def with_kt(data: dict) -> dict:
+    """``data`` with k(T) = k (1 + 0.004 (T - 0)) in its first material (Newton's method)."""
+    first = next(iter(data["materials"].values()))
+    first.update(conductivity_temperature_coefficient=0.004, reference_temperature=0.0)
+    return data
+
+
 CASES = {
     "3d_perfect_p1": lambda: stack_3d(1, {}),
     "3d_perfect_p2": lambda: stack_3d(2, {}),
@@ -79,6 +87,9 @@ CASES = {
     "2d_perfect_p2": lambda: blocks_2d(2, {}),
     "2d_radiation": lambda: blocks_2d(2, {"conductance": 5.0, "emissivities": [0.8, 0.6],
                                           "radiation": "linearized"}, celsius=True),
+    "2d_exact_radiation": lambda: blocks_2d(1, {"conductance": 5.0, "emissivities": [0.8, 0.6]}, celsius=True),
+    "2d_kT_perfect": lambda: with_kt(blocks_2d(2, {})),
+    "3d_kT_conductance": lambda: with_kt(stack_3d(1, {"conductance": 200.0})),
 }
 """name: the scene dict."""
 
