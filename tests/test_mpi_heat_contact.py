@@ -54,7 +54,8 @@ def test_distributed_heat_across_contacts_equals_serial(tmp_path, case, ranks):
     want = case_result(case)
     got = _distributed(tmp_path, case, ranks)
     d = differences(got, want)
-    print(f"\n{case}, {ranks} ranks, {got['dofs']} dofs: relative differences to serial: temperature "
+    print(f"\n{case}, {ranks} ranks, {got['dofs']} dofs, elements per rank {got['elements_per_rank']}: relative "
+          f"differences to serial: temperature "
           f"{d['temperature']:.1e}, interface flows {d['flow']:.1e} (serial T max {max(np.abs(want['T'])):.4g}, "
           f"flows {({k: v[-1] for k, v in want['flows'].items()})})")
     assert got["ranks"] == ranks and got["dofs"] == want["dofs"]

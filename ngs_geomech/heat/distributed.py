@@ -86,6 +86,7 @@ class GlobalInterfaces:
             offset, goffset = offset + L.ndof, goffset + m.size
         self.size = goffset
         self._masses = None
+        self._own: list[list[int]] = []        # per mortar interface: this part's master elements
         self.mortar_coo = self._mortar(forms) if s.contacts else None
         self.terms = self._terms(forms) if s.conductances else None
         self.free = np.concatenate([self.numbering.gather(free[:V.ndof].astype(float)) > 0.5,
@@ -107,7 +108,6 @@ class GlobalInterfaces:
         mesh, V, s = self.mesh, forms.V, forms.setup
         rows, cols, vals = [], [], []
         message = None
-        self._own = []
         for (master, minion), L, merge, (_, g0, m) in zip(s.contacts, forms.multiplier_spaces, forms.merge,
                                                            self.blocks):
             own, minions = self._sides(master, minion, V)
@@ -216,8 +216,9 @@ class GlobalInterfaces:
         for off, g0, m in self.blocks:
             held = m.local >= 0
             mult[g0 - self.nV + m.local[held]] = arr[off:off + len(m.local)][held]
-        out[self.nV:] = parallel.first_valid(self.mesh, mult[None, :])[0]
-        return np.nan_to_num(out, nan=0.0)
+        mult = parallel.first_valid(self.mesh, mult[None, :])[0]
+        out[self.nV:] = np.where(np.isnan(mult), 0.0, mult)       # (no part holds it: never set, 0)
+        return out
 
     def scatter(self, x: np.ndarray, vec) -> None:
         """Put the global state ``x`` into this part's (cumulated) state vector ``vec``."""
