@@ -69,10 +69,12 @@ def test_distributed_heat_across_contacts_equals_serial(tmp_path, case, ranks):
 
 @needs_mpi
 @one_mpi_job
-@pytest.mark.parametrize("scene,overrides", [("block3d", ["output.vtk=false", "output.figures=false"])])
+@pytest.mark.parametrize("scene,overrides", [
+    ("block3d", ["output.vtk=false", "output.figures=false"]),                                # 3D steady, P1
+    ("canister", ["time.end=5 year", "output.vtk=false", "output.figures=false"])])           # axisymmetric, P2, CN
 def test_a_builtin_contact_scene_runs_distributed_as_serially(tmp_path, scene, overrides):
-    """A built-in scene with heat crossing a contact interface through the command line on 3 ranks: its probes and
-    interface heat flows equal the serial run's."""
+    """Built-in scenes with heat crossing a contact interface (perfect contact) through the command line on 3 ranks:
+    their probes (at the last time) and interface heat flows (every step) equal the serial run's."""
     from ngs_geomech.api import run
 
     out = tmp_path / "mpi"
