@@ -71,7 +71,12 @@ def test_distributed_heat_across_contacts_equals_serial(tmp_path, case, ranks):
 @one_mpi_job
 @pytest.mark.parametrize("scene,overrides", [
     ("block3d", ["output.vtk=false", "output.figures=false"]),                                # 3D steady, P1
-    ("canister", ["time.end=5 year", "output.vtk=false", "output.figures=false"])])           # axisymmetric, P2, CN
+    ("canister", ["time.end=5 year", "output.vtk=false", "output.figures=false"]),           # axisymmetric, P2, CN
+    ("repository_fracture_3d", ["mesh.maxh=200", "mesh.order=1", "blocks.buffer.maxh=0.3", "blocks.canister.maxh=0.3",
+                                "blocks.tunnel.maxh=2", "time.end=30 year", "time.dt_max=5 year", "output.every=5",
+                                "output.vtk=false", "output.figures=false", "solver.tolerance=1e-12"])])
+# (repository_fracture_3d: 3D P1, CN, with the fracture's Coulomb contact in the mechanics; its probes include the
+# stresses and the uplift, equal to the solver tolerance)
 def test_a_builtin_contact_scene_runs_distributed_as_serially(tmp_path, scene, overrides):
     """Built-in scenes with heat crossing a contact interface (perfect contact) through the command line on 3 ranks:
     their probes (at the last time) and interface heat flows (every step) equal the serial run's."""
