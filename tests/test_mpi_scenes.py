@@ -239,8 +239,8 @@ def test_distributed_problems_name_the_keys():
     items = {p.item for p in distributed_problems(load_scene("fault_heating"), resume=True)}
     assert "interfaces[0] (fault).frictional_heating" in items
     assert "--resume" in items
-    if petsc.available():        # heat crosses its contact by the mortar coupling
-        assert distributed_problems(load_scene("fault_wedge")) == []
+    if petsc.available():        # heat crosses its fracture by the mortar coupling (tests/test_mpi_heat_contact.py)
+        assert distributed_problems(load_scene("repository_fracture_3d")) == []
     items = {p.item for p in distributed_problems(load_scene("contact_melting"))}
     assert "interfaces[1] (bedding)" in items               # heat across a contact in a Stefan scene
     items = {p.item for p in distributed_problems(load_scene(
