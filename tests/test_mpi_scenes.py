@@ -24,6 +24,7 @@ import pytest
 from mpi_cases.launch import mpiexec, needs_mpi, one_mpi_job
 
 from ngs_geomech.api import run
+from ngs_geomech.linalg import petsc
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -221,10 +222,10 @@ def test_stefan_scene_two_workers_equal_serial(tmp_path):
 def test_contact_scene_refused_before_any_output(tmp_path):
     """Through the command line (2 ranks: the refusal comes before any mesh is made or distributed)."""
     out = tmp_path / "mpi"
-    proc = _distributed("fault_wedge", out, [], ranks=2)
+    proc = _distributed("fault_heating", out, [], ranks=2)
     assert proc.returncode != 0
     assert proc.stderr.count("ngs-geomech: error:") == 1
-    assert "interfaces[0]" in proc.stderr and "distributed runs" in proc.stderr
+    assert "interfaces[0] (fault).frictional_heating" in proc.stderr and "distributed runs" in proc.stderr
     assert not out.exists() and not list(tmp_path.glob(".mpi.partial-*"))
 
 
@@ -235,9 +236,13 @@ def test_distributed_problems_name_the_keys():
 
     assert distributed_problems(load_scene("heated_rock")) == []
     assert distributed_problems(load_scene("melting_block")) == []
-    items = {p.item for p in distributed_problems(load_scene("fault_wedge"))}
-    assert "interfaces[0] (fault).type" in items or any(i.startswith("interfaces[0]") for i in items)
+    items = {p.item for p in distributed_problems(load_scene("fault_heating"))}
+    assert "interfaces[0] (fault).frictional_heating" in items
     assert "--resume" not in items                # distributed runs write checkpoints and resume
+    if petsc.available():        # heat crosses its fracture by the mortar coupling (tests/test_mpi_heat_contact.py)
+        assert distributed_problems(load_scene("repository_fracture_3d")) == []
+    items = {p.item for p in distributed_problems(load_scene("contact_melting"))}
+    assert "interfaces[1] (bedding)" in items               # heat across a contact in a Stefan scene
     items = {p.item for p in distributed_problems(load_scene(
         "heated_rock", ["solver.linear=direct", "mechanics.nested_levels=1", "physics.mechanics=dynamic"]))}
     assert {"solver.linear", "mechanics.nested_levels", "physics.mechanics"} <= items

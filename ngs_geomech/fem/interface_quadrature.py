@@ -50,6 +50,9 @@ class InterfaceQuadrature:
     vertices: np.ndarray
     covered: float
     touching: np.ndarray
+    area: float = 0.0
+    """The master side's measure (m in 2D, m^2 in 3D; without w): the weight of ``covered`` when quadratures of
+    the parts of a distributed mesh are joined (:func:`join`)."""
 
     @property
     def jump(self) -> sp.csr_matrix:
@@ -82,15 +85,37 @@ class _Rows:
                     cols.append(int(dof))
                     data.append(float(v))
 
-    def finish(self, ndof: int, nv: int, dim: int, vertices, covered: float) -> InterfaceQuadrature:
+    def finish(self, ndof: int, nv: int, dim: int, vertices, covered: float, area: float = 0.0,
+               numbering=None) -> InterfaceQuadrature:
+        """The quadrature; with ``numbering`` (a GlobalDofs of the space) the master and nodal columns (this part's
+        dofs and vertices) are given in its global numbering and ``ndof``, ``nv`` are the global counts."""
         nq = len(self.w)
 
-        def matrix(key, ncols):
+        def matrix(key, ncols, local: bool):
             rows, cols, data = self.coo[key]
+            if numbering is not None and local:
+                cols = numbering.scalar[np.asarray(cols, dtype=int)]
             return sp.csr_matrix((data, (rows, cols)), shape=(nq, ncols))
-        return InterfaceQuadrature(np.array(self.w), np.array(self.pts).reshape(nq, dim), matrix("master", ndof),
-                                   matrix("minion", ndof), matrix("nodal", nv), np.array(self.dist),
-                                   np.array(sorted(vertices), dtype=int), covered, np.array(self.near, dtype=bool))
+        if numbering is not None:
+            vertices = numbering.scalar[np.asarray(sorted(vertices), dtype=int)] if vertices else []
+        return InterfaceQuadrature(np.array(self.w), np.array(self.pts).reshape(nq, dim),
+                                   matrix("master", ndof, True), matrix("minion", ndof, False),
+                                   matrix("nodal", nv, True), np.array(self.dist),
+                                   np.array(sorted(vertices), dtype=int), covered, np.array(self.near, dtype=bool),
+                                   area)
+
+
+def join(parts: list[InterfaceQuadrature]) -> InterfaceQuadrature:
+    """The quadratures of the parts of a distributed mesh (each in the global numbering) as one, in part order."""
+    area = sum(q.area for q in parts)
+    covered = sum(q.covered * q.area for q in parts) / area if area > 0 else 0.0
+    def stack(key):
+        return sp.vstack([getattr(q, key) for q in parts]).tocsr()
+    return InterfaceQuadrature(np.concatenate([q.weights for q in parts]), np.concatenate([q.points for q in parts]),
+                               stack("master"), stack("minion"), stack("nodal"),
+                               np.concatenate([q.distance for q in parts]),
+                               np.unique(np.concatenate([q.vertices for q in parts])).astype(int), covered,
+                               np.concatenate([q.touching for q in parts]), area)
 
 
 def _outward(mesh, nr: int, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -118,22 +143,42 @@ def _in_front(cm: np.ndarray, nm: np.ndarray, cs: np.ndarray, size: float) -> bo
 
 
 def interface_quadrature(mesh, V, master: str, minion: str, *, order: int, axisymmetric: bool = False,
-                         reach: float | None = None) -> InterfaceQuadrature:
+                         reach: float | None = None, minions: list | None = None, numbering=None,
+                         elements: list[int] | None = None) -> InterfaceQuadrature:
     """The points of the interface between the boundaries ``master`` and ``minion`` (module docstring) for the
     scalar space ``V``, exact for polynomials of degree ``order`` on each piece (flat elements). ``reach`` (m): the
-    largest distance to a partner point (None: half an element, the sides touch)."""
-    for side in (master, minion):
-        if not list(mesh.Boundaries(side).Elements()):
-            raise ValueError(f"contact interface side {side!r} has no boundary elements")
+    largest distance to a partner point (None: half an element, the sides touch).
+
+    On a distributed mesh: ``minions`` the minion side of all parts (:mod:`ngs_geomech.fem.gathered`), ``elements``
+    the master elements this part integrates and ``numbering`` (a GlobalDofs of V): this part's points in the
+    global numbering (the caller checks the sides of the whole mesh and joins the parts, :func:`join`)."""
+    if minions is None:
+        for side in (master, minion):
+            if not list(mesh.Boundaries(side).Elements()):
+                raise ValueError(f"contact interface side {side!r} has no boundary elements")
     P1 = ngs.H1(mesh, order=1)
+    sel = (minions, numbering, elements)
     if mesh.dim == 2:
-        return _quadrature_2d(mesh, V, P1, master, minion, order, axisymmetric, reach)
-    return _quadrature_3d(mesh, V, P1, master, minion, order, reach)
+        return _quadrature_2d(mesh, V, P1, master, minion, order, axisymmetric, reach, *sel)
+    return _quadrature_3d(mesh, V, P1, master, minion, order, reach, *sel)
 
 
-def _quadrature_2d(mesh, V, P1, master, minion, order, axisymmetric, reach) -> InterfaceQuadrature:
-    masters = [Segment(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
-    minions = [Segment(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+def _masters(mesh, master: str, elements) -> list:
+    """This part's master elements (those numbered in ``elements`` when given)."""
+    els = list(mesh.Boundaries(master).Elements())
+    return els if elements is None else [el for el in els if el.nr in set(elements)]
+
+
+def _sizes(mesh, V, numbering) -> tuple[int, int]:
+    """(columns of the point matrices, columns of the nodal matrix): local, or global with ``numbering``."""
+    return (V.ndof, mesh.nv) if numbering is None else (numbering.n_scalar, numbering.n_scalar)
+
+
+def _quadrature_2d(mesh, V, P1, master, minion, order, axisymmetric, reach, minions=None, numbering=None,
+                   elements=None) -> InterfaceQuadrature:
+    masters = [Segment(mesh, V, el.nr) for el in _masters(mesh, master, elements)]
+    if minions is None:
+        minions = [Segment(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
     gx, gw = np.polynomial.legendre.leggauss(order + 2)
     gx, gw = (gx + 1) / 2, gw / 2
     lengths = [float(np.linalg.norm(s.p1 - s.p0)) for s in minions]
@@ -167,7 +212,8 @@ def _quadrature_2d(mesh, V, P1, master, minion, order, axisymmetric, reach) -> I
                 covered += ds
                 rows.add(ds * (p[0] if axisymmetric else 1.0), p, d, (sm.shape(s), sm.dofs),
                          (ss.shape(t), ss.dofs), (fe1.CalcShape(s), dofs1), d <= near + 1e-12)
-    return rows.finish(V.ndof, mesh.nv, 2, vertices, covered / total if total > 0 else 0.0)
+    return rows.finish(*_sizes(mesh, V, numbering), 2, vertices, covered / total if total > 0 else 0.0, total,
+                       numbering)
 
 
 def _pieces(sm: Segment, cands: list[Segment], index) -> list[tuple[float, float, int]]:
@@ -192,9 +238,11 @@ def _pieces(sm: Segment, cands: list[Segment], index) -> list[tuple[float, float
     return out
 
 
-def _quadrature_3d(mesh, V, P1, master, minion, order, reach) -> InterfaceQuadrature:
-    masters = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
-    minions = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+def _quadrature_3d(mesh, V, P1, master, minion, order, reach, minions=None, numbering=None,
+                   elements=None) -> InterfaceQuadrature:
+    masters = [Triangle(mesh, V, el.nr) for el in _masters(mesh, master, elements)]
+    if minions is None:
+        minions = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
     ir = ngs.IntegrationRule(ngs.TRIG, 2 * order + 2)
     qp = np.array([(p[0], p[1]) for p in ir.points])
     qw = np.array(list(ir.weights))
@@ -226,4 +274,5 @@ def _quadrature_3d(mesh, V, P1, master, minion, order, reach) -> InterfaceQuadra
                 rows.add(wt, p, d, (tm.fe.CalcShape(ref[0], ref[1]), tm.dofs),
                          (ts.fe.CalcShape(rs[0], rs[1]), ts.dofs), (fe1.CalcShape(ref[0], ref[1]), dofs1),
                          d <= near + 1e-12)
-    return rows.finish(V.ndof, mesh.nv, 3, vertices, covered / total if total > 0 else 0.0)
+    return rows.finish(*_sizes(mesh, V, numbering), 3, vertices, covered / total if total > 0 else 0.0, total,
+                       numbering)

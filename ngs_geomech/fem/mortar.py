@@ -91,18 +91,30 @@ class Segment(SegmentCurve):
 
 
 def mortar_coupling_2d(mesh, V, L, master: str, minion: str, *, axisymmetric: bool, order: int,
-                       merge: dict[int, int] | None = None):
+                       merge: dict[int, int] | None = None, minions: list | None = None, numbering=None,
+                       elements: list[int] | None = None):
     """COO entries (rows, cols, values) of b(mu, T) = int w mu (T_m - T_s) over the master boundary.
 
     Rows are dofs of the multiplier space ``L``, columns dofs of the temperature space ``V``. ``merge`` maps
     multiplier dofs whose basis function is added to another's (the modified mortar space at cross points:
     mu_1 + mu_0 is constant on the end element); merged dofs get no row.
+
+    On a distributed mesh: ``minions`` the minion side gathered from all parts
+    (:func:`~ngs_geomech.fem.gathered.gathered_boundary`), ``elements`` the numbers of the master elements this
+    part integrates (default all of its own) and ``numbering`` (a :class:`~ngs_geomech.parallel.GlobalDofs` of V):
+    the columns are then global dofs (the rows stay L's local dofs); a part without master elements gives no
+    entries (the caller checks the sides of the whole mesh).
     """
     merge = merge or {}
-    masters = [Segment(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
-    minions = [Segment(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+    own = _master_elements(mesh, master, elements)
+    masters = [Segment(mesh, V, el.nr) for el in own]
+    if minions is None:
+        minions = [Segment(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+    elif not masters:
+        return _finish(([], [], []), 0.0, 0.0, master, minion)
+    _globalize(masters, numbering)
     lfe = {el.nr: (L.GetFE(ngs.ElementId(ngs.BND, el.nr)), list(L.GetDofNrs(ngs.ElementId(ngs.BND, el.nr))))
-           for el in mesh.Boundaries(master).Elements()}
+           for el in own}
     if not masters or not minions:
         raise ValueError(f"contact interface sides {master!r} / {minion!r} have no boundary elements")
     gx, gw = np.polynomial.legendre.leggauss(order + 2)
@@ -150,6 +162,22 @@ def _add_point(entries, wt, mu, ldofs, tm, mdofs, ts, sdofs) -> None:
         rows += [di] * (len(mdofs) + len(sdofs))
         cols += list(mdofs) + list(sdofs)
         vals += list(wt * mu[i] * np.asarray(tm)) + list(-wt * mu[i] * np.asarray(ts))
+
+
+def _master_elements(mesh, master: str, elements: list[int] | None) -> list:
+    """The master boundary's elements of this part (those numbered in ``elements`` when given)."""
+    els = list(mesh.Boundaries(master).Elements())
+    if elements is None:
+        return els
+    keep = set(elements)
+    return [el for el in els if el.nr in keep]
+
+
+def _globalize(elements: list, numbering) -> None:
+    """Give the elements' ``dofs`` in the global numbering ``numbering`` (a GlobalDofs; None: kept local)."""
+    if numbering is not None:
+        for e in elements:
+            e.dofs = [int(d) for d in numbering.scalar[np.asarray(e.dofs, dtype=int)]]
 
 
 def _finish(entries, covered: float, total: float, master: str, minion: str):
@@ -238,17 +266,24 @@ def overlap_points(tm: Triangle, ts: Triangle, qp: np.ndarray, qw: np.ndarray):
             yield ref, tm.p0 + tm.J @ ref, w * jac * tm.area2
 
 
-def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int):
+def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int, minions: list | None = None,
+                       numbering=None, elements: list[int] | None = None):
     """COO entries (rows, cols, values) of b(mu, T) = int mu (T_m - T_s) over the master surface, integrated
     segment-based: each master triangle is intersected with the minion triangles opposite (projected onto its
     plane, Sutherland-Hodgman clipping), and every piece is integrated with a Gauss rule exact for the
-    polynomial integrand. Flat triangles are assumed (curved interfaces: an O(h^2) geometry error)."""
-    masters = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(master).Elements()]
-    minions = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+    polynomial integrand. Flat triangles are assumed (curved interfaces: an O(h^2) geometry error).
+    ``minions``, ``numbering``, ``elements``: on a distributed mesh, as in :func:`mortar_coupling_2d`."""
+    own = _master_elements(mesh, master, elements)
+    masters = [Triangle(mesh, V, el.nr) for el in own]
+    if minions is None:
+        minions = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+    elif not masters:
+        return _finish(([], [], []), 0.0, 0.0, master, minion)
+    _globalize(masters, numbering)
     if not masters or not minions:
         raise ValueError(f"contact interface sides {master!r} / {minion!r} have no boundary elements")
     lfe = {el.nr: (L.GetFE(ngs.ElementId(ngs.BND, el.nr)), list(L.GetDofNrs(ngs.ElementId(ngs.BND, el.nr))))
-           for el in mesh.Boundaries(master).Elements()}
+           for el in own}
     ir = ngs.IntegrationRule(ngs.TRIG, 2 * order + 2)
     qp = np.array([(p[0], p[1]) for p in ir.points])
     qw = np.array(list(ir.weights))

@@ -34,18 +34,48 @@ saddle-point matrix is singular there.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import ngsolve as ngs
 import numpy as np
 
+from .. import parallel
 from ..fem.coefficients import Separable, TimeFunction, boundary_cf, material_cf, region_cf, regions_regex, tensor_cf
 from ..fem.mortar import mortar_coupling_2d, mortar_coupling_3d
 from .materials import ThermalProperties
 
 if TYPE_CHECKING:
     from .conductance import InterfaceConductance
+
+
+class LocalInterfaceDofs:
+    """The numbering the interface terms act in on a serial mesh: the first ``nV`` dofs of the state (the
+    temperature). On a distributed mesh the forms take :class:`.distributed.GlobalInterfaces` instead."""
+
+    def __init__(self, nV: int):
+        self.nV = nV
+
+    def temperatures(self, vec) -> np.ndarray:
+        """The temperature dofs of a state vector (a view)."""
+        return vec.FV().NumPy()[:self.nV]
+
+    def add(self, b, values: np.ndarray) -> None:
+        """Add ``values`` (temperature dofs) to the right-hand side ``b``."""
+        b.FV().NumPy()[:self.nV] += values
+
+    @staticmethod
+    def mortar_flows(forms: HeatForms, total: bool) -> list[float]:
+        """The flows int w lambda ds over each mortar interface of ``forms`` (W per m of depth or per radian; with
+        ``total`` in axisymmetric scenes over 2 pi, W)."""
+        mesh = forms.mesh
+        if total:
+            w = 2 * math.pi * ngs.x if forms.setup.axisymmetric else 1.0
+            return [float(ngs.Integrate(w * lam * ngs.ds(definedon=mesh.Boundaries(m)), mesh))
+                    for (m, _), lam in zip(forms.setup.contacts, forms.multipliers())]
+        return [float(ngs.Integrate(forms.weight * lam * ngs.ds(definedon=mesh.Boundaries(m)), mesh))
+                for (m, _), lam in zip(forms.setup.contacts, forms.multipliers())]
 
 
 @dataclass
@@ -149,6 +179,8 @@ class HeatForms:
         """An assembled source vector over X (W) added to every right-hand side, e.g. the deformation heating
         of problem (P_c) (lagged, full weight also with theta < 1), or None."""
         self._mortar = self._mortar_coo = None
+        self.interface_dofs = LocalInterfaceDofs(self.V.ndof)
+        """The numbering of the interface terms (a distributed mesh: the global one, :mod:`.distributed`)."""
         self.interface_terms = None
         """The contact-conductance terms (:class:`.interface_terms.InterfaceTerms`, built with the mortar coupling
         by :meth:`update_contact_pairs`), or None."""
@@ -170,20 +202,18 @@ class HeatForms:
         self.merge = [dict() for _ in self.setup.contacts]
         if not self.setup.contacts or not self.setup.dirichlet:
             return free
-        dirichlet_vertices = set()
-        for el in self.mesh.Boundaries(dir_names).Elements():
-            dirichlet_vertices.update(el.vertices)
+        dirichlet_vertices = self._dirichlet_vertices(dir_names)
         offset = self.V.ndof
         for k, ((master, _), L) in enumerate(zip(self.setup.contacts, self.multiplier_spaces)):
             for el in self.mesh.Boundaries(master).Elements():
-                ends = [v for v in el.vertices if v in dirichlet_vertices]
+                ends = [v for v in el.vertices if v.nr in dirichlet_vertices]
                 if not ends:
                     continue
                 if self.mesh.dim == 2 and self.setup.order >= 2:
                     dofs = [L.GetDofNrs(el.edges[0])[-1]]
                 elif self.mesh.dim == 2:
                     dofs = [d for v in ends for d in L.GetDofNrs(v)]
-                    others = [v for v in el.vertices if v not in dirichlet_vertices]
+                    others = [v for v in el.vertices if v.nr not in dirichlet_vertices]
                     if others:
                         for d in dofs:
                             self.merge[k][d] = L.GetDofNrs(others[0])[0]
@@ -199,6 +229,17 @@ class HeatForms:
                     free[offset + d] = False
             offset += L.ndof
         return free
+
+    def _dirichlet_vertices(self, dir_names: str) -> set[int]:
+        """The numbers of this part's vertices on a Dirichlet boundary (of any part, on a distributed mesh: the
+        boundary element may lie on another part than the interface's)."""
+        mine = {v.nr for el in self.mesh.Boundaries(dir_names).Elements() for v in el.vertices}
+        if not parallel.distributed(self.mesh):
+            return mine
+        scalar = parallel.GlobalDofs(self.V).scalar        # vertex v has the dof v
+        marked = set(np.concatenate([np.asarray(p, dtype=np.int64) for p in parallel.allgather(
+            self.mesh, scalar[np.array(sorted(mine), dtype=int)])]).tolist())
+        return {v for v in range(self.mesh.nv) if int(scalar[v]) in marked}
 
     # -- pieces ---------------------------------------------------------------------------------------
     def temperature(self, gf=None):
@@ -388,6 +429,14 @@ class HeatForms:
         against the minion triangles), and the contact-conductance terms (:mod:`.interface_terms`)."""
         self._mortar = self._mortar_coo = None
         self.interface_terms = None
+        if parallel.distributed(self.mesh) and (self.setup.conductances or self.setup.contacts):
+            from .distributed import GlobalInterfaces
+
+            glob = GlobalInterfaces(self)
+            self.interface_dofs, self.interface_terms = glob, glob.terms
+            self._mortar_coo, self._mortar = glob.mortar_coo, glob.mortar
+            self._bump()
+            return
         if self.setup.conductances:
             # with scipy.sparse: loaded by scenes with contact conductance only (start-up)
             from .interface_terms import InterfaceTerms
@@ -439,7 +488,7 @@ class HeatForms:
         terms = self.interface_terms
         if terms is not None and terms.lagged_radiation:
             gf = self.gf if self.setup.steady else self.gf_old
-            terms.lag(gf.vec.FV().NumPy()[:self.V.ndof])
+            terms.lag(self.interface_dofs.temperatures(gf.vec))
             self.version += 1
 
     def add_coupling(self, vec, res) -> None:
@@ -449,19 +498,19 @@ class HeatForms:
         if coupling is not None:
             res.data += coupling * vec
         terms = self.interface_terms
-        if terms is not None and terms.exact_radiation:
-            res.FV().NumPy()[:self.V.ndof] += self.theta.Get() * terms.radiation(vec.FV().NumPy()[:self.V.ndof])[0]
+        if terms is not None and terms.exact_radiation:      # (terms.nV: the temperature dofs of their numbering)
+            res.FV().NumPy()[:terms.nV] += self.theta.Get() * terms.radiation(vec.FV().NumPy()[:terms.nV])[0]
 
     def coupling_jacobian(self, vec):
         """The derivative of :meth:`add_coupling` at ``vec`` (an NGSolve matrix, or None)."""
         terms = self.interface_terms
         if terms is None or not terms.exact_radiation:
             return self.coupling
-        jac = (self.theta.Get() * terms.radiation(vec.FV().NumPy()[:self.V.ndof])[1]).tocoo()
+        jac = (self.theta.Get() * terms.radiation(vec.FV().NumPy()[:terms.nV])[1]).tocoo()
         r, c, v = (np.array(a) for a in self.coupling.COO())
         r, c, v = np.concatenate([r, jac.row]), np.concatenate([c, jac.col]), np.concatenate([v, jac.data])
         return ngs.la.SparseMatrixd.CreateFromCOO(list(map(int, r)), list(map(int, c)), list(map(float, v)),
-                                                  self.X.ndof, self.X.ndof)
+                                                  terms.ndof, terms.ndof)
 
     def right_hand_side(self):
         """The right-hand side of the step from t_old to t_new (see the module docstring), W."""
@@ -490,8 +539,8 @@ class HeatForms:
             if th < 1:
                 b.data -= (1 - th) * (self.stiffness.mat * self.gf_old.vec)
         if th < 1 and self.interface_terms is not None:
-            nV = self.V.ndof
-            b.FV().NumPy()[:nV] -= (1 - th) * self.interface_terms.old_terms(self.gf_old.vec.FV().NumPy()[:nV])
+            dofs = self.interface_dofs
+            dofs.add(b, -((1 - th) * self.interface_terms.old_terms(dofs.temperatures(self.gf_old.vec))))
         return b
 
     def dirichlet_values(self, t_param) -> object | None:

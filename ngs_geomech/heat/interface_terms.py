@@ -23,11 +23,16 @@ class InterfaceTerms:
     """The conductance terms of ``specs`` on the temperature space ``V`` (order ``order``) of a heat state with
     ``ndof`` dofs (module docstring); ``version`` changes with every change of the conductances."""
 
-    def __init__(self, mesh, V, specs: list[InterfaceConductance], *, order: int, axisymmetric: bool, ndof: int):
-        self.nV, self.ndof = V.ndof, ndof
-        self.terms = [ConductanceTerm(s, interface_quadrature(mesh, V, s.master, s.minion, order=2 * order + 2,
-                                                              axisymmetric=axisymmetric, reach=s.reach), mesh.nv)
-                      for s in specs]
+    def __init__(self, mesh, V, specs: list[InterfaceConductance], *, order: int, axisymmetric: bool, ndof: int,
+                 quadratures: list | None = None, sizes: tuple[int, int] | None = None):
+        """``quadratures`` (one per spec) and ``sizes`` (temperature dofs, vertices) given: the terms on them, in
+        their numbering (a distributed mesh's global one, :mod:`.distributed`), instead of this part's own."""
+        self.nV, self.ndof = (V.ndof, ndof) if sizes is None else (sizes[0], ndof)
+        nv = mesh.nv if sizes is None else sizes[1]
+        if quadratures is None:
+            quadratures = [interface_quadrature(mesh, V, s.master, s.minion, order=2 * order + 2,
+                                                axisymmetric=axisymmetric, reach=s.reach) for s in specs]
+        self.terms = [ConductanceTerm(s, q, nv) for s, q in zip(specs, quadratures)]
         self.version = 0
         self._C = None
         self._coupling = (None, None)

@@ -8,6 +8,7 @@ from itertools import islice
 import ngsolve as ngs
 import numpy as np
 
+from .. import parallel
 from ..errors import Problem, SceneError
 from ..fem.coefficients import Separable, expression_function, region_cf
 from ..fem.timesteps import schedule
@@ -114,8 +115,9 @@ def interface_conductances(scene: Scene, geo: GeometryModel, mesh,
             continue
         reach = itf.search_distance
         if reach is None:
-            pts = np.array([mesh[v].point for el in mesh.Boundaries(cs.master).Elements() for v in el.vertices])
-            reach = 0.25 * float(np.max(np.ptp(pts, axis=0)))
+            pts = np.array([mesh[v].point[:mesh.dim] for el in mesh.Boundaries(cs.master).Elements()
+                            for v in el.vertices]).reshape(-1, mesh.dim)
+            reach = 0.25 * float(np.max(np.ptp(parallel.concat(mesh, pts), axis=0)))
         eps = effective_emissivity(*itf.emissivities) if itf.emissivities is not None else None
         out[name] = InterfaceConductance(
             name, cs.master, cs.minion, law=contact_law(itf.conductance, itf.conductance_coefficient,

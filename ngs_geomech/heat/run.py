@@ -62,8 +62,9 @@ class HeatRun(ThermalPart):
             self.fields["kirchhoff_theta"] = self.forms.kirchhoff(self.T)
         self.probe_fields = {"temperature": self.T}
         self.flows: dict[str, list[float]] = {}
-        self.balance = HeatBalance(self.forms) if setup.conductances else None
-        """The energy balance per body (:mod:`.balance`), kept with contact-conductance interfaces."""
+        self.balance = HeatBalance(self.forms) if setup.conductances and mesh.comm.size == 1 else None
+        """The energy balance per body (:mod:`.balance`), kept with contact-conductance interfaces (serial runs:
+        it sums over the bodies' dofs of one process)."""
         self._solved = None                      # (the conductance flows, the balance terms) of the last solve
 
     # -- solving --------------------------------------------------------------------------------------------
@@ -118,22 +119,21 @@ class HeatRun(ThermalPart):
         terms = self.forms.interface_terms
         if terms is None:
             return
-        T1 = self.forms.gf.vec.FV().NumPy()[:self.forms.V.ndof]
-        flows = terms.flows(T1)
+        dofs = self.forms.interface_dofs
+        flows = terms.flows(dofs.temperatures(self.forms.gf.vec))
         th = self.forms.theta.Get()
         if dt is not None and th < 1:
-            old = terms.flows(self.forms.gf_old.vec.FV().NumPy()[:self.forms.V.ndof])
+            old = terms.flows(dofs.temperatures(self.forms.gf_old.vec))
             flows = {n: th * q + (1 - th) * old[n] for n, q in flows.items()}
         sides = {c.name: (c.master, c.minion) for c in self.forms.setup.conductances}
         items = {n: (*sides[n], q) for n, q in flows.items()}
         for (master, minion), q in zip(self.forms.setup.contacts, self._mortar_flows()):
             items[master] = (master, minion, q)
-        self._solved = (items, self.balance.measure(dt, items))
+        self._solved = (items, self.balance.measure(dt, items) if self.balance is not None else None)
 
     def _mortar_flows(self) -> list[float]:
         """The flows int w lambda ds over each mortar interface (W per m of depth or per radian)."""
-        return [float(ngs.Integrate(self.forms.weight * lam * ngs.ds(definedon=self.mesh.Boundaries(m)), self.mesh))
-                for (m, _), lam in zip(self.forms.setup.contacts, self.forms.multipliers())]
+        return self.forms.interface_dofs.mortar_flows(self.forms, total=False)
 
     def set_contact_state(self, states) -> list[str]:
         """The mechanics' contact state per interface (:class:`~.conductance.ContactNodes`; None: the geometry's)
@@ -150,16 +150,16 @@ class HeatRun(ThermalPart):
     def finish_step(self, info) -> None:
         """Keep a solved step's Newton iterations and interface heat flows."""
         super().finish_step(info)
-        w = 2 * math.pi * ngs.x if self.axisymmetric else 1.0
-        for (master, _), lam in zip(self.forms.setup.contacts, self.forms.multipliers()):
-            q = float(ngs.Integrate(w * lam * ngs.ds(definedon=self.mesh.Boundaries(master)), self.mesh))
+        flows = self.forms.interface_dofs.mortar_flows(self.forms, total=True)
+        for (master, _), q in zip(self.forms.setup.contacts, flows):
             self.flows.setdefault(master, []).append(q)
         if self._solved is not None:
             items, terms = self._solved
             scale = 2 * math.pi if self.axisymmetric else 1.0
             for c in self.forms.setup.conductances:
                 self.flows.setdefault(c.master, []).append(scale * items[c.name][2])
-            self.balance.record(terms)
+            if self.balance is not None:
+                self.balance.record(terms)
             self._solved = None
 
     def heating_target(self) -> tuple:
@@ -246,7 +246,8 @@ class HeatRun(ThermalPart):
                               "state": t.source, "conductance_min": ranges[t.spec.name][0],
                               "conductance_max": ranges[t.spec.name][1], "units": "W/(m^2 K)"}
                 for t in terms.terms}
-            out["heat_balance"] = self.balance.report()
+            if self.balance is not None:
+                out["heat_balance"] = self.balance.report()
         return out
 
     def figures(self, canvas) -> None:

@@ -43,9 +43,7 @@ class HeatSolver:
         self.f = forms
         self.preconditioner = preconditioner
         self.distributed = forms.mesh.comm.size > 1
-        if self.distributed and (forms.setup.contacts or forms.setup.conductances):
-            raise ValueError("heat contact interfaces (mortar coupling, contact conductance) are not supported on a "
-                             "distributed mesh")
+        self._gathered = self._interface_solve(forms) if self.distributed else None
         self.solver = choose_solver(solver, forms.X.ndof, forms.mesh.dim, spd=self.symmetric_for(forms),
                                     distributed=self.distributed)
         self._pcg = PCG(tol, maxit) if self.solver == "iterative" else None
@@ -67,6 +65,17 @@ class HeatSolver:
         """The next this many steps take theta = 1 whatever the scheme (a restart after the state was carried to
         a new mesh without the old interface multipliers: :mod:`ngs_geomech.adapt.contact_following`)."""
         forms.update_contact_pairs()
+
+    @staticmethod
+    def _interface_solve(forms: HeatForms):
+        """The solve of a distributed mesh with contact interfaces (:class:`.distributed.GatheredSolve`), or None
+        without interfaces."""
+        s = forms.setup
+        if not (s.contacts or s.conductances):
+            return None
+        from .distributed import GatheredSolve
+
+        return GatheredSolve(forms)
 
     @property
     def symmetric(self) -> bool:
@@ -113,6 +122,8 @@ class HeatSolver:
         """Drop the cached step operators: the next step assembles and factors anew (for timing a step with its
         factorization)."""
         self._cache.clear()
+        if self._gathered is not None:
+            self._gathered.forget()
 
     def _system(self, key: str):
         """(matrix, inverse) of the step operator for one dt, cached for the last two dts."""
@@ -152,6 +163,15 @@ class HeatSolver:
         self.set_dirichlet()
         self.f.prepare_step()
         rhs = self.f.right_hand_side()
+        if self._gathered is not None and self.f.nonlinear:
+            it, rel, history = self._gathered.newton(where, rhs, self.newton_tol, self.newton_maxit)
+            self.factorizations += it
+            self.check_conductivity(where)
+            return StepInfo(max(it, 1), rel, True, residuals=history)
+        if self._gathered is not None:
+            fresh = self._gathered.solve(where, rhs)
+            self.factorizations += fresh
+            return StepInfo(1, 0.0, fresh)
         if self.solver == "iterative" and not self.f.nonlinear:
             return self._solve_iterative(where, rhs)
         if not self.f.nonlinear:

@@ -137,6 +137,9 @@ class MechanicsPart(Part):
         """The nodal interface arrays (:func:`~ngs_geomech.contact.problem.interface_results`) of the last solve."""
         u = np.array(self.forms.gf.vec.FV().NumPy())
         free = np.array(list(self.forms.X.FreeDofs()), dtype=bool)[:self.forms.V.ndof]
+        if parallel.distributed(self.mesh) and self.contacts:   # the operators act on the contact solver's global
+            u = self.solver.displacement()                       # arrays (collective)
+            free = self.solver.free[:self.contacts[0].op.Bn.shape[1]]
         out = []
         for spec, (lam_n, lam_t) in zip(self.contacts, self.contact_multipliers()):
             lam_n, lam_t, prescribed = supported_nodes(spec, free, u, np.asarray(lam_n), np.asarray(lam_t))

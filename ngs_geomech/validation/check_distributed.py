@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..errors import Problem
+from ..heat.materials import has_phase_change
 from ..scene.model import RATE_MECHANICS, Scene
 
 
@@ -11,9 +12,12 @@ def distributed_problems(scene: Scene) -> list[Problem]:
 
     Supported: thermal (steady, transient, k(T)), thermo-elastic (static mechanics, the lambda law) and Stefan
     scenes with glued interfaces; static contact (every law, interfaces and foundations, floating bodies) with
-    PETSc. Not supported, and why:
+    PETSc; heat crossing contact interfaces (perfect contact by the mortar coupling; contact conductance: constant,
+    power law in the contact pressure, tables, gap conductivity, radiation; k(T)) in heat and thermo-elastic scenes.
+    Not supported, and why:
 
-    * contact without PETSc, with Uzawa's method, or carrying heat (:func:`_contact_problems`);
+    * contact without PETSc or with Uzawa's method (:func:`_contact_problems`); heat crossing a contact interface
+      in Stefan scenes and frictional heating (:func:`_contact_heat_problems`);
     * meshes that follow a phase boundary or contact zones over time (:func:`_adaptivity_problems`); adaptive
       refinement of stationary scenes by the estimators and the contact-zone indicator (and the mesh adapted once
       for a transient heat scene) is supported;
@@ -62,8 +66,7 @@ def _adaptivity_problems(scene: Scene, why: str) -> list[Problem]:
 def _contact_problems(scene: Scene, why: str) -> list[Problem]:
     """What a distributed run cannot do with contact: contact needs PETSc (its Newton steps are solved by PETSc's
     GMRES, :mod:`ngs_geomech.contact.distributed`), static mechanics and the semi-smooth Newton method (Uzawa's
-    method factors K), and heat does not cross contact interfaces (the mortar and conductance couplings of heat
-    are serial)."""
+    method factors K); heat crossing them: :func:`_contact_heat_problems`."""
     contacts = [(f"interfaces[{i}] ({itf.name})", itf) for i, itf in enumerate(scene.interfaces)
                 if itf.type == "contact"]
     contacts += [(f"boundary_conditions.{name}.foundation", bc.foundation)
@@ -80,14 +83,26 @@ def _contact_problems(scene: Scene, why: str) -> list[Problem]:
     for key, c in contacts:
         if c.method == "uzawa":
             problems.append(Problem(f"{key}.method", f"'uzawa' {why}; use 'ssn' or 'penalty'"))
-    thermal = scene.physics.thermal is not None
-    for key, c in contacts:
-        if not key.startswith("interfaces") or not thermal:
-            continue
-        heat = c.sides is None or any(getattr(c, k) is not None for k in (
-            "conductance", "conductance_coefficient", "gap_conductivity", "emissivities", "thermal_penalty"))
-        if heat:
-            problems.append(Problem(f"{key}", f"heat crossing a contact interface {why} (its mortar and "
-                                    "conductance couplings are serial); a contact between blocks with a gap "
-                                    "('sides') and no conductance keys carries no heat and is supported"))
+    return problems + _contact_heat_problems(scene, contacts, why)
+
+
+def _contact_heat_problems(scene: Scene, contacts: list, why: str) -> list[Problem]:
+    """What a distributed run cannot do with heat crossing a contact interface: the couplings of heat scenes
+    (mortar, contact conductance) are built in a global numbering and the step systems solved on one rank
+    (:mod:`ngs_geomech.heat.distributed`); the jump penalty of Stefan scenes and frictional heating stay serial."""
+    if scene.physics.thermal is None:
+        return []
+    problems = [Problem(f"{key}.frictional_heating", f"frictional heating {why} (its sources are transferred "
+                        "between the contact's sides on one process)")
+                for key, c in contacts if getattr(c, "frictional_heating", None)]
+    heated = [(key, c) for key, c in contacts if key.startswith("interfaces") and (c.sides is None or any(
+        getattr(c, k) is not None for k in ("conductance", "conductance_coefficient", "gap_conductivity",
+                                            "emissivities", "thermal_penalty")))]
+    if not heated:
+        return problems
+    stefan = [n for n, m in scene.materials.items() if has_phase_change(m)]
+    if stefan:
+        return problems + [Problem(heated[0][0], f"heat crossing a contact interface in a Stefan scene (phase change "
+                                   f"in materials.{stefan[0]}) {why} (the jump penalty of the enthalpy forms is "
+                                   "serial); heat and thermo-elastic scenes are supported")]
     return problems
