@@ -231,6 +231,18 @@ def _call(args: argparse.Namespace) -> int:
                     "same command and --resume")
         print(f"{PROG}: interrupted; {what}", file=sys.stderr)
         return 130
+    except Exception:
+        comm = world()
+        if comm is None:
+            raise
+        # an unexpected error on some ranks of a distributed run: the others would wait for them forever
+        import traceback
+
+        print(f"{PROG}: rank {comm.rank}: unexpected error; stopping every rank", file=sys.stderr)
+        traceback.print_exc()
+        sys.stderr.flush()
+        comm.Abort(1)
+        return 1
 
 
 def _uncertainty_report(res: dict, out: str) -> str:

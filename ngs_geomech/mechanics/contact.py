@@ -50,7 +50,7 @@ class ElasticContactSolver:
         self.maxit = maxit
         lam_max = max(p.lam for p in forms.setup.props.values())
         self.relaxation = relaxation if relaxation is not None else min(1.0, 1.0 / lam_max)
-        self._dirichlet = ElasticSolver(forms)      # its Dirichlet handling only
+        self._dirichlet = ElasticSolver(forms, method="secant")      # its Dirichlet handling only
         # a distributed mesh: the contact solve runs on global arrays (contact.distributed), numbered by dofs
         self.dofs = parallel.GlobalDofs(forms.X) if parallel.distributed(forms.mesh) else None
         self._free = self.array(np.array(list(forms.X.FreeDofs()), dtype=float)) > 0.5

@@ -322,8 +322,8 @@ class ElasticForms:
         self.weight = ngs.x if setup.model == "axisymmetric" else ngs.CoefficientFunction(1.0)
         # output points closer to the axis than this (m) take the hoop strain's limit (:meth:`strain_vector`):
         # there u_r / r divides the round-off of u_r = 0 by a round-off r
-        self.axis_tolerance = (1e-8 * float(np.max(np.abs(np.asarray(mesh.ngmesh.Coordinates())[:, 0])))
-                               if setup.model == "axisymmetric" else 0.0)
+        self.axis_tolerance = (1e-8 * parallel.allmax(mesh, float(np.max(np.abs(np.asarray(
+            mesh.ngmesh.Coordinates())[:, 0]), initial=0.0))) if setup.model == "axisymmetric" else 0.0)
         self.u_frozen = ngs.GridFunction(self.V)   # the last iterate u_n of the secant method
         # one quadrature (order 2 order) for every integral of the energy, the secant form and its right-hand
         # side: NGSolve's default orders differ between energies and linear forms (a P2 temperature in the

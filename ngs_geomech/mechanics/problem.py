@@ -25,13 +25,17 @@ def mechanics_model(scene: Scene) -> str:
 
 
 def axis_boundaries(mesh, names) -> list[str]:
-    """Boundary names all of whose vertices lie on the axis x = 0 (axisymmetric scenes: u_r = 0 there)."""
-    pts = np.array([v.point for v in mesh.vertices])
-    size = float(np.max(pts.max(axis=0) - pts.min(axis=0)))
+    """Boundary names all of whose vertices lie on the axis x = 0 (axisymmetric scenes: u_r = 0 there). Collective
+    on a distributed mesh (a rank's part may hold none of a boundary's elements, rank 0 none at all)."""
+    pts = np.array([v.point for v in mesh.vertices], dtype=float).reshape(-1, mesh.dim)
+    lo = [parallel.allmin(mesh, float(pts[:, k].min()) if len(pts) else np.inf) for k in range(mesh.dim)]
+    hi = [parallel.allmax(mesh, float(pts[:, k].max()) if len(pts) else -np.inf) for k in range(mesh.dim)]
+    size = max(h - low for h, low in zip(hi, lo))
     out = []
     for name in names:
         els = list(mesh.Boundaries(name).Elements())
-        if els and all(abs(mesh[v].point[0]) <= 1e-9 * size for el in els for v in el.vertices):
+        off_axis = any(abs(mesh[v].point[0]) > 1e-9 * size for el in els for v in el.vertices)
+        if parallel.anyof(mesh, bool(els)) and not parallel.anyof(mesh, off_axis):
             out.append(name)
     return out
 
