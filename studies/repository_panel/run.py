@@ -21,7 +21,9 @@ Command (what docs/scenarios.md quotes)::
 
 Level 0 (the contract test, under a minute): the quick level's mesh (elements, dofs) and the initial gaps of the
 prism and cylinder canisters. Level 1 (a few minutes on one thread): level 0, the quick level as shipped (VTK and
-figures into a temporary directory) and the large level's mesh (elements, dofs, mesh time; no solve). Level 2
+figures into a temporary directory), the large level's mesh (elements, dofs, mesh time; no solve) and, with
+mpiexec and petsc4py, the quick level for 30 years on 3 ranks (2 workers) against serial (:data:`DISTRIBUTED`;
+``distributed_*``; without them ``distributed_available`` = 0). Level 2
 (long: an hour on a shared machine): level 1 and the large level's first mechanics solve (t = 0, contact included).
 Dofs: ``dofs_*_heat`` is the temperature space; the run's summary also counts the heat's mortar multiplier
 spaces (one per contact interface) at their full size, ``summary_dofs_*``.
@@ -29,7 +31,11 @@ spaces (one per contact interface) at their full size, ``summary_dofs_*``.
 
 from __future__ import annotations
 
+import json
 import logging
+import shutil
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -40,6 +46,8 @@ import numpy as np
 from ngs_geomech import api
 from ngs_geomech.contact.forms3d import contact_operator_3d
 from ngs_geomech.geometry.mesh import make_mesh
+from ngs_geomech.linalg.petsc import available as petsc_available
+from ngs_geomech.parallel import launch_environment
 from ngs_geomech.scene.parse import load_scene, read_toml, resolve, scene_from_dict
 from ngs_geomech.scene.units import YEAR
 from ngs_geomech.validation.validate import validate
@@ -56,6 +64,10 @@ LARGE = ["mesh.order=2", "mesh.maxh=25", "blocks.tunnel.maxh=1.0", "solver.linea
 GMRES of the contact Newton steps to 1e-9, above the default 1e-10, which it does not reach at this size)."""
 FIRST_SOLVE = ["time.end=1 day", "output.every=1", "output.vtk=false", "output.figures=false"]
 """With :data:`LARGE`: one time step, mechanics at t = 0 and after it (level 2)."""
+DISTRIBUTED = ["time.end=30 year", "time.dt_max=5 year", "output.every=100", "output.vtk=false",
+               "output.figures=false", "solver.linear=iterative", "solver.tolerance=1e-9"]
+"""The distributed comparison (level 1): the quick mesh for 30 years, mechanics at t = 0 and 30 years, the Newton
+steps by GMRES to 1e-9 (at 1e-12 it stopped at 9e-10 after 2000 iterations) in both runs."""
 PICTURES = ("temperature_section_along_tunnel.png", "von_mises_section_across_tunnel.png")
 """The quick run's figures the documentation shows (level 1)."""
 CYLINDER_RADIUS = 0.525       # m, the canister of repository_3d
@@ -183,6 +195,57 @@ def large_first_solve() -> tuple[dict, dict]:
             "large_setup_s": t["setup_s"], "large_initial_state_s": t["initial_s"]}, {}
 
 
+def _mpiexec() -> str | None:
+    """The MPI launcher next to this Python (or on the PATH) when petsc4py is installed, else None."""
+    found = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or shutil.which("mpiexec")
+    return found if found and petsc_available() else None
+
+
+def _probe_difference(got: dict, want: dict, names: list[str]) -> float:
+    """The largest difference of the probe series ``names`` of two summaries, relative to each series' largest
+    value."""
+    worst = 0.0
+    for name in names:
+        a, b = np.asarray(got["probe_series"][name], float), np.asarray(want["probe_series"][name], float)
+        worst = max(worst, float(np.max(np.abs(a - b))) / max(float(np.max(np.abs(b))), 1e-300))
+    return worst
+
+
+def distributed_run() -> tuple[dict, dict]:
+    """The quick level for 30 years (:data:`DISTRIBUTED`) on 3 ranks (2 workers) against the same serially: the
+    temperatures, contact forces and node states, the iterations and the wall times (2 cores: the ranks share
+    them with nothing else, the serial run has one)."""
+    launcher = _mpiexec()
+    if launcher is None:
+        return {"distributed_available": 0}, {}
+    with tempfile.TemporaryDirectory(prefix="ngs_geomech_panel_mpi_") as tmp:
+        cmd = [launcher, "-n", "3", sys.executable, "-m", "ngs_geomech.cli", "run", SCENE, "--out",
+               str(Path(tmp) / "out"), "--quiet", "--threads", "1"]
+        for o in DISTRIBUTED:
+            cmd += ["--set", o]
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=3600, env=launch_environment())
+        if proc.returncode != 0:
+            raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stderr[-3000:]}")
+        got = json.loads((Path(tmp) / "out" / "summary.json").read_text())
+    want = api.run(SCENE, None, overrides=DISTRIBUTED, progress=False, threads=1).summary
+    temps = [f"canister_{i}_surface_max" for i in HOLES] + ["mid_between_holes", "fracture"]
+    cg, cw = got["mechanics"]["contact"], want["mechanics"]["contact"]
+    forces = max(abs(hg[k]["normal_force"] - hw[k]["normal_force"]) / abs(hw[k]["normal_force"])
+                 for hg, hw in zip(cg["history"], cw["history"]) for k in hw if isinstance(hw[k], dict))
+    states = all(cg["interfaces"][k]["nodes"] == cw["interfaces"][k]["nodes"] for k in cw["interfaces"])
+    return {"distributed_available": 1, "distributed_dofs": int(got["mesh"]["dofs"]),
+            "distributed_temperature_rel_difference": _probe_difference(got, want, temps),
+            "distributed_displacement_rel_difference": _probe_difference(got, want, ["surface_uplift"]),
+            "distributed_normal_force_rel_difference": forces, "distributed_node_states_equal": int(states),
+            "distributed_newton_iterations": int(sum(cg["iterations_per_solve"])),
+            "serial_newton_iterations": int(sum(cw["iterations_per_solve"])),
+            "distributed_gmres_max": int(max(cg["gmres_max_per_solve"])),
+            "serial_gmres_max": int(max(cw["gmres_max_per_solve"])),
+            "distributed_wall_s": got["wall_time_s"]["total_s"],
+            "serial_iterative_wall_s": want["wall_time_s"]["total_s"],
+            "distributed_peak_rss_gib_per_rank_max": max(got["mesh"]["peak_rss_gib_per_rank"])}, {}
+
+
 def run(level: int) -> tuple[dict, dict]:
     """The results dict of ``level`` and the pictures (file name -> PNG bytes)."""
     if level not in (0, 1, 2):
@@ -190,7 +253,7 @@ def run(level: int) -> tuple[dict, dict]:
     metrics, timing, pictures = {}, {}, {}
     with one_ngsolve_thread():
         for name, part, lowest in (("level0", level0, 0), ("quick", quick_run, 1), ("large_mesh", large_mesh, 1),
-                                   ("large_first_solve", large_first_solve, 2)):
+                                   ("distributed", distributed_run, 1), ("large_first_solve", large_first_solve, 2)):
             if level < lowest:
                 continue
             tic = time.perf_counter()
