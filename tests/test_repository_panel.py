@@ -64,7 +64,7 @@ COARSE = ["time.end=30 year", "time.dt_max=5 year", "output.every=100", "output.
 """The test level: the quick mesh, 30 years (past the canisters' peak), mechanics at t = 0 and at the end."""
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def panel():
     return api.run("repository_panel_3d", None, overrides=COARSE, progress=False)
 
