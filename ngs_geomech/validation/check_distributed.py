@@ -76,7 +76,7 @@ def _contact_problems(scene: Scene, why: str) -> list[Problem]:
     from ..linalg.iterative import petsc_available
 
     problems = []
-    if not petsc_available():
+    if scene.physics.mechanics is not None and not petsc_available():     # heat alone needs no PETSc
         key = contacts[0][0] + (".type" if contacts[0][0].startswith("interfaces") else "")
         problems.append(Problem(key, "contact in distributed runs needs petsc4py (its Newton steps are solved by "
                                 "PETSc): pip install -e '.[petsc]' (docs/parallel.md), or run serially"))
