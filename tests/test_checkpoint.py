@@ -279,3 +279,19 @@ def test_stefan_run_with_growing_steps_resumes_to_the_last_bit(tmp_path, monkeyp
     assert b["stefan"]["newton_iterations"] == a["stefan"]["newton_iterations"]
     # what made it so: the factorization's data and the correction rows solved since it
     assert "stefan/jacobian/d0" in cp.arrays and len(cp.arrays["stefan/jacobian/rows_nodes"]) > 0
+
+
+def test_contact_node_arrays_follow_their_coordinates():
+    """A contact warm start written on another partition lists the nodes in another order: node_permutation puts
+    the saved rows into the current order, leaves an equal order alone and refuses other nodes."""
+    from ngs_geomech.contact.solver import node_permutation
+
+    rng = np.random.default_rng(7)
+    saved = rng.random((40, 3))
+    order = rng.permutation(40)
+    current = saved[order] + 1e-13
+    perm = node_permutation(saved, current)
+    np.testing.assert_allclose(saved[perm], current, atol=1e-12)
+    assert node_permutation(saved, saved.copy()) is None
+    with pytest.raises(ValueError, match="not this mesh's"):
+        node_permutation(saved, current + 1e-3)

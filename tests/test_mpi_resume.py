@@ -161,10 +161,10 @@ def test_stefan_checkpoints_move_between_serial_and_distributed_runs(tmp_path, m
 
 
 @pytest.mark.skipif(not petsc.available(), reason="petsc4py not installed (extra 'petsc')")
-def test_contact_checkpoint_resumes_on_the_same_rank_count_only(tmp_path):
+def test_contact_checkpoint_resumes_on_any_rank_count(tmp_path):
     """The Tresca stack of tests/test_mpi_contact.py (P1) loaded over 4 time steps: stopped by its solve of step 3, the
-    contact solver's warm start (its node arrays follow the partition) resumes on 3 ranks to the uninterrupted
-    run's state; on 5 ranks the resume is refused naming both rank counts."""
+    contact solver's warm start (node arrays stored with their coordinates) resumes on 3 ranks to the uninterrupted
+    run's state, and on 5 ranks (another partition: another node order) to the solver tolerance."""
     from ngs_geomech.verification.distributed_contact import stack_scene
 
     data = stack_scene("tresca", 0.4, 1)
@@ -185,6 +185,7 @@ def test_contact_checkpoint_resumes_on_the_same_rank_count_only(tmp_path):
     d3 = differences(same["state"], ref["state"])
     print(f"\ncontact stack stopped after step 2 of 4, resumed on 3 ranks: relative difference {d3}")
     assert max(d3.values()) <= 1e-10
-    refused = launch(5, str(scene), other, [], "--resume")
-    assert "written by a run on 3 ranks and this run is on 5 ranks" in refused["error"]
-    assert "resume on 3 ranks" in refused["error"]
+    five = launch(5, str(scene), other, [], "--resume")
+    d5 = differences(five["state"], ref["state"])
+    print(f"resumed on 5 ranks: relative difference {d5}")
+    assert max(d5.values()) <= 1e-8

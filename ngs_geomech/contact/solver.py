@@ -109,6 +109,23 @@ class _Cycling(SolverError):
     """The active sets of the semi-smooth Newton iteration cycle (ContactSolver falls back for Coulomb)."""
 
 
+def node_permutation(saved, current) -> np.ndarray | None:
+    """The rows of ``saved`` (node coordinates, m x dim) in the order of ``current``: None when they are already in
+    it (or the node counts differ), else the index array p with saved[p] = current (each node matched once, to
+    1e-9 of the interface's extent; a contact's nodes are in the order of the mesh's numbering, which follows how
+    a distributed mesh is split). Raises ValueError when the nodes are not the same."""
+    saved, current = np.asarray(saved, dtype=float), np.asarray(current, dtype=float)
+    if saved.shape != current.shape or np.array_equal(saved, current):
+        return None
+    from scipy.spatial import cKDTree
+
+    size = float(np.max(np.ptp(current, axis=0), initial=0.0)) or 1.0
+    dist, perm = cKDTree(saved).query(current)
+    if np.max(dist, initial=0.0) > 1e-9 * size or len(np.unique(perm)) != len(perm):
+        raise ValueError("the contact nodes of the checkpoint are not this mesh's")
+    return perm
+
+
 class ContactSolver(ContactSolverBase):
     """Solves K u = f + B^T lam with the complementarity conditions of the interfaces for the current
     elastic data. ``matrix`` and ``rhs`` are the assembled bulk operator (X x X) and load (X), ``free`` the
@@ -215,6 +232,7 @@ class ContactSolver(ContactSolverBase):
         out = {}
         for i, it in enumerate(self._state or []):
             out.update({f"{i}/{key}": val.copy() for key, val in vars(it).items() if isinstance(val, np.ndarray)})
+            out[f"{i}/coords"] = np.array(it.op.coords, dtype=float)       # names the nodes (any partition)
         if self._state is not None:
             out["converged"] = np.array(self.converged)
         return out
@@ -225,8 +243,13 @@ class ContactSolver(ContactSolverBase):
         items = [(key.split("/", 1), val) for key, val in state.items() if key.split("/", 1)[0].isdigit()]
         if items:
             ifs = self.interfaces(ndof)
+            order = {i: node_permutation(state[f"{i}/coords"], it.op.coords) for i, it in enumerate(ifs)
+                     if f"{i}/coords" in state}
             for (i, key), val in items:
                 cur = getattr(ifs[int(i)], key, None) if int(i) < len(ifs) else None
+                perm = order.get(int(i))
+                if perm is not None and key != "coords":      # written on another partition: its node order
+                    val = np.take(np.asarray(val), perm, axis=1 if key == "dropped" else 0)
                 if isinstance(cur, np.ndarray) and cur.shape == np.shape(val):
                     setattr(ifs[int(i)], key, np.array(val, dtype=cur.dtype))
         if "converged" in state:

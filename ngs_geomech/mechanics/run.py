@@ -24,7 +24,7 @@ from ..contact.problem import (
     interface_results,
     supported_nodes,
 )
-from ..contact.solver import nodal_modulus
+from ..contact.solver import nodal_modulus, node_permutation
 from ..errors import Problem, SceneError
 from ..geometry.assemble import GeometryModel
 from ..heat.conductance import ContactNodes
@@ -93,6 +93,19 @@ def principal_stress(values: np.ndarray, index: int) -> np.ndarray:
     t = np.asarray(values, dtype=float).reshape(-1, 3, 3)
     return np.linalg.eigvalsh(0.5 * (t + t.transpose(0, 2, 1)))[:, index]
 
+
+
+def _in_node_order(res: dict, coords) -> dict:
+    """A contact's recorded nodal results ``res`` (with the node coordinates "x", "y"[, "z"]) in the node order of
+    ``coords`` (the run's operator): a checkpoint of another partition lists the nodes in its own order."""
+    xyz = [res[k] for k in ("x", "y", "z")[:np.shape(coords)[1]] if k in res]
+    if len(xyz) != np.shape(coords)[1]:
+        return res
+    perm = node_permutation(np.column_stack(xyz), coords)
+    if perm is None:
+        return res
+    m = len(perm)
+    return {k: np.asarray(v)[perm] if np.ndim(v) and np.shape(v)[0] == m else v for k, v in res.items()}
 
 class MechanicsPart(Part):
     """What the mechanics parts share: ``forms`` (ElasticForms), ``contacts`` (ContactSpec list),
@@ -312,11 +325,6 @@ class StaticMechanicsRun(MechanicsPart):
     def checkpoint_spaces(self) -> dict:
         return {"mechanics": self.forms.gf.space}
 
-    def partition_bound(self) -> tuple[str, ...]:
-        """The contact solver's warm start and last results: node arrays of the contact interfaces in the order
-        of the run's global dof numbering."""
-        return ("warm/", "latest/") if self.contact_output is not None else ()
-
     def restore(self, arrays: dict, meta: dict) -> None:
         self.forms.gf.vec.FV().NumPy()[:] = arrays["mechanics"]
         if parallel.distributed(self.forms.mesh):               # every copy of a shared dof holds the value
@@ -326,8 +334,9 @@ class StaticMechanicsRun(MechanicsPart):
         out = self.contact_output
         if out is not None:
             out.history[:] = meta["contact_history"]
-            out.latest = [{k.split("/", 2)[2]: v for k, v in arrays.items() if k.startswith(f"latest/{i}/")}
-                          for i in range(meta["contact_latest"])]
+            out.latest = [_in_node_order({k.split("/", 2)[2]: v for k, v in arrays.items()
+                                          if k.startswith(f"latest/{i}/")}, spec.op.coords)
+                          for i, spec in zip(range(meta["contact_latest"]), self.contacts)]
             # the contact solver's arrays are global (distributed: in the numbering of parallel.GlobalDofs)
             ndof = self.forms.X.ndofglobal if parallel.distributed(self.forms.mesh) else self.forms.X.ndof
             self.solver.contact.restore(ndof, {k.split("/", 1)[1]: v for k, v in arrays.items()

@@ -26,8 +26,9 @@ needs no other rank) and, when a step fails, saves the last good state without c
 entries from the canonical arrays, so a distributed checkpoint resumes on any number of ranks or serially; a
 serial run's checkpoint (serial numbering) resumes distributed when every checkpointed space has one dof per
 vertex (order 1: the serial numbering is the canonical one). Arrays whose order follows the partition
-(:meth:`~ngs_geomech.parts.Part.partition_bound`: the contact solver's warm start) resume on the same number of
-ranks only (:class:`~ngs_geomech.errors.ResumeError` naming both counts).
+(:meth:`~ngs_geomech.parts.Part.partition_bound`; the contact solver's warm start is not one: its node arrays are
+stored with the nodes' coordinates) resume on the same number of ranks only
+(:class:`~ngs_geomech.errors.ResumeError` naming both counts).
 """
 
 from __future__ import annotations

@@ -25,9 +25,9 @@ def distributed_problems(scene: Scene) -> list[Problem]:
       re-made serially.
 
     Checkpoints and ``--resume`` work as in serial runs (:mod:`ngs_geomech.run.checkpoint`: the vectors are kept
-    in a numbering of the whole mesh, so a checkpoint resumes on any rank count or serially); what cannot be
-    resumed on another rank count (the contact solver's warm start) or from a serial run's checkpoint (fields of
-    mesh.order > 1) is refused on resume, naming both.
+    in a numbering of the whole mesh and the contact solver's node arrays with their coordinates, so a checkpoint
+    resumes on any rank count or serially); a serial run's checkpoint of fields of mesh.order > 1 is refused on a
+    distributed resume, naming the field.
     """
     problems: list[Problem] = []
     why = "is not supported in distributed runs (mpiexec -n N, N >= 2): run serially"
