@@ -443,7 +443,7 @@ class _Projected:
     """PETSc's python matrix Q A of a Newton step with free rigid motions q (orthonormal; u rows this rank owns):
     A y less its part along q. Nothing holds q, so that part of a residual is no step's (the iterate is kept
     orthogonal to q, :meth:`.steps.KrylovSteps.project`); in A y it is the rounding of K's rows summed over the
-    ranks (1e-10 of the right-hand side at 60k dofs on 4 workers), where GMRES would stall."""
+    ranks, on which GMRES would stall."""
 
     def __init__(self, A, q: np.ndarray, comm):
         self.A, self.q, self.comm = A, q, comm
