@@ -28,7 +28,7 @@ import scipy.sparse as sp
 
 from .. import parallel
 from ..errors import SolverError
-from ..linalg.petsc import petsc_module, rigid_modes, vertex_coordinates, wait_polled, workers
+from ..linalg.petsc import petsc_module, rigid_modes, vertex_coordinates, workers
 from .krylov import RESTART, KrylovStats, block_inverse
 from .steps import SPARSE_SHIFT, KrylovSteps, NewtonSteps, free_motions, multiplier_scaling
 
@@ -390,7 +390,7 @@ class PetscSaddle:
                 b[:self.n] -= q @ (q.T @ b[:self.n])
             result = self._solve_workers(b, target)
         if self.world is not None:
-            wait_polled(self.world)
+            parallel.wait_polled(self.world)
             result = self.world.bcast(result, root=1)
         dx, its, res, costs = result
         reason = costs.pop("reason", 0)

@@ -295,8 +295,6 @@ class GamgCG:
     def solve(self, mat, rhs, x, what: str, hint: str = ""):
         """Solve ``mat`` x = ``rhs`` on the free dofs (x's fixed values kept), collective; returns the iterations,
         the final relative residual and its history."""
-        if self.world is not None:      # rank 0 sleeps while the workers assemble, not in the collectives below
-            wait_polled(self.world)
         if self._layout is None:
             self._build_layout()
         r, ax = rhs.CreateVector(), rhs.CreateVector()
