@@ -20,20 +20,27 @@ pytestmark = [pytest.mark.usefixtures("one_thread"),
               pytest.mark.skipif(not petsc.available(), reason="petsc4py not installed (extra 'petsc')")]
 
 
+def _against_serial(tmp_path, ranks: int, law: str, maxh: float, order: int, dimension: str = "3d",
+                    support: str = "fixed") -> tuple[dict, dict, dict]:
+    """The stack case on ``ranks`` ranks (a subprocess), the same serially in this process, and their
+    :func:`differences`."""
+    out = tmp_path / "case.json"
+    proc = subprocess.run([mpiexec(), "-n", str(ranks), sys.executable, "-m", "ngs_geomech.verification."
+                           "distributed_contact", law, str(maxh), str(order), str(out), dimension, support],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    got = json.loads(out.read_text())
+    want = case_result(stack_scene(law, maxh, order, dimension=dimension, support=support))
+    return got, want, differences(got, want)
+
+
 @needs_mpi
 @one_mpi_job
 @pytest.mark.parametrize("law,ranks,order", [("frictionless", 3, 1), ("tresca", 3, 1), ("coulomb", 3, 1),
                                              ("coulomb", 5, 1), ("tresca", 5, 2)])
 def test_distributed_contact_equals_serial(tmp_path, law, ranks, order):
     maxh = 0.3 if order == 1 else 0.4
-    out = tmp_path / "case.json"
-    proc = subprocess.run([mpiexec(), "-n", str(ranks), sys.executable, "-m", "ngs_geomech.verification."
-                           "distributed_contact", law, str(maxh), str(order), str(out)],
-                          capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    got = json.loads(out.read_text())
-    want = case_result(stack_scene(law, maxh, order))
-    d = differences(got, want)
+    got, want, d = _against_serial(tmp_path, ranks, law, maxh, order)
     c = got["contact"]
     print(f"\n{law} P{order}, {ranks} ranks, {got['dofs']} dofs: relative differences to serial: displacement "
           f"{d['displacement']:.1e}, pressure {d['pressure']:.1e}, traction {d['traction']:.1e}, forces "
@@ -54,14 +61,7 @@ def test_distributed_contact_2d_and_foundations_equal_serial(tmp_path, law, dime
     """2D (plane strain) stacks and stacks on a rigid foundation (both boxes floating: held by the contacts
     alone) on 2 and 4 workers: the same agreement with the serial run as the 3D stack on a fixed base."""
     maxh = 0.05 if dimension == "plane" else 0.3
-    out = tmp_path / "case.json"
-    proc = subprocess.run([mpiexec(), "-n", str(ranks), sys.executable, "-m", "ngs_geomech.verification."
-                           "distributed_contact", law, str(maxh), "1", str(out), dimension, support],
-                          capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    got = json.loads(out.read_text())
-    want = case_result(stack_scene(law, maxh, 1, dimension=dimension, support=support))
-    d = differences(got, want)
+    got, want, d = _against_serial(tmp_path, ranks, law, maxh, 1, dimension, support)
     c = got["contact"]
     print(f"\n{law} {dimension} on a {support} base, {ranks} ranks, {got['dofs']} dofs: relative differences to "
           f"serial: displacement {d['displacement']:.1e}, pressure {d['pressure']:.1e}, traction "

@@ -106,17 +106,10 @@ def mortar_coupling_2d(mesh, V, L, master: str, minion: str, *, axisymmetric: bo
     entries (the caller checks the sides of the whole mesh).
     """
     merge = merge or {}
-    own = _master_elements(mesh, master, elements)
-    masters = [Segment(mesh, V, el.nr) for el in own]
-    if minions is None:
-        minions = [Segment(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
-    elif not masters:
+    sides = _sides(Segment, mesh, V, L, master, minion, minions, numbering, elements)
+    if sides is None:
         return _finish(([], [], []), 0.0, 0.0, master, minion)
-    _globalize(masters, numbering)
-    lfe = {el.nr: (L.GetFE(ngs.ElementId(ngs.BND, el.nr)), list(L.GetDofNrs(ngs.ElementId(ngs.BND, el.nr))))
-           for el in own}
-    if not masters or not minions:
-        raise ValueError(f"contact interface sides {master!r} / {minion!r} have no boundary elements")
+    masters, minions, lfe = sides
     gx, gw = np.polynomial.legendre.leggauss(order + 2)
     gx = (gx + 1) / 2
     gw = gw / 2
@@ -162,6 +155,25 @@ def _add_point(entries, wt, mu, ldofs, tm, mdofs, ts, sdofs) -> None:
         rows += [di] * (len(mdofs) + len(sdofs))
         cols += list(mdofs) + list(sdofs)
         vals += list(wt * mu[i] * np.asarray(tm)) + list(-wt * mu[i] * np.asarray(ts))
+
+
+def _sides(kind, mesh, V, L, master: str, minion: str, minions, numbering, elements):
+    """The master side's elements of this part (``kind``: :class:`Segment` or :class:`Triangle`; their dofs in
+    ``numbering`` when given) with the multiplier elements of ``L`` on them (element number -> (finite element,
+    dofs)), and the minion side's elements (this mesh's, or the gathered ``minions``); None on a part of a
+    distributed mesh without master elements."""
+    own = _master_elements(mesh, master, elements)
+    masters = [kind(mesh, V, el.nr) for el in own]
+    if minions is None:
+        minions = [kind(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
+    elif not masters:
+        return None
+    _globalize(masters, numbering)
+    if not masters or not minions:
+        raise ValueError(f"contact interface sides {master!r} / {minion!r} have no boundary elements")
+    lfe = {el.nr: (L.GetFE(ngs.ElementId(ngs.BND, el.nr)), list(L.GetDofNrs(ngs.ElementId(ngs.BND, el.nr))))
+           for el in own}
+    return masters, minions, lfe
 
 
 def _master_elements(mesh, master: str, elements: list[int] | None) -> list:
@@ -273,17 +285,10 @@ def mortar_coupling_3d(mesh, V, L, master: str, minion: str, *, order: int, mini
     plane, Sutherland-Hodgman clipping), and every piece is integrated with a Gauss rule exact for the
     polynomial integrand. Flat triangles are assumed (curved interfaces: an O(h^2) geometry error).
     ``minions``, ``numbering``, ``elements``: on a distributed mesh, as in :func:`mortar_coupling_2d`."""
-    own = _master_elements(mesh, master, elements)
-    masters = [Triangle(mesh, V, el.nr) for el in own]
-    if minions is None:
-        minions = [Triangle(mesh, V, el.nr) for el in mesh.Boundaries(minion).Elements()]
-    elif not masters:
+    sides = _sides(Triangle, mesh, V, L, master, minion, minions, numbering, elements)
+    if sides is None:
         return _finish(([], [], []), 0.0, 0.0, master, minion)
-    _globalize(masters, numbering)
-    if not masters or not minions:
-        raise ValueError(f"contact interface sides {master!r} / {minion!r} have no boundary elements")
-    lfe = {el.nr: (L.GetFE(ngs.ElementId(ngs.BND, el.nr)), list(L.GetDofNrs(ngs.ElementId(ngs.BND, el.nr))))
-           for el in own}
+    masters, minions, lfe = sides
     ir = ngs.IntegrationRule(ngs.TRIG, 2 * order + 2)
     qp = np.array([(p[0], p[1]) for p in ir.points])
     qw = np.array(list(ir.weights))
